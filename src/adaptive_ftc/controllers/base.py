@@ -1,0 +1,86 @@
+"""Shared pieces of the thesis's adaptive designs."""
+
+from __future__ import annotations
+
+import math
+from abc import ABC
+from dataclasses import dataclass
+from typing import ClassVar
+
+from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.errors import ConfigurationError
+
+__all__ = ["AdaptiveController", "as_tuple"]
+
+Regressor = FuzzyBasis | LinearRegressor
+
+
+def as_tuple(value, n: int, name: str, owner: str) -> tuple[float, ...]:
+    """Broadcast a scalar or a length-``n`` sequence to a tuple of ``n`` floats."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return (float(value),) * n
+    try:
+        out = tuple(float(v) for v in value)
+    except TypeError:
+        raise ConfigurationError(f"`{name}` of {owner} must be a number or a list of {n} "
+                                 f"numbers; got {value!r}.") from None
+    if len(out) != n:
+        raise ConfigurationError(f"`{name}` of {owner} needs {n} values (one per output); "
+                                 f"got {len(out)}.")
+    return out
+
+
+def _positive(owner: str, **values: float) -> None:
+    for key, v in values.items():
+        vals = v if isinstance(v, tuple) else (v,)
+        for x in vals:
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) \
+                    or x <= 0:
+                raise ConfigurationError(f"`{key}` of {owner} must be positive; got {v!r}.")
+
+
+def _nonnegative(owner: str, **values: float) -> None:
+    for key, v in values.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                or v < 0:
+            raise ConfigurationError(f"`{key}` of {owner} must be >= 0; got {v!r}.")
+
+
+@dataclass(frozen=True, kw_only=True)
+class AdaptiveController(ABC):
+    """Common settings: filtered error ``s = e' + lambda e`` (2.18) and robust term
+    ``k s + k0 tanh(s/eps0)`` (2.20). ``lam``, ``k`` and ``k0`` may be given per output."""
+
+    design: ClassVar[str]
+    kind: ClassVar[int]
+    equation: ClassVar[str]
+
+    lam: float | tuple[float, ...] = 1.0
+    k: float | tuple[float, ...] = 1.0
+    k0: float | tuple[float, ...] = 1.0
+    eps0: float = 0.01
+    theta0: float = 0.0
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        for key in ("lam", "k"):
+            v = getattr(self, key)
+            _positive(owner, **{key: tuple(v) if not isinstance(v, (int, float)) else v})
+        v = self.k0
+        vals = (v,) if isinstance(v, (int, float)) else tuple(v)
+        for x in vals:
+            _nonnegative(owner, k0=x)
+        _positive(owner, eps0=self.eps0)
+        if isinstance(self.theta0, bool) or not isinstance(self.theta0, (int, float)) or \
+                not math.isfinite(self.theta0):
+            raise ConfigurationError(f"`theta0` of {owner} must be a finite number; "
+                                     f"got {self.theta0!r}.")
+
+    def regressors(self) -> tuple[Regressor, ...]:
+        """The regressor of each output's control channel."""
+        return (self.regressor,)  # type: ignore[attr-defined]
+
+    @property
+    def single_output(self) -> bool:
+        """True for the chapter 2 and 4 designs (one common signal ``u0``)."""
+        return True

@@ -1,0 +1,59 @@
+"""Failure estimation and compensation design for parameterised failures (thesis §2.4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim import kernel
+
+__all__ = ["FailureEstimation"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class FailureEstimation(AdaptiveController):
+    """``u0 = Pi^T theta - sum_j kappa_j^T varpi_j(t)`` (2.62) with laws (2.72)-(2.73):
+
+    ``theta' = eta1 Pi q - eta1 sigma theta``, ``kappa_j' = -eta2 varpi_j q - eta2 sigma kappa_j``,
+    ``q = s' + k s + k0 tanh(s/eps0)``. The compensation term ``u_f = -sum_j kappa_j^T varpi_j``
+    is recorded as a fault indicator.
+
+    ``basis`` gives the known failure basis ``varpi_j(t)`` of each actuator as expressions of
+    ``t``; one tuple per actuator, or a single tuple used for every actuator. The thesis does
+    not state it for the wing-rock runs; the catalogue uses ``("1",)`` (see the README).
+    """
+
+    design: ClassVar[str] = "estimation"
+    kind: ClassVar[int] = kernel.CTRL_ESTIMATION
+    equation: ClassVar[str] = "(2.62), (2.72), (2.73)"
+
+    regressor: FuzzyBasis | LinearRegressor
+    eta1: float = 20.0
+    eta2: float = 20.0
+    sigma: float = 0.1
+    kappa0: float = 0.0
+    basis: tuple = field(default=("1",))
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _positive(type(self).__name__, eta1=self.eta1, eta2=self.eta2)
+        _nonnegative(type(self).__name__, sigma=self.sigma)
+        if not self.basis:
+            raise ConfigurationError("`basis` of FailureEstimation needs at least one function.")
+
+    def basis_for(self, n_actuators: int) -> tuple[tuple[str, ...], ...]:
+        """The basis functions of each actuator."""
+        b = self.basis
+        if all(isinstance(v, (str, int, float)) for v in b):
+            return tuple(tuple(str(v) for v in b) for _ in range(n_actuators))
+        if len(b) != n_actuators:
+            raise ConfigurationError(
+                f"`basis` of FailureEstimation gives {len(b)} lists but the plant has "
+                f"{n_actuators} actuators; give one list per actuator or one list for all.")
+        out = tuple(tuple(str(v) for v in bj) for bj in b)
+        if any(not bj for bj in out):
+            raise ConfigurationError("Each actuator's `basis` needs at least one function.")
+        return out

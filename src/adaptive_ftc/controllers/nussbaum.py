@@ -1,0 +1,52 @@
+"""Nussbaum-gain design for unknown control direction and non-affine failures (thesis §4.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.sim import kernel
+
+__all__ = ["NussbaumAdaptive", "NUSSBAUM_FUNCTIONS"]
+
+#: Common Nussbaum-type functions (4.15)-(4.16); any expression of ``tau`` may be used.
+NUSSBAUM_FUNCTIONS = {
+    "tau2cos": "tau**2*cos(tau)",
+    "tau2sin": "tau**2*sin(tau)",
+    "exp_tau2_cos": "exp(tau**2)*cos(tau)",
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class NussbaumAdaptive(AdaptiveController):
+    """``u0 = Pi^T theta`` (4.17) with (4.25)-(4.27):
+    ``theta' = alpha0 N(tau) Pi q - alpha0 sigma theta``, ``tau' = alpha1 q^2``,
+    ``q = s' + k s + k0 tanh(s/eps0)``, ``N(tau) = tau^2 cos(tau)`` by default.
+
+    ``nussbaum`` is an expression of ``tau`` or one of :data:`NUSSBAUM_FUNCTIONS`.
+    """
+
+    design: ClassVar[str] = "nussbaum"
+    kind: ClassVar[int] = kernel.CTRL_NUSSBAUM
+    equation: ClassVar[str] = "(4.17), (4.25)-(4.27)"
+
+    regressor: FuzzyBasis | LinearRegressor
+    alpha0: float = 5.0
+    alpha1: float = 0.01
+    sigma: float = 0.01
+    tau0: float = 1.0
+    nussbaum: str = "tau2cos"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _positive(type(self).__name__, alpha0=self.alpha0, alpha1=self.alpha1)
+        _nonnegative(type(self).__name__, sigma=self.sigma)
+        self.nussbaum_expression()
+
+    def nussbaum_expression(self) -> Expression:
+        """The Nussbaum function as an expression of ``tau``."""
+        text = NUSSBAUM_FUNCTIONS.get(self.nussbaum, self.nussbaum)
+        return Expression(text, ("tau",), context="`nussbaum` of NussbaumAdaptive")

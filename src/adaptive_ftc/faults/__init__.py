@@ -1,0 +1,37 @@
+"""Actuator failure models and per-actuator failure schedules."""
+
+from adaptive_ftc.faults.models import (
+    FAILURE_MODELS,
+    Affine,
+    Bias,
+    Failure,
+    LossOfEffectiveness,
+    NonAffine,
+    ParameterisedStuck,
+    PositionLimit,
+    Reversal,
+    Stuck,
+)
+from adaptive_ftc.faults.schedule import (
+    CompensabilityReport,
+    FailureSchedule,
+    Interval,
+    check_compensability,
+)
+
+__all__ = [
+    "FAILURE_MODELS",
+    "Affine",
+    "Bias",
+    "CompensabilityReport",
+    "Failure",
+    "FailureSchedule",
+    "Interval",
+    "LossOfEffectiveness",
+    "NonAffine",
+    "ParameterisedStuck",
+    "PositionLimit",
+    "Reversal",
+    "Stuck",
+    "check_compensability",
+]

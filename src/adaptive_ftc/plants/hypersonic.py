@@ -1,0 +1,68 @@
+"""Hypersonic aircraft angle-of-attack dynamics with elevator segments (thesis eq. (2.50))."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.plants.base import Plant, require_finite
+from adaptive_ftc.sim import kernel
+
+__all__ = ["HypersonicAngleOfAttack"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class HypersonicAngleOfAttack(Plant):
+    """Fast (alpha, q) dynamics of a hypersonic aircraft, eq. (2.50).
+
+    ``alpha' = q``,
+    ``q' = c [k_a(-6565 a^2 + 6875 a - 1) + k_q q(-6.83 a^2 + 0.303 a - 0.23)
+    + k_e(sum_j u^f_j - a)]`` with ``c = 113.5891``, ``k_a = 5.33e-6``, ``k_q = 0.0026``,
+    ``k_e = 0.0292``. Each elevator segment contributes its applied deflection with unit gain;
+    the proportional gains ``b_j`` of the thesis belong to the controller's allocation.
+
+    Examples
+    --------
+    >>> plant = HypersonicAngleOfAttack()
+    >>> plant.derivative(0.0, [0.0, 0.0], [0.0, 0.0]).round(6).tolist()
+    [0.0, -1e-06]
+    """
+
+    name: ClassVar[str] = "hypersonic"
+    kind: ClassVar[int] = kernel.PLANT_HYPERSONIC
+    state_names: ClassVar[tuple[str, ...]] = ("alpha", "q")
+    output_names: ClassVar[tuple[str, ...]] = ("alpha",)
+    position_index: ClassVar[tuple[int, ...]] = (0,)
+    velocity_index: ClassVar[tuple[int, ...]] = (1,)
+
+    elevators: int = 2
+    scale: float = 113.5891
+    k_alpha: float = 5.33e-6
+    alpha_poly: tuple[float, float, float] = (-6565.0, 6875.0, -1.0)
+    k_q: float = 0.0026
+    q_poly: tuple[float, float, float] = (-6.83, 0.303, -0.23)
+    k_elevator: float = 0.0292
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.elevators, int) or self.elevators < 1:
+            raise ConfigurationError(
+                f"`elevators` of HypersonicAngleOfAttack must be a positive integer; "
+                f"got {self.elevators!r}.")
+        require_finite("HypersonicAngleOfAttack", scale=self.scale, k_alpha=self.k_alpha,
+                       alpha_poly=self.alpha_poly, k_q=self.k_q, q_poly=self.q_poly,
+                       k_elevator=self.k_elevator)
+
+    @property
+    def n_actuators(self) -> int:
+        return self.elevators
+
+    @property
+    def actuator_names(self) -> tuple[str, ...]:
+        return tuple(f"delta_e{j + 1}" for j in range(self.elevators))
+
+    def parameter_vector(self) -> np.ndarray:
+        return np.array([self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly,
+                         self.k_elevator], dtype=float)

@@ -1,0 +1,165 @@
+"""The closed loop: plant + adaptive controller + allocation + reference + failure schedule."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from adaptive_ftc.controllers.base import AdaptiveController
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.faults.models import Failure
+from adaptive_ftc.faults.schedule import (
+    CompensabilityReport,
+    FailureSchedule,
+    check_compensability,
+)
+from adaptive_ftc.plants.base import Plant
+
+__all__ = ["ClosedLoop"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClosedLoop:
+    """Everything that defines one simulation run (the *what*; the *how* is in
+    :class:`~adaptive_ftc.sim.engine.SolverOptions`).
+
+    Parameters
+    ----------
+    plant
+        The plant.
+    controller
+        The adaptive design.
+    allocation
+        Actuation matrix ``R`` (p x m) of ``u = R^T u0`` (3.14); for a single-output plant a
+        flat list of proportional gains ``b_j`` (2.10) is accepted.
+    reference
+        Desired output ``y_d(t)`` per output, as expressions of ``t`` (their first two
+        derivatives are taken symbolically).
+    initial_state
+        Initial plant state; when shorter than the plant state, the remaining states start at 0.
+    failures
+        A :class:`FailureSchedule` or a sequence of failures.
+    t_final
+        Duration in seconds.
+    adapt
+        ``False`` freezes every adaptive parameter at its initial value (non-adaptive baseline).
+    name
+        Label carried into the result.
+    """
+
+    plant: Plant
+    controller: AdaptiveController
+    allocation: tuple = ()
+    reference: tuple = ("0",)
+    initial_state: tuple = ()
+    failures: FailureSchedule | tuple = ()
+    t_final: float = 10.0
+    adapt: bool = True
+    name: str = ""
+    t0: float = field(default=0.0)
+
+    def __post_init__(self) -> None:
+        plant = self.plant
+        if not isinstance(plant, Plant):
+            raise ConfigurationError(f"`plant` must be a Plant; got {plant!r}.")
+        if not isinstance(self.controller, AdaptiveController):
+            raise ConfigurationError(f"`controller` must be an adaptive design; got "
+                                     f"{self.controller!r}.")
+        p, m, n = plant.n_outputs, plant.n_actuators, plant.n_states
+        R = np.asarray(self.allocation, dtype=float) if len(self.allocation) else np.zeros(0)
+        if R.ndim == 1 and p == 1:
+            R = R[None, :]
+        if R.shape != (p, m):
+            raise ConfigurationError(
+                f"`allocation` must be a {p}x{m} matrix R for plant '{plant.name}' "
+                f"({p} output(s), {m} actuators)" + (" or a list of {m} proportional gains"
+                                                     if p == 1 else "") +
+                f"; got shape {R.shape}.")
+        if not np.all(np.isfinite(R)):
+            raise ConfigurationError("`allocation` must contain finite numbers.")
+        object.__setattr__(self, "allocation", tuple(tuple(float(v) for v in row) for row in R))
+        ref = self.reference
+        if isinstance(ref, (str, int, float)):
+            ref = (ref,)
+        ref = tuple(ref)
+        if len(ref) != p:
+            raise ConfigurationError(
+                f"`reference` needs one expression per output of plant '{plant.name}' "
+                f"({', '.join(plant.output_names)}); got {len(ref)}.")
+        object.__setattr__(self, "reference", ref)
+        x0 = tuple(float(v) for v in self.initial_state)
+        if len(x0) > n:
+            raise ConfigurationError(
+                f"`initial_state` has {len(x0)} values but plant '{plant.name}' has {n} states "
+                f"({', '.join(plant.state_names)}).")
+        if not all(math.isfinite(v) for v in x0):
+            raise ConfigurationError("`initial_state` must contain finite numbers.")
+        object.__setattr__(self, "initial_state", x0 + (0.0,) * (n - len(x0)))
+        fails = self.failures
+        if not isinstance(fails, FailureSchedule):
+            if isinstance(fails, Failure):
+                fails = (fails,)
+            fails = FailureSchedule(tuple(fails), m)
+        elif fails.n_actuators != m:
+            raise ConfigurationError(f"The failure schedule is for {fails.n_actuators} "
+                                     f"actuators but plant '{plant.name}' has {m}.")
+        object.__setattr__(self, "failures", fails)
+        if not (isinstance(self.t_final, (int, float)) and math.isfinite(self.t_final)
+                and self.t_final > self.t0):
+            raise ConfigurationError(f"`t_final` must be a finite time after t0 = {self.t0}; "
+                                     f"got {self.t_final!r}.")
+        if self.controller.single_output and p != 1:
+            raise ConfigurationError(
+                f"Design '{self.controller.design}' is single-output but plant '{plant.name}' "
+                f"has {p} outputs; use the 'mimo' design.")
+
+    @property
+    def R(self) -> np.ndarray:
+        """The actuation matrix as an array."""
+        return np.asarray(self.allocation, dtype=float)
+
+    def compensability(self) -> CompensabilityReport:
+        """Rank condition (3.6) on every interval of fixed failure pattern."""
+        return check_compensability(self.failures, self.R, self.t_final,
+                                    state_names=tuple(self.plant.aliases()), t0=self.t0)
+
+    def without_failures(self) -> ClosedLoop:
+        """The same loop with healthy actuators (failure-free reference run)."""
+        from dataclasses import replace
+
+        return replace(self, failures=FailureSchedule((), self.plant.n_actuators),
+                       name=f"{self.name} (failure-free)" if self.name else "failure-free")
+
+    def frozen(self) -> ClosedLoop:
+        """The same loop with adaptation switched off (non-adaptive baseline)."""
+        from dataclasses import replace
+
+        return replace(self, adapt=False,
+                       name=f"{self.name} (frozen)" if self.name else "frozen")
+
+    def signal_names(self) -> dict[str, int]:
+        """Controller signals a regressor may use, with their index in the signal vector."""
+        n, p = self.plant.n_states, self.plant.n_outputs
+        names = dict(self.plant.aliases())
+        for i in range(p):
+            for j, stem in enumerate(("e", "edot", "s")):
+                names[f"{stem}{i + 1}"] = n + j * p + i
+                if p == 1:
+                    names[stem] = n + j * p + i
+        return names
+
+    def describe_failures(self) -> list[str]:
+        """One line per failure, for reports."""
+        out = []
+        for f in self.failures.failures:
+            rec = f" until {f.recovery:g} s" if f.recovery is not None else ""
+            out.append(f"t={f.onset:g} s{rec}: {self.plant.actuator_names[f.actuator - 1]} "
+                       f"-> {f.pattern()}")
+        return out
+
+
+def _seq(x) -> Sequence:  # pragma: no cover - tiny helper
+    return x if isinstance(x, (list, tuple)) else (x,)
