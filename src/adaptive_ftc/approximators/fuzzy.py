@@ -59,7 +59,8 @@ class FuzzyBasis:
         if len(cen) != len(self.inputs) or any(len(c) == 0 for c in cen):
             raise ConfigurationError(
                 f"`centers` of FuzzyBasis must give at least one center per input "
-                f"({len(self.inputs)} inputs); got {self.centers!r}.")
+                f"({len(self.inputs)} inputs); got {self.centers!r}."
+            )
         if not np.all(np.isfinite(np.concatenate([np.asarray(c) for c in cen]))):
             raise ConfigurationError("`centers` of FuzzyBasis must be finite numbers.")
         object.__setattr__(self, "centers", cen)
@@ -67,7 +68,8 @@ class FuzzyBasis:
             raise ConfigurationError(f"`width` of FuzzyBasis must be positive; got {self.width}.")
         if self.size > 100_000:
             raise ConfigurationError(
-                f"FuzzyBasis would have {self.size} rules; use fewer inputs or memberships.")
+                f"FuzzyBasis would have {self.size} rules; use fewer inputs or memberships."
+            )
 
     @property
     def size(self) -> int:
@@ -83,9 +85,12 @@ class FuzzyBasis:
         if z.shape[-1:] != (len(self.inputs),):
             raise ConfigurationError(
                 f"FuzzyBasis expects {len(self.inputs)} inputs on the last axis; got shape "
-                f"{z.shape}.")
-        mus = [np.exp(-((z[..., i, None] - np.asarray(c)) ** 2) / (2 * self.width**2))
-               for i, c in enumerate(self.centers)]
+                f"{z.shape}."
+            )
+        mus = [
+            np.exp(-((z[..., i, None] - np.asarray(c)) ** 2) / (2 * self.width**2))
+            for i, c in enumerate(self.centers)
+        ]
         rules = []
         for combo in itertools.product(*(range(len(c)) for c in self.centers)):
             prod = np.ones(z.shape[:-1])

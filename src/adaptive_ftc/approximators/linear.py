@@ -42,7 +42,8 @@ class LinearRegressor:
         if z.shape[-1:] != (len(self.inputs),):
             raise ConfigurationError(
                 f"LinearRegressor expects {len(self.inputs)} inputs on the last axis; got "
-                f"shape {z.shape}.")
+                f"shape {z.shape}."
+            )
         if not self.bias:
             return z.copy()
         return np.concatenate([np.ones(z.shape[:-1] + (1,)), z], axis=-1)

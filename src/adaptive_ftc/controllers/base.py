@@ -22,11 +22,13 @@ def as_tuple(value, n: int, name: str, owner: str) -> tuple[float, ...]:
     try:
         out = tuple(float(v) for v in value)
     except TypeError:
-        raise ConfigurationError(f"`{name}` of {owner} must be a number or a list of {n} "
-                                 f"numbers; got {value!r}.") from None
+        raise ConfigurationError(
+            f"`{name}` of {owner} must be a number or a list of {n} numbers; got {value!r}."
+        ) from None
     if len(out) != n:
-        raise ConfigurationError(f"`{name}` of {owner} needs {n} values (one per output); "
-                                 f"got {len(out)}.")
+        raise ConfigurationError(
+            f"`{name}` of {owner} needs {n} values (one per output); got {len(out)}."
+        )
     return out
 
 
@@ -34,15 +36,18 @@ def _positive(owner: str, **values: float) -> None:
     for key, v in values.items():
         vals = v if isinstance(v, tuple) else (v,)
         for x in vals:
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) \
-                    or x <= 0:
+            if (
+                isinstance(x, bool)
+                or not isinstance(x, (int, float))
+                or not math.isfinite(x)
+                or x <= 0
+            ):
                 raise ConfigurationError(f"`{key}` of {owner} must be positive; got {v!r}.")
 
 
 def _nonnegative(owner: str, **values: float) -> None:
     for key, v in values.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                or v < 0:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             raise ConfigurationError(f"`{key}` of {owner} must be >= 0; got {v!r}.")
 
 
@@ -71,10 +76,14 @@ class AdaptiveController(ABC):
         for x in vals:
             _nonnegative(owner, k0=x)
         _positive(owner, eps0=self.eps0)
-        if isinstance(self.theta0, bool) or not isinstance(self.theta0, (int, float)) or \
-                not math.isfinite(self.theta0):
-            raise ConfigurationError(f"`theta0` of {owner} must be a finite number; "
-                                     f"got {self.theta0!r}.")
+        if (
+            isinstance(self.theta0, bool)
+            or not isinstance(self.theta0, (int, float))
+            or not math.isfinite(self.theta0)
+        ):
+            raise ConfigurationError(
+                f"`theta0` of {owner} must be a finite number; got {self.theta0!r}."
+            )
 
     def regressors(self) -> tuple[Regressor, ...]:
         """The regressor of each output's control channel."""

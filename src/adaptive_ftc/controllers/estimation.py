@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.sim import kernel
 
 __all__ = ["FailureEstimation"]
 
@@ -52,7 +52,8 @@ class FailureEstimation(AdaptiveController):
         if len(b) != n_actuators:
             raise ConfigurationError(
                 f"`basis` of FailureEstimation gives {len(b)} lists but the plant has "
-                f"{n_actuators} actuators; give one list per actuator or one list for all.")
+                f"{n_actuators} actuators; give one list per actuator or one list for all."
+            )
         out = tuple(tuple(str(v) for v in bj) for bj in b)
         if any(not bj for bj in out):
             raise ConfigurationError("Each actuator's `basis` needs at least one function.")

@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.sim import kernel
 
 __all__ = ["MimoDirectAdaptive"]
 
@@ -36,8 +36,10 @@ class MimoDirectAdaptive(AdaptiveController):
         _nonnegative(type(self).__name__, sigma=self.sigma)
         regs = self.regressor if isinstance(self.regressor, tuple) else (self.regressor,)
         if not regs or not all(isinstance(r, (FuzzyBasis, LinearRegressor)) for r in regs):
-            raise ConfigurationError("`regressor` of MimoDirectAdaptive must be a regressor or "
-                                     "a tuple of regressors (one per output).")
+            raise ConfigurationError(
+                "`regressor` of MimoDirectAdaptive must be a regressor or "
+                "a tuple of regressors (one per output)."
+            )
 
     @property
     def single_output(self) -> bool:
@@ -49,7 +51,9 @@ class MimoDirectAdaptive(AdaptiveController):
         if len(regs) == 1:
             return regs * p
         if len(regs) != p:
-            raise ConfigurationError(f"MimoDirectAdaptive has {len(regs)} regressors but the "
-                                     f"plant has {p} outputs; give one per output or one for "
-                                     "all.")
+            raise ConfigurationError(
+                f"MimoDirectAdaptive has {len(regs)} regressors but the "
+                f"plant has {p} outputs; give one per output or one for "
+                "all."
+            )
         return regs

@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.scenarios.expressions import Expression
-from adaptive_ftc.sim import kernel
 
 __all__ = ["NussbaumAdaptive", "NUSSBAUM_FUNCTIONS"]
 

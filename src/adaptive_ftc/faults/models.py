@@ -72,25 +72,35 @@ class Failure(ABC):
 
     def __post_init__(self) -> None:
         name = type(self).__name__
-        if isinstance(self.actuator, bool) or not isinstance(self.actuator, int) or \
-                self.actuator < 1:
+        if (
+            isinstance(self.actuator, bool)
+            or not isinstance(self.actuator, int)
+            or self.actuator < 1
+        ):
             raise ConfigurationError(
-                f"`actuator` of {name} must be an actuator number from 1; got {self.actuator!r}.")
-        if not (isinstance(self.onset, (int, float)) and math.isfinite(self.onset)
-                and self.onset >= 0):
+                f"`actuator` of {name} must be an actuator number from 1; got {self.actuator!r}."
+            )
+        if not (
+            isinstance(self.onset, (int, float)) and math.isfinite(self.onset) and self.onset >= 0
+        ):
             raise ConfigurationError(
-                f"`onset` of {name} must be a finite time >= 0 s; got {self.onset!r}.")
+                f"`onset` of {name} must be a finite time >= 0 s; got {self.onset!r}."
+            )
         if self.recovery is not None and not (
-                isinstance(self.recovery, (int, float)) and self.recovery > self.onset):
+            isinstance(self.recovery, (int, float)) and self.recovery > self.onset
+        ):
             raise ConfigurationError(
                 f"`recovery` of {name} must be later than its onset ({self.onset} s); "
-                f"got {self.recovery!r}.")
-        if not (isinstance(self.ramp, (int, float)) and math.isfinite(self.ramp)
-                and self.ramp >= 0):
+                f"got {self.recovery!r}."
+            )
+        if not (
+            isinstance(self.ramp, (int, float)) and math.isfinite(self.ramp) and self.ramp >= 0
+        ):
             raise ConfigurationError(f"`ramp` of {name} must be >= 0 s; got {self.ramp!r}.")
         if self.recovery is not None and self.ramp > self.recovery - self.onset:
             raise ConfigurationError(
-                f"`ramp` of {name} ({self.ramp} s) must fit between onset and recovery.")
+                f"`ramp` of {name} ({self.ramp} s) must fit between onset and recovery."
+            )
         self.expression(("t", "u"), strict=False)  # validate the pattern early
 
     @abstractmethod
@@ -116,8 +126,9 @@ class Failure(ABC):
         """Whether the failure acts at time ``t`` (window ``[onset, recovery)``)."""
         return self.onset <= t < self.end
 
-    def expression(self, variables: tuple[str, ...], *, strict: bool = True,
-                   context: str = "") -> Expression:
+    def expression(
+        self, variables: tuple[str, ...], *, strict: bool = True, context: str = ""
+    ) -> Expression:
         """Compile the failed output into an :class:`Expression` over ``variables``.
 
         With ``strict=False`` unknown state names are tolerated (used before the plant is
@@ -148,8 +159,9 @@ def _names_in(text: str) -> set[str]:
 
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
     # only state-like names are tolerated before the plant is known
-    return {n for n in names if n not in FUNCTIONS and n not in ("pi", "e")
-            and not n.startswith("_")}
+    return {
+        n for n in names if n not in FUNCTIONS and n not in ("pi", "e") and not n.startswith("_")
+    }
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -169,11 +181,15 @@ class LossOfEffectiveness(Failure):
     effectiveness: Value = 1.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.effectiveness, (int, float)) and not isinstance(
-                self.effectiveness, bool) and not 0.0 <= self.effectiveness <= 1.0:
+        if (
+            isinstance(self.effectiveness, (int, float))
+            and not isinstance(self.effectiveness, bool)
+            and not 0.0 <= self.effectiveness <= 1.0
+        ):
             raise ConfigurationError(
                 f"`effectiveness` of LossOfEffectiveness must be in [0, 1]; got "
-                f"{self.effectiveness}. Use Affine or Reversal for other gains.")
+                f"{self.effectiveness}. Use Affine or Reversal for other gains."
+            )
         super().__post_init__()
 
     def pattern(self) -> str:
@@ -204,12 +220,14 @@ class ParameterisedStuck(Failure):
         if len(self.coefficients) != len(self.basis) or not self.basis:
             raise ConfigurationError(
                 f"ParameterisedStuck needs one coefficient per basis function; got "
-                f"{len(self.coefficients)} coefficients for {len(self.basis)} basis functions.")
+                f"{len(self.coefficients)} coefficients for {len(self.basis)} basis functions."
+            )
         super().__post_init__()
 
     def pattern(self) -> str:
-        return " + ".join(f"{_paren(c)}*{_paren(b)}" for c, b in
-                          zip(self.coefficients, self.basis, strict=True))
+        return " + ".join(
+            f"{_paren(c)}*{_paren(b)}" for c, b in zip(self.coefficients, self.basis, strict=True)
+        )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -273,7 +291,8 @@ class PositionLimit(Failure):
     def __post_init__(self) -> None:
         if not self.lower < self.upper:
             raise ConfigurationError(
-                f"PositionLimit needs lower < upper; got lower={self.lower}, upper={self.upper}.")
+                f"PositionLimit needs lower < upper; got lower={self.lower}, upper={self.upper}."
+            )
         super().__post_init__()
 
     def pattern(self) -> str:
@@ -285,6 +304,14 @@ class PositionLimit(Failure):
 #: Failure models by the name used in scenario files.
 FAILURE_MODELS: dict[str, type[Failure]] = {
     cls.model: cls
-    for cls in (LossOfEffectiveness, Stuck, ParameterisedStuck, Bias, Affine, NonAffine,
-                Reversal, PositionLimit)
+    for cls in (
+        LossOfEffectiveness,
+        Stuck,
+        ParameterisedStuck,
+        Bias,
+        Affine,
+        NonAffine,
+        Reversal,
+        PositionLimit,
+    )
 }

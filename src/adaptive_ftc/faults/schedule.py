@@ -41,7 +41,8 @@ class FailureSchedule:
             if f.actuator > self.n_actuators:
                 raise ConfigurationError(
                     f"{type(f).__name__} names actuator {f.actuator}, but the plant has only "
-                    f"{self.n_actuators} actuators (numbered 1..{self.n_actuators}).")
+                    f"{self.n_actuators} actuators (numbered 1..{self.n_actuators})."
+                )
         by_act: dict[int, list[Failure]] = {}
         for f in self.failures:
             by_act.setdefault(f.actuator, []).append(f)
@@ -52,7 +53,8 @@ class FailureSchedule:
                     raise ConfigurationError(
                         f"Failures on actuator {act} overlap: {type(a).__name__} from "
                         f"{a.onset} s to {a.end} s and {type(b).__name__} from {b.onset} s. "
-                        "Give the first one a `recovery` time no later than the second onset.")
+                        "Give the first one a `recovery` time no later than the second onset."
+                    )
 
     def breakpoints(self, t0: float, t_final: float) -> tuple[float, ...]:
         """Sorted times splitting ``[t0, t_final]`` into intervals of fixed failure pattern."""
@@ -104,10 +106,13 @@ class CompensabilityReport:
             if iv.ok:
                 lines.append(f"[{iv.start:g} s, {end}): compensable")
             else:
-                names = [output_names[g] if output_names else f"output {g + 1}"
-                         for g in iv.lost_groups]
-                lines.append(f"[{iv.start:g} s, {end}): NOT compensable - no effective actuator "
-                             f"left for {', '.join(names)}")
+                names = [
+                    output_names[g] if output_names else f"output {g + 1}" for g in iv.lost_groups
+                ]
+                lines.append(
+                    f"[{iv.start:g} s, {end}): NOT compensable - no effective actuator "
+                    f"left for {', '.join(names)}"
+                )
         return "\n".join(lines)
 
 
@@ -122,9 +127,14 @@ def _effective(f: Failure | None, variables: tuple[str, ...], samples: dict) -> 
     return bool(np.any(np.abs(values) > 1e-12))
 
 
-def check_compensability(schedule: FailureSchedule, allocation: np.ndarray,
-                         t_final: float, *, state_names: Iterable[str] = (),
-                         t0: float = 0.0) -> CompensabilityReport:
+def check_compensability(
+    schedule: FailureSchedule,
+    allocation: np.ndarray,
+    t_final: float,
+    *,
+    state_names: Iterable[str] = (),
+    t0: float = 0.0,
+) -> CompensabilityReport:
     """Check the rank condition ``rank(rho(x, t) R^T) = p`` (3.6) on every interval.
 
     An actuator counts as effective on an interval when its failed output still depends on its
@@ -147,7 +157,8 @@ def check_compensability(schedule: FailureSchedule, allocation: np.ndarray,
     if R.shape[1] != schedule.n_actuators:
         raise ConfigurationError(
             f"The allocation has {R.shape[1]} columns but the schedule has "
-            f"{schedule.n_actuators} actuators.")
+            f"{schedule.n_actuators} actuators."
+        )
     variables = ("t", "u", *state_names)
     rng = np.random.default_rng(0)
     bps = schedule.breakpoints(t0, t_final)

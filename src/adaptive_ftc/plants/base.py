@@ -66,19 +66,22 @@ class Plant(ABC):
         if x.shape[-1:] != (self.n_states,):
             raise ConfigurationError(
                 f"x must have {self.n_states} entries on its last axis for plant '{self.name}' "
-                f"({', '.join(self.state_names)}); got shape {x.shape}.")
+                f"({', '.join(self.state_names)}); got shape {x.shape}."
+            )
         if u.shape[-1:] != (self.n_actuators,):
             raise ConfigurationError(
                 f"u must have {self.n_actuators} entries on its last axis for plant "
-                f"'{self.name}'; got shape {u.shape}.")
+                f"'{self.name}'; got shape {u.shape}."
+            )
         shape = np.broadcast_shapes(x.shape[:-1], u.shape[:-1])
         xb = np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1]))
         ub = np.ascontiguousarray(np.broadcast_to(u, shape + u.shape[-1:]).reshape(-1, u.shape[-1]))
         params = self.parameter_vector()
         out = np.empty_like(xb)
         for i in range(xb.shape[0]):
-            out[i] = plant_derivative_alloc(self.kind, params, self.n_states, float(t), xb[i],
-                                            ub[i])
+            out[i] = plant_derivative_alloc(
+                self.kind, params, self.n_states, float(t), xb[i], ub[i]
+            )
         return out.reshape(shape + (self.n_states,))
 
     def aliases(self) -> dict[str, int]:

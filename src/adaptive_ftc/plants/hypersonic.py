@@ -7,9 +7,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
-from adaptive_ftc.sim import kernel
 
 __all__ = ["HypersonicAngleOfAttack"]
 
@@ -50,10 +50,17 @@ class HypersonicAngleOfAttack(Plant):
         if not isinstance(self.elevators, int) or self.elevators < 1:
             raise ConfigurationError(
                 f"`elevators` of HypersonicAngleOfAttack must be a positive integer; "
-                f"got {self.elevators!r}.")
-        require_finite("HypersonicAngleOfAttack", scale=self.scale, k_alpha=self.k_alpha,
-                       alpha_poly=self.alpha_poly, k_q=self.k_q, q_poly=self.q_poly,
-                       k_elevator=self.k_elevator)
+                f"got {self.elevators!r}."
+            )
+        require_finite(
+            "HypersonicAngleOfAttack",
+            scale=self.scale,
+            k_alpha=self.k_alpha,
+            alpha_poly=self.alpha_poly,
+            k_q=self.k_q,
+            q_poly=self.q_poly,
+            k_elevator=self.k_elevator,
+        )
 
     @property
     def n_actuators(self) -> int:
@@ -64,5 +71,7 @@ class HypersonicAngleOfAttack(Plant):
         return tuple(f"delta_e{j + 1}" for j in range(self.elevators))
 
     def parameter_vector(self) -> np.ndarray:
-        return np.array([self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly,
-                         self.k_elevator], dtype=float)
+        return np.array(
+            [self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly, self.k_elevator],
+            dtype=float,
+        )

@@ -8,9 +8,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
-from adaptive_ftc.sim import kernel
 
 __all__ = ["TwoLinkManipulator"]
 
@@ -42,13 +42,22 @@ class TwoLinkManipulator(Plant):
     lce: float = 0.6
 
     def __post_init__(self) -> None:
-        require_finite("TwoLinkManipulator", m1=self.m1, l1=self.l1, me=self.me,
-                       delta_e_deg=self.delta_e_deg, I1=self.I1, lc1=self.lc1, Ie=self.Ie,
-                       lce=self.lce)
+        require_finite(
+            "TwoLinkManipulator",
+            m1=self.m1,
+            l1=self.l1,
+            me=self.me,
+            delta_e_deg=self.delta_e_deg,
+            I1=self.I1,
+            lc1=self.lc1,
+            Ie=self.Ie,
+            lce=self.lce,
+        )
         for key in ("m1", "l1", "me", "I1", "Ie", "lce"):
             if getattr(self, key) <= 0:
                 raise ConfigurationError(
-                    f"`{key}` of TwoLinkManipulator must be positive; got {getattr(self, key)}.")
+                    f"`{key}` of TwoLinkManipulator must be positive; got {getattr(self, key)}."
+                )
 
     @property
     def n_actuators(self) -> int:
@@ -61,7 +70,9 @@ class TwoLinkManipulator(Plant):
     def inertia_constants(self) -> tuple[float, float, float, float]:
         """``(a1, a2, a3, a4)`` of eq. (3.64)."""
         de = math.radians(self.delta_e_deg)
-        a1 = self.I1 + self.m1 * self.lc1**2 + self.Ie + self.me * self.lce**2 + self.me * self.l1**2
+        a1 = (
+            self.I1 + self.m1 * self.lc1**2 + self.Ie + self.me * self.lce**2 + self.me * self.l1**2
+        )
         a2 = self.Ie + self.me * self.lce**2
         a3 = self.me * self.l1 * self.lce * math.cos(de)
         a4 = self.me * self.l1 * self.lce * math.sin(de)

@@ -7,9 +7,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
-from adaptive_ftc.sim import kernel
 
 __all__ = ["FlexibleSpacecraft"]
 
@@ -34,38 +34,65 @@ class FlexibleSpacecraft(Plant):
     name: ClassVar[str] = "spacecraft"
     kind: ClassVar[int] = kernel.PLANT_SPACECRAFT
     state_names: ClassVar[tuple[str, ...]] = (
-        "phi", "phi_dot", "theta", "theta_dot", "psi", "psi_dot",
-        "eta1", "eta2", "eta3", "eta1_dot", "eta2_dot", "eta3_dot",
-        "h1", "h2", "h3", "h4", "h5", "h6")
+        "phi",
+        "phi_dot",
+        "theta",
+        "theta_dot",
+        "psi",
+        "psi_dot",
+        "eta1",
+        "eta2",
+        "eta3",
+        "eta1_dot",
+        "eta2_dot",
+        "eta3_dot",
+        "h1",
+        "h2",
+        "h3",
+        "h4",
+        "h5",
+        "h6",
+    )
     output_names: ClassVar[tuple[str, ...]] = ("phi", "theta", "psi")
     position_index: ClassVar[tuple[int, ...]] = (0, 2, 4)
     velocity_index: ClassVar[tuple[int, ...]] = (1, 3, 5)
 
     inertia: tuple[float, float, float] = (973.4, 354.8, 808.5)
     coupling: tuple[tuple[float, float, float], ...] = (
-        (1.0, 0.1, 0.1), (0.5, 0.1, 0.01), (-1.0, 0.3, 0.01))
+        (1.0, 0.1, 0.1),
+        (0.5, 0.1, 0.01),
+        (-1.0, 0.3, 0.01),
+    )
     modal_frequencies: tuple[float, float, float] = (0.602 * _PI, 1.088 * _PI, 1.846 * _PI)
     modal_damping: tuple[float, float, float] = (0.01, 0.01, 0.01)
     orbital_rate: float = 0.0011
     disturbance: bool = True
 
     def __post_init__(self) -> None:
-        require_finite("FlexibleSpacecraft", inertia=self.inertia, coupling=self.coupling,
-                       modal_frequencies=self.modal_frequencies,
-                       modal_damping=self.modal_damping, orbital_rate=self.orbital_rate)
+        require_finite(
+            "FlexibleSpacecraft",
+            inertia=self.inertia,
+            coupling=self.coupling,
+            modal_frequencies=self.modal_frequencies,
+            modal_damping=self.modal_damping,
+            orbital_rate=self.orbital_rate,
+        )
         if np.shape(self.coupling) != (3, 3):
             raise ConfigurationError(
                 f"`coupling` of FlexibleSpacecraft must be 3x3 (axes x modes); got shape "
-                f"{np.shape(self.coupling)}.")
+                f"{np.shape(self.coupling)}."
+            )
         if len(self.inertia) != 3 or min(self.inertia) <= 0:
             raise ConfigurationError(
                 f"`inertia` of FlexibleSpacecraft must be three positive numbers; got "
-                f"{self.inertia}.")
+                f"{self.inertia}."
+            )
         d = np.asarray(self.coupling, dtype=float)
         if np.min(np.linalg.eigvalsh(np.diag(self.inertia) - d @ d.T)) <= 0:
             raise ConfigurationError(
                 "FlexibleSpacecraft: J - delta delta^T must be positive definite (the rigid "
-                "body would have no inertia left); reduce `coupling` or raise `inertia`.")
+                "body would have no inertia left); reduce `coupling` or raise `inertia`."
+            )
 
     @property
     def n_actuators(self) -> int:
@@ -76,6 +103,14 @@ class FlexibleSpacecraft(Plant):
         return tuple(f"wheel{j + 1}" for j in range(6))
 
     def parameter_vector(self) -> np.ndarray:
-        return np.array([*self.inertia, *np.ravel(self.coupling), *self.modal_frequencies,
-                         *self.modal_damping, self.orbital_rate, float(self.disturbance)],
-                        dtype=float)
+        return np.array(
+            [
+                *self.inertia,
+                *np.ravel(self.coupling),
+                *self.modal_frequencies,
+                *self.modal_damping,
+                self.orbital_rate,
+                float(self.disturbance),
+            ],
+            dtype=float,
+        )

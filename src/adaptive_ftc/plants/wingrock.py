@@ -7,9 +7,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
-from adaptive_ftc.sim import kernel
 
 __all__ = ["WingRock"]
 
@@ -43,8 +43,9 @@ class WingRock(Plant):
     def __post_init__(self) -> None:
         if len(self.b) < 1:
             raise ConfigurationError("`b` of WingRock needs at least one aileron gain.")
-        require_finite("WingRock", a0=self.a0, a1=self.a1, a2=self.a2, a3=self.a3, a4=self.a4,
-                       b=self.b)
+        require_finite(
+            "WingRock", a0=self.a0, a1=self.a1, a2=self.a2, a3=self.a3, a4=self.a4, b=self.b
+        )
 
     @property
     def n_actuators(self) -> int:

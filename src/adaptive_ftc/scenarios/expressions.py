@@ -137,8 +137,11 @@ def parse(text: str, variables: tuple[str, ...], *, context: str = "") -> Node:
         tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
         col = f" at column {exc.offset}" if exc.offset else ""
-        raise _err(src, f"invalid syntax{col}. Use Python-style arithmetic, e.g. "
-                   "'0.75*u**3 - 0.2'.", context) from None
+        raise _err(
+            src,
+            f"invalid syntax{col}. Use Python-style arithmetic, e.g. '0.75*u**3 - 0.2'.",
+            context,
+        ) from None
     return _convert(tree.body, src, variables, context)
 
 
@@ -154,8 +157,9 @@ def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> 
             return ("const", _CONSTANTS[n.id])
         allowed = list(variables) + list(_CONSTANTS)
         hint = did_you_mean(n.id, allowed)
-        raise _err(src, f"unknown name '{n.id}'.{hint} Allowed names: {', '.join(allowed)}.",
-                   context)
+        raise _err(
+            src, f"unknown name '{n.id}'.{hint} Allowed names: {', '.join(allowed)}.", context
+        )
     if isinstance(n, ast.UnaryOp):
         operand = _convert(n.operand, src, variables, context)
         if isinstance(n.op, ast.USub):
@@ -174,22 +178,34 @@ def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> 
         return _bin(op, a, b)
     if isinstance(n, ast.Call):
         if not isinstance(n.func, ast.Name):
-            raise _err(src, "only calls of plain function names are allowed "
-                       f"(one of {', '.join(FUNCTIONS)}).", context)
+            raise _err(
+                src,
+                f"only calls of plain function names are allowed (one of {', '.join(FUNCTIONS)}).",
+                context,
+            )
         name = n.func.id
         if name not in FUNCTIONS:
             hint = did_you_mean(name, FUNCTIONS)
-            raise _err(src, f"unknown function '{name}'.{hint} Allowed functions: "
-                       f"{', '.join(FUNCTIONS)}.", context)
+            raise _err(
+                src,
+                f"unknown function '{name}'.{hint} Allowed functions: {', '.join(FUNCTIONS)}.",
+                context,
+            )
         if n.keywords or len(n.args) != FUNCTIONS[name]:
-            raise _err(src, f"function '{name}' takes exactly {FUNCTIONS[name]} positional "
-                       "argument(s).", context)
+            raise _err(
+                src,
+                f"function '{name}' takes exactly {FUNCTIONS[name]} positional argument(s).",
+                context,
+            )
         args = tuple(_convert(a, src, variables, context) for a in n.args)
         return _call(name, args)
     kind = type(n).__name__
-    raise _err(src, f"'{kind}' is not allowed; expressions may only use numbers, the variables "
-               f"{', '.join(variables)}, + - * / ** and the functions {', '.join(FUNCTIONS)}.",
-               context)
+    raise _err(
+        src,
+        f"'{kind}' is not allowed; expressions may only use numbers, the variables "
+        f"{', '.join(variables)}, + - * / ** and the functions {', '.join(FUNCTIONS)}.",
+        context,
+    )
 
 
 # ----------------------------------------------------------------------------- construction
@@ -356,8 +372,13 @@ def _to_str(n: Node, parent: int = 0) -> str:
     p = _PREC[op]
     left = _to_str(n[2], p + (1 if op == "**" else 0))
     right = _to_str(n[3], p + (0 if op == "**" else (1 if op in "-/" else 0)))
-    s = f"{left} {op} {right}" if p == 1 else f"{left}{op}{right}" if op == "**" else (
-        f"{left}*{right}" if op == "*" else f"{left}/{right}")
+    s = (
+        f"{left} {op} {right}"
+        if p == 1
+        else f"{left}{op}{right}"
+        if op == "**"
+        else (f"{left}*{right}" if op == "*" else f"{left}/{right}")
+    )
     return f"({s})" if p < parent else s
 
 
@@ -496,5 +517,6 @@ class Expression:
         if depth > 32:
             raise ExpressionError(
                 f"Expression '{self.text}' nests too deeply (needs a stack of {depth} > 32); "
-                "split it or simplify it.")
+                "split it or simplify it."
+            )
         return ops, vals

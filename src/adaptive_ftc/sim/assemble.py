@@ -60,13 +60,15 @@ def _resolve_inputs(reg, names: dict[str, int], where: str) -> list[int]:
         if name not in names:
             raise ConfigurationError(
                 f"Unknown regressor input '{name}' in {where}.{did_you_mean(name, names)} "
-                f"Available signals: {', '.join(names)}.")
+                f"Available signals: {', '.join(names)}."
+            )
         out.append(names[name])
     return out
 
 
-def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01,
-             bound: float = 1e8) -> Assembled:
+def assemble(
+    loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01, bound: float = 1e8
+) -> Assembled:
     """Compile ``loop`` into the kernel's model tuple and initial closed-loop state."""
     plant, ctrl = loop.plant, loop.controller
     n, m, p = plant.n_states, plant.n_actuators, plant.n_outputs
@@ -101,8 +103,9 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01,
     regs = ctrl.regressors_for(p) if isinstance(ctrl, MimoDirectAdaptive) else ctrl.regressors()
     nreg = len(regs)
     maxin = max(len(r.inputs) for r in regs)
-    maxmf = max([max(len(c) for c in r.centers) for r in regs if isinstance(r, FuzzyBasis)],
-                default=1)
+    maxmf = max(
+        [max(len(c) for c in r.centers) for r in regs if isinstance(r, FuzzyBasis)], default=1
+    )
     rkind = np.zeros(nreg, dtype=np.int64)
     rin = np.zeros((nreg, max(maxin, 1)), dtype=np.int64)
     rnin = np.zeros(nreg, dtype=np.int64)
@@ -208,28 +211,55 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01,
     flts[K.X_FTAU] = filter_tau
     flts[K.X_BOUND] = bound
     model = (
-        ints, flts, np.ascontiguousarray(plant.parameter_vector(), dtype=float),
+        ints,
+        flts,
+        np.ascontiguousarray(plant.parameter_vector(), dtype=float),
         np.array(plant.position_index, dtype=np.int64),
         np.array(plant.velocity_index, dtype=np.int64),
         np.ascontiguousarray(loop.R),
-        np.array(progs.ops, dtype=np.int64), np.array(progs.vals, dtype=float),
+        np.array(progs.ops, dtype=np.int64),
+        np.array(progs.vals, dtype=float),
         np.array(progs.start, dtype=np.int64),
-        ref, phase, dphase,
-        rkind, rin, rnin, rnmf, rc, ra, rsize, roff,
-        lam, k, k0, bprog, bn, boff,
+        ref,
+        phase,
+        dphase,
+        rkind,
+        rin,
+        rnin,
+        rnmf,
+        rc,
+        ra,
+        rsize,
+        roff,
+        lam,
+        k,
+        k0,
+        bprog,
+        bn,
+        boff,
     )
     y0 = np.zeros(ny)
     y0[:n] = loop.initial_state
-    y0[n:n + ntheta] = ctrl.theta0
-    y0[n + ntheta:n + ntheta + len(y0_extra)] = y0_extra
+    y0[n : n + ntheta] = ctrl.theta0
+    y0[n + ntheta : n + ntheta + len(y0_extra)] = y0_extra
     if sdot == "filtered":  # start the filter at s(0) so the estimated sdot starts at 0
         stack = np.zeros(64)
         x0 = y0[:n]
         for i in range(p):
             ps = model[K.F_PSTART]
-            vals = [K.eval_program(model[K.F_OPS], model[K.F_VALS], ps[ref[i, d]],
-                                   ps[ref[i, d] + 1], loop.t0, x0, 0.0, stack)
-                    for d in range(2)]
+            vals = [
+                K.eval_program(
+                    model[K.F_OPS],
+                    model[K.F_VALS],
+                    ps[ref[i, d]],
+                    ps[ref[i, d] + 1],
+                    loop.t0,
+                    x0,
+                    0.0,
+                    stack,
+                )
+                for d in range(2)
+            ]
             e = vals[0] - x0[plant.position_index[i]]
             ed = vals[1] - x0[plant.velocity_index[i]]
             y0[ints[K.I_FILT] + i] = ed + lam[i] * e

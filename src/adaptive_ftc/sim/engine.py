@@ -63,16 +63,29 @@ class SolverOptions:
             raise ConfigurationError(
                 f"Unknown solver method '{self.method}'."
                 f"{did_you_mean(self.method, ('rk4', 'accurate', *_SCIPY_METHODS))} Use 'rk4', "
-                f"'accurate' or one of {', '.join(_SCIPY_METHODS)}.")
-        for key in ("dt", "rtol", "atol", "max_step", "record_dt", "filter_tau",
-                    "divergence_bound"):
+                f"'accurate' or one of {', '.join(_SCIPY_METHODS)}."
+            )
+        for key in (
+            "dt",
+            "rtol",
+            "atol",
+            "max_step",
+            "record_dt",
+            "filter_tau",
+            "divergence_bound",
+        ):
             v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or \
-                    (math.isnan(v)):
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or not v > 0
+                or (math.isnan(v))
+            ):
                 raise ConfigurationError(f"`{key}` of SolverOptions must be positive; got {v!r}.")
         if self.sdot not in ("exact", "filtered"):
             raise ConfigurationError(
-                f"`sdot` of SolverOptions must be 'exact' or 'filtered'; got {self.sdot!r}.")
+                f"`sdot` of SolverOptions must be 'exact' or 'filtered'; got {self.sdot!r}."
+            )
 
     @property
     def scipy_method(self) -> str:
@@ -118,19 +131,22 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     solver = solver or SolverOptions()
     if not isinstance(loop, ClosedLoop):
         raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
-    asm = assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau,
-                   bound=solver.divergence_bound)
+    asm = assemble(
+        loop, sdot=solver.sdot, filter_tau=solver.filter_tau, bound=solver.divergence_bound
+    )
     t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
     bps = np.array(asm.breakpoints)
     start = time.perf_counter()
     if solver.method == "rk4":
         Y = np.zeros((t_rec.size, asm.y0.size))
         phases = np.zeros(t_rec.size, dtype=np.int64)
-        nrec, status, t_stop, bad = K.integrate_rk4(asm.model, asm.y0, bps, float(solver.dt),
-                                                    t_rec, Y, phases)
+        nrec, status, t_stop, bad = K.integrate_rk4(
+            asm.model, asm.y0, bps, float(solver.dt), t_rec, Y, phases
+        )
         nrec = int(nrec)
-        message = "" if status == 0 else _diverged_message(loop, asm, float(t_stop), int(bad),
-                                                           solver)
+        message = (
+            "" if status == 0 else _diverged_message(loop, asm, float(t_stop), int(bad), solver)
+        )
     else:
         Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
     wall = time.perf_counter() - start
@@ -139,8 +155,9 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     phases = phases[:nrec]
     if message:
         warnings.warn(message, DivergenceWarning, stacklevel=2)
-    return SimResult.from_run(loop, asm, T, Y, phases, solver=solver, message=message,
-                              wall_time=wall)
+    return SimResult.from_run(
+        loop, asm, T, Y, phases, solver=solver, message=message, wall_time=wall
+    )
 
 
 def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
@@ -148,18 +165,22 @@ def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
     return names[index] if 0 <= index < len(names) else f"state {index}"
 
 
-def _diverged_message(loop: ClosedLoop, asm: Assembled, t: float, index: int,
-                      solver: SolverOptions) -> str:
+def _diverged_message(
+    loop: ClosedLoop, asm: Assembled, t: float, index: int, solver: SolverOptions
+) -> str:
     label = _state_label(loop, asm, index)
     run = f"'{loop.name}'" if loop.name else "the run"
-    return (f"Simulation {run} diverged at t = {t:.6g} s: signal '{label}' became non-finite or "
-            f"exceeded {solver.divergence_bound:g}. The result keeps the samples before that "
-            "time. Check the gains and failure values, or try a smaller `dt` / the 'accurate' "
-            "solver.")
+    return (
+        f"Simulation {run} diverged at t = {t:.6g} s: signal '{label}' became non-finite or "
+        f"exceeded {solver.divergence_bound:g}. The result keeps the samples before that "
+        "time. Check the gains and failure values, or try a smaller `dt` / the 'accurate' "
+        "solver."
+    )
 
 
-def _integrate_scipy(asm: Assembled, bps: np.ndarray, t_rec: np.ndarray,
-                     solver: SolverOptions, loop: ClosedLoop):
+def _integrate_scipy(
+    asm: Assembled, bps: np.ndarray, t_rec: np.ndarray, solver: SolverOptions, loop: ClosedLoop
+):
     model = asm.model
     bound = solver.divergence_bound
     Y = np.zeros((t_rec.size, asm.y0.size))
@@ -185,14 +206,22 @@ def _integrate_scipy(asm: Assembled, bps: np.ndarray, t_rec: np.ndarray,
             return K.derivative(t, y, ph, model)
 
         with np.errstate(all="ignore"):
-            sol = solve_ivp(fun, (a, b), y, method=solver.scipy_method, t_eval=t_eval,
-                            rtol=solver.rtol, atol=solver.atol, max_step=solver.max_step,
-                            events=blowup)
+            sol = solve_ivp(
+                fun,
+                (a, b),
+                y,
+                method=solver.scipy_method,
+                t_eval=t_eval,
+                rtol=solver.rtol,
+                atol=solver.atol,
+                max_step=solver.max_step,
+                events=blowup,
+            )
         ys = sol.y[:, : min(sol.t.size, t_want.size)]
         good = np.all(np.abs(ys) < bound, axis=0)
         ngood = int(np.argmin(good)) if not good.all() else ys.shape[1]
-        Y[r:r + ngood] = ys[:, :ngood].T
-        phases[r:r + ngood] = ph
+        Y[r : r + ngood] = ys[:, :ngood].T
+        phases[r : r + ngood] = ph
         r += ngood
         if sol.status != 0 or ngood < ys.shape[1]:
             if sol.t_events and len(sol.t_events[0]):
@@ -200,8 +229,10 @@ def _integrate_scipy(asm: Assembled, bps: np.ndarray, t_rec: np.ndarray,
             elif ngood < ys.shape[1]:
                 t_bad, yb = float(sol.t[ngood]), ys[:, ngood]
             else:
-                t_bad, yb = float(sol.t[-1]) if sol.t.size else a, (
-                    sol.y[:, -1] if sol.t.size else y)
+                t_bad, yb = (
+                    float(sol.t[-1]) if sol.t.size else a,
+                    (sol.y[:, -1] if sol.t.size else y),
+                )
             off = ~(np.abs(yb) < bound)
             bad = int(np.argmax(off)) if off.any() else 0
             msg = _diverged_message(loop, asm, t_bad, bad, solver)

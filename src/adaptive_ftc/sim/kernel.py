@@ -34,12 +34,17 @@ N_INTS = 15
 X_EPS0, X_GAMMA, X_SIGMA, X_GAMMA2, X_SIGMA2, X_FTAU, X_BOUND = 0, 1, 2, 3, 4, 5, 6
 N_FLTS = 7
 
-# plant kinds
-PLANT_HYPERSONIC, PLANT_WINGROCK, PLANT_MANIPULATOR, PLANT_SPACECRAFT = 0, 1, 2, 3
-# controller kinds
-CTRL_DIRECT, CTRL_ESTIMATION, CTRL_NUSSBAUM, CTRL_SIGN = 0, 1, 2, 3
-# regressor kinds
-REG_LINEAR_BIAS, REG_LINEAR, REG_FUZZY_NORMALISED, REG_FUZZY_RAW = 0, 1, 2, 3
+from adaptive_ftc._codes import (  # noqa: E402
+    CTRL_ESTIMATION,
+    CTRL_NUSSBAUM,
+    CTRL_SIGN,
+    PLANT_HYPERSONIC,
+    PLANT_MANIPULATOR,
+    PLANT_WINGROCK,
+    REG_FUZZY_NORMALISED,
+    REG_LINEAR,
+    REG_LINEAR_BIAS,
+)
 
 # --- work buffers (tuple W) ------------------------------------------------------------------
 W_STACK, W_PHI, W_SIG, W_MU, W_U0, W_U, W_UF, W_XDOT, W_REF, W_Q, W_MISC = range(11)
@@ -81,7 +86,11 @@ def eval_program(ops, vals, start, end, t, x, u, stack):
             elif op == 6:
                 r = a * b
             elif op == 7:
-                r = a / b if b != 0.0 else (math.inf if a > 0 else (-math.inf if a < 0 else math.nan))
+                r = (
+                    a / b
+                    if b != 0.0
+                    else (math.inf if a > 0 else (-math.inf if a < 0 else math.nan))
+                )
             else:
                 if b == 2.0:
                     r = a * a
@@ -163,8 +172,19 @@ def run_program(M, k, t, x, u, stack):
 @_jit
 def regressor(M, r, sig, phi, off, mu):
     """Write regressor ``r``'s vector Pi(z) into ``phi[off:off+size]``; z = sig[inputs]."""
-    _regressor(M[F_RKIND][r], M[F_RNIN][r], M[F_RIN][r], M[F_RNMF][r], M[F_RC][r], M[F_RA][r],
-               M[F_RSIZE][r], sig, phi, off, mu)
+    _regressor(
+        M[F_RKIND][r],
+        M[F_RNIN][r],
+        M[F_RIN][r],
+        M[F_RNMF][r],
+        M[F_RC][r],
+        M[F_RA][r],
+        M[F_RSIZE][r],
+        sig,
+        phi,
+        off,
+        mu,
+    )
 
 
 @_hot
@@ -186,7 +206,7 @@ def _regressor(kind, nin, idx, nmf, cen, aa, size, sig, phi, off, mu):
             mu[i * maxmf + l] = math.exp(-aa[i, l] * d * d)
     total = 0.0
     # odometer over membership indices (last input fastest), no integer division
-    cnt = mu[mu.size - nin:]  # the tail of the work buffer holds the rule counters
+    cnt = mu[mu.size - nin :]  # the tail of the work buffer holds the rule counters
     for rule in range(size):
         prod = 1.0
         for i in range(nin):
@@ -220,14 +240,17 @@ def plant_derivative(kind, P, t, x, uf, xdot):
         for j in range(uf.size):
             usum += uf[j]
         xdot[0] = q
-        xdot[1] = P[0] * (P[1] * (P[2] * a * a + P[3] * a + P[4])
-                          + P[5] * q * (P[6] * a * a + P[7] * a + P[8])
-                          + P[9] * (usum - a))
+        xdot[1] = P[0] * (
+            P[1] * (P[2] * a * a + P[3] * a + P[4])
+            + P[5] * q * (P[6] * a * a + P[7] * a + P[8])
+            + P[9] * (usum - a)
+        )
     elif kind == PLANT_WINGROCK:
         ph = x[0]
         pd = x[1]
-        acc = -P[0] * ph - P[1] * pd - P[2] * abs(pd) * pd - P[3] * ph * ph * ph \
-            - P[4] * ph * ph * pd
+        acc = (
+            -P[0] * ph - P[1] * pd - P[2] * abs(pd) * pd - P[3] * ph * ph * ph - P[4] * ph * ph * pd
+        )
         for j in range(uf.size):
             acc += P[5 + j] * uf[j]
         xdot[0] = pd
@@ -260,7 +283,7 @@ def plant_derivative(kind, P, t, x, uf, xdot):
 def _spacecraft(P, t, x, uf, xdot):
     # P: J(3), delta(9 row-major, axes x modes), Lambda(3), xi(3), w0, disturbance flag
     w0 = P[18]
-    phi, dphi, th, dth, psi, dpsi = x[0], x[1], x[2], x[3], x[4], x[5]
+    phi, dphi, _th, dth, psi, dpsi = x[0], x[1], x[2], x[3], x[4], x[5]
     w1 = dphi - w0 * psi
     w2 = dth - w0
     w3 = dpsi + w0 * phi
@@ -277,12 +300,24 @@ def _spacecraft(P, t, x, uf, xdot):
     c2 = w3 * H1 - w1 * H3
     c3 = w1 * H2 - w2 * H1
     if P[19] != 0.0:
-        td1 = 1e-3 * (-3.0 + 3.0 * math.cos(0.01 * t) - 4.5 * math.sin(0.02 * t)
-                      + 3.0 * w1 * math.cos(0.015 * t))
-        td2 = 1e-3 * (6.0 + 4.5 * math.sin(0.01 * t) - 6.0 * math.cos(0.02 * t)
-                      - 6.0 * w2 * math.sin(0.015 * t))
-        td3 = 1e-3 * (-6.0 + 6.0 * math.sin(0.01 * t) + 4.5 * math.cos(0.02 * t)
-                      - 3.0 * w3 * math.sin(0.015 * t))
+        td1 = 1e-3 * (
+            -3.0
+            + 3.0 * math.cos(0.01 * t)
+            - 4.5 * math.sin(0.02 * t)
+            + 3.0 * w1 * math.cos(0.015 * t)
+        )
+        td2 = 1e-3 * (
+            6.0
+            + 4.5 * math.sin(0.01 * t)
+            - 6.0 * math.cos(0.02 * t)
+            - 6.0 * w2 * math.sin(0.015 * t)
+        )
+        td3 = 1e-3 * (
+            -6.0
+            + 6.0 * math.sin(0.01 * t)
+            + 4.5 * math.cos(0.02 * t)
+            - 3.0 * w3 * math.sin(0.015 * t)
+        )
     else:
         td1 = 0.0
         td2 = 0.0
@@ -358,7 +393,7 @@ def closed_loop(t, Y, phase, M, W, dY):
     q = W[W_Q]
     misc = W[W_MISC]
     x = Y[:nx]
-    th = Y[nx:nx + ntheta]
+    th = Y[nx : nx + ntheta]
     pos = M[F_POS]
     vel = M[F_VEL]
     lam = M[F_LAM]
@@ -389,8 +424,19 @@ def closed_loop(t, Y, phase, M, W, dY):
     mu = W[W_MU]
     for r in range(nreg):
         off = roff[r]
-        _regressor(M[F_RKIND][r], M[F_RNIN][r], M[F_RIN][r], M[F_RNMF][r], M[F_RC][r],
-                   M[F_RA][r], rsize[r], sig, phi, off, mu)
+        _regressor(
+            M[F_RKIND][r],
+            M[F_RNIN][r],
+            M[F_RIN][r],
+            M[F_RNMF][r],
+            M[F_RC][r],
+            M[F_RA][r],
+            rsize[r],
+            sig,
+            phi,
+            off,
+            mu,
+        )
         acc = 0.0
         for l in range(rsize[r]):
             acc += phi[off + l] * th[off + l]
@@ -404,8 +450,9 @@ def closed_loop(t, Y, phase, M, W, dY):
         for j in range(m):
             for l in range(bn[j]):
                 k_ = bprog[j, l]
-                comp -= Y[boff[j] + l] * eval_program(ops, vals, ps[k_], ps[k_ + 1], t, x, 0.0,
-                                                      stack)
+                comp -= Y[boff[j] + l] * eval_program(
+                    ops, vals, ps[k_], ps[k_ + 1], t, x, 0.0, stack
+                )
         misc[M_UF_COMP] = comp
         u0[0] += comp
     # allocation u = R^T u0 and actuator failures
@@ -487,9 +534,19 @@ def make_work(M):
     nx, m, p = ints[I_NX], ints[I_M], ints[I_P]
     maxin = M[F_RC].shape[1]
     maxmf = M[F_RC].shape[2]
-    return (np.zeros(64), np.zeros(max(ints[I_NTHETA], 1)), np.zeros(ints[I_NSIG]),
-            np.zeros(maxin * maxmf + maxin + 1), np.zeros(p), np.zeros(m), np.zeros(m),
-            np.zeros(nx), np.zeros(3 * p), np.zeros(p), np.zeros(8))
+    return (
+        np.zeros(64),
+        np.zeros(max(ints[I_NTHETA], 1)),
+        np.zeros(ints[I_NSIG]),
+        np.zeros(maxin * maxmf + maxin + 1),
+        np.zeros(p),
+        np.zeros(m),
+        np.zeros(m),
+        np.zeros(nx),
+        np.zeros(3 * p),
+        np.zeros(p),
+        np.zeros(8),
+    )
 
 
 @_jit
@@ -603,8 +660,9 @@ def integrate_rk4(M, y0, t_breaks, dt, t_rec, out_Y, out_phase):
                         h01 = -2 * sft**3 + 3 * sft**2
                         h11 = sft**3 - sft**2
                         for i in range(n):
-                            out_Y[r, i] = (h00 * Y[i] + h10 * hh * k1[i] + h01 * yn[i]
-                                           + h11 * hh * fe[i])
+                            out_Y[r, i] = (
+                                h00 * Y[i] + h10 * hh * k1[i] + h01 * yn[i] + h11 * hh * fe[i]
+                            )
                     out_phase[r] = ph
                     r += 1
             Y[:] = yn

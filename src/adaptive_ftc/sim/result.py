@@ -81,20 +81,35 @@ class SimResult:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_run(cls, loop: ClosedLoop, asm: Assembled, T: np.ndarray, Y: np.ndarray,
-                 phases: np.ndarray, *, solver: SolverOptions, message: str,
-                 wall_time: float) -> SimResult:
+    def from_run(
+        cls,
+        loop: ClosedLoop,
+        asm: Assembled,
+        T: np.ndarray,
+        Y: np.ndarray,
+        phases: np.ndarray,
+        *,
+        solver: SolverOptions,
+        message: str,
+        wall_time: float,
+    ) -> SimResult:
         """Build a result from recorded closed-loop states (signals are recomputed)."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
         ncol = 9 * p + 2 * m + 4
         out = np.zeros((T.size, ncol))
         if T.size:
-            K.signals(asm.model, np.ascontiguousarray(T), np.ascontiguousarray(Y),
-                      np.ascontiguousarray(phases), out)
-        cols = [out[:, i * p:(i + 1) * p] for i in range(9)]
+            K.signals(
+                asm.model,
+                np.ascontiguousarray(T),
+                np.ascontiguousarray(Y),
+                np.ascontiguousarray(phases),
+                out,
+            )
+        cols = [out[:, i * p : (i + 1) * p] for i in range(9)]
         c = 9 * p
-        times = sorted({t for f in loop.failures.failures for t in f.jump_times
-                        if loop.t0 < t < loop.t_final})
+        times = sorted(
+            {t for f in loop.failures.failures for t in f.jump_times if loop.t0 < t < loop.t_final}
+        )
         ctrl = loop.controller
         meta = {
             "name": loop.name,
@@ -109,16 +124,33 @@ class SimResult:
             "wall_time_s": wall_time,
         }
         return cls(
-            time=T.copy(), states=Y[:, :n].copy(), adaptive=Y[:, n:].copy(),
-            y=cols[0], yd=cols[1], yd_dot=cols[2], e=cols[3], edot=cols[4], s=cols[5],
-            sdot=cols[6], u0=cols[8], u_cmd=out[:, c:c + m], u_applied=out[:, c + m:c + 2 * m],
-            u_f=out[:, c + 2 * m], gain=out[:, c + 2 * m + 1],
+            time=T.copy(),
+            states=Y[:, :n].copy(),
+            adaptive=Y[:, n:].copy(),
+            y=cols[0],
+            yd=cols[1],
+            yd_dot=cols[2],
+            e=cols[3],
+            edot=cols[4],
+            s=cols[5],
+            sdot=cols[6],
+            u0=cols[8],
+            u_cmd=out[:, c : c + m],
+            u_applied=out[:, c + m : c + 2 * m],
+            u_f=out[:, c + 2 * m],
+            gain=out[:, c + 2 * m + 1],
             control_gain=out[:, c + 2 * m + 2],
-            state_names=tuple(loop.plant.state_names), output_names=tuple(loop.plant.output_names),
-            actuator_names=tuple(loop.plant.actuator_names), adaptive_names=asm.adaptive_names,
-            theta_slices=asm.theta_slices, failure_times=tuple(times),
+            state_names=tuple(loop.plant.state_names),
+            output_names=tuple(loop.plant.output_names),
+            actuator_names=tuple(loop.plant.actuator_names),
+            adaptive_names=asm.adaptive_names,
+            theta_slices=asm.theta_slices,
+            failure_times=tuple(times),
             failures=tuple(loop.describe_failures()),
-            status="diverged" if message else "completed", message=message, meta=meta)
+            status="diverged" if message else "completed",
+            message=message,
+            meta=meta,
+        )
 
     # ------------------------------------------------------------------ access
     @property
@@ -151,7 +183,8 @@ class SimResult:
             raise ConfigurationError(
                 f"No samples in the window [{start}, {end}] (run covers "
                 f"{self.time[0] if self.time.size else 'nothing'} to "
-                f"{self.time[-1] if self.time.size else ''} s).")
+                f"{self.time[-1] if self.time.size else ''} s)."
+            )
         return np.sqrt(np.mean(self.e[mask] ** 2, axis=0))
 
     def max_error(self, start: float | None = None, end: float | None = None) -> np.ndarray:
@@ -169,11 +202,15 @@ class SimResult:
         for t, nxt in zip(times, ends, strict=True):
             after = self.window(t, min(t + window, nxt))
             settle = self.window(max(t, nxt - window), nxt)
-            row = {"time": t,
-                   "rms_after": float(np.sqrt(np.mean(self.e[after] ** 2))) if after.any()
-                   else math.nan,
-                   "rms_before_next": float(np.sqrt(np.mean(self.e[settle] ** 2)))
-                   if settle.any() else math.nan}
+            row = {
+                "time": t,
+                "rms_after": float(np.sqrt(np.mean(self.e[after] ** 2)))
+                if after.any()
+                else math.nan,
+                "rms_before_next": float(np.sqrt(np.mean(self.e[settle] ** 2)))
+                if settle.any()
+                else math.nan,
+            }
             rows.append(row)
         return rows
 
@@ -220,16 +257,25 @@ class SimResult:
                 "gain": (t, self.gain),
                 "control_gain": (t, self.control_gain),
             },
-            coords={"time": self.time, "state": list(self.state_names),
-                    "output": list(self.output_names), "actuator": list(self.actuator_names),
-                    "param": list(self.adaptive_names)},
+            coords={
+                "time": self.time,
+                "state": list(self.state_names),
+                "output": list(self.output_names),
+                "actuator": list(self.actuator_names),
+                "param": list(self.adaptive_names),
+            },
         )
         ds["time"].attrs["units"] = "s"
-        attrs = {k: (v if isinstance(v, (int, float, str)) and not isinstance(v, bool)
-                     else str(v)) for k, v in self.meta.items()}
-        attrs.update(status=self.status, message=self.message,
-                     failure_times=np.asarray(self.failure_times, dtype=float),
-                     failures="; ".join(self.failures))
+        attrs = {
+            k: (v if isinstance(v, (int, float, str)) and not isinstance(v, bool) else str(v))
+            for k, v in self.meta.items()
+        }
+        attrs.update(
+            status=self.status,
+            message=self.message,
+            failure_times=np.asarray(self.failure_times, dtype=float),
+            failures="; ".join(self.failures),
+        )
         ds.attrs.update(attrs)
         return ds
 

@@ -66,8 +66,9 @@ class ClosedLoop:
         if not isinstance(plant, Plant):
             raise ConfigurationError(f"`plant` must be a Plant; got {plant!r}.")
         if not isinstance(self.controller, AdaptiveController):
-            raise ConfigurationError(f"`controller` must be an adaptive design; got "
-                                     f"{self.controller!r}.")
+            raise ConfigurationError(
+                f"`controller` must be an adaptive design; got {self.controller!r}."
+            )
         p, m, n = plant.n_outputs, plant.n_actuators, plant.n_states
         R = np.asarray(self.allocation, dtype=float) if len(self.allocation) else np.zeros(0)
         if R.ndim == 1 and p == 1:
@@ -75,9 +76,10 @@ class ClosedLoop:
         if R.shape != (p, m):
             raise ConfigurationError(
                 f"`allocation` must be a {p}x{m} matrix R for plant '{plant.name}' "
-                f"({p} output(s), {m} actuators)" + (" or a list of {m} proportional gains"
-                                                     if p == 1 else "") +
-                f"; got shape {R.shape}.")
+                f"({p} output(s), {m} actuators)"
+                + (" or a list of {m} proportional gains" if p == 1 else "")
+                + f"; got shape {R.shape}."
+            )
         if not np.all(np.isfinite(R)):
             raise ConfigurationError("`allocation` must contain finite numbers.")
         object.__setattr__(self, "allocation", tuple(tuple(float(v) for v in row) for row in R))
@@ -88,13 +90,15 @@ class ClosedLoop:
         if len(ref) != p:
             raise ConfigurationError(
                 f"`reference` needs one expression per output of plant '{plant.name}' "
-                f"({', '.join(plant.output_names)}); got {len(ref)}.")
+                f"({', '.join(plant.output_names)}); got {len(ref)}."
+            )
         object.__setattr__(self, "reference", ref)
         x0 = tuple(float(v) for v in self.initial_state)
         if len(x0) > n:
             raise ConfigurationError(
                 f"`initial_state` has {len(x0)} values but plant '{plant.name}' has {n} states "
-                f"({', '.join(plant.state_names)}).")
+                f"({', '.join(plant.state_names)})."
+            )
         if not all(math.isfinite(v) for v in x0):
             raise ConfigurationError("`initial_state` must contain finite numbers.")
         object.__setattr__(self, "initial_state", x0 + (0.0,) * (n - len(x0)))
@@ -104,17 +108,24 @@ class ClosedLoop:
                 fails = (fails,)
             fails = FailureSchedule(tuple(fails), m)
         elif fails.n_actuators != m:
-            raise ConfigurationError(f"The failure schedule is for {fails.n_actuators} "
-                                     f"actuators but plant '{plant.name}' has {m}.")
+            raise ConfigurationError(
+                f"The failure schedule is for {fails.n_actuators} "
+                f"actuators but plant '{plant.name}' has {m}."
+            )
         object.__setattr__(self, "failures", fails)
-        if not (isinstance(self.t_final, (int, float)) and math.isfinite(self.t_final)
-                and self.t_final > self.t0):
-            raise ConfigurationError(f"`t_final` must be a finite time after t0 = {self.t0}; "
-                                     f"got {self.t_final!r}.")
+        if not (
+            isinstance(self.t_final, (int, float))
+            and math.isfinite(self.t_final)
+            and self.t_final > self.t0
+        ):
+            raise ConfigurationError(
+                f"`t_final` must be a finite time after t0 = {self.t0}; got {self.t_final!r}."
+            )
         if self.controller.single_output and p != 1:
             raise ConfigurationError(
                 f"Design '{self.controller.design}' is single-output but plant '{plant.name}' "
-                f"has {p} outputs; use the 'mimo' design.")
+                f"has {p} outputs; use the 'mimo' design."
+            )
 
     @property
     def R(self) -> np.ndarray:
@@ -123,22 +134,25 @@ class ClosedLoop:
 
     def compensability(self) -> CompensabilityReport:
         """Rank condition (3.6) on every interval of fixed failure pattern."""
-        return check_compensability(self.failures, self.R, self.t_final,
-                                    state_names=tuple(self.plant.aliases()), t0=self.t0)
+        return check_compensability(
+            self.failures, self.R, self.t_final, state_names=tuple(self.plant.aliases()), t0=self.t0
+        )
 
     def without_failures(self) -> ClosedLoop:
         """The same loop with healthy actuators (failure-free reference run)."""
         from dataclasses import replace
 
-        return replace(self, failures=FailureSchedule((), self.plant.n_actuators),
-                       name=f"{self.name} (failure-free)" if self.name else "failure-free")
+        return replace(
+            self,
+            failures=FailureSchedule((), self.plant.n_actuators),
+            name=f"{self.name} (failure-free)" if self.name else "failure-free",
+        )
 
     def frozen(self) -> ClosedLoop:
         """The same loop with adaptation switched off (non-adaptive baseline)."""
         from dataclasses import replace
 
-        return replace(self, adapt=False,
-                       name=f"{self.name} (frozen)" if self.name else "frozen")
+        return replace(self, adapt=False, name=f"{self.name} (frozen)" if self.name else "frozen")
 
     def signal_names(self) -> dict[str, int]:
         """Controller signals a regressor may use, with their index in the signal vector."""
@@ -156,8 +170,10 @@ class ClosedLoop:
         out = []
         for f in self.failures.failures:
             rec = f" until {f.recovery:g} s" if f.recovery is not None else ""
-            out.append(f"t={f.onset:g} s{rec}: {self.plant.actuator_names[f.actuator - 1]} "
-                       f"-> {f.pattern()}")
+            out.append(
+                f"t={f.onset:g} s{rec}: {self.plant.actuator_names[f.actuator - 1]} "
+                f"-> {f.pattern()}"
+            )
         return out
 
 
