@@ -34,14 +34,17 @@ N_INTS = 15
 X_EPS0, X_GAMMA, X_SIGMA, X_GAMMA2, X_SIGMA2, X_FTAU, X_BOUND = 0, 1, 2, 3, 4, 5, 6
 N_FLTS = 7
 
-from adaptive_ftc._codes import (  # noqa: E402
+from adaptive_ftc._codes import (  # noqa: E402, F401  (re-exported for assemble)
+    CTRL_DIRECT,
     CTRL_ESTIMATION,
     CTRL_NUSSBAUM,
     CTRL_SIGN,
     PLANT_HYPERSONIC,
     PLANT_MANIPULATOR,
+    PLANT_SPACECRAFT,
     PLANT_WINGROCK,
     REG_FUZZY_NORMALISED,
+    REG_FUZZY_RAW,
     REG_LINEAR,
     REG_LINEAR_BIAS,
 )
