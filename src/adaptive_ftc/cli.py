@@ -87,11 +87,11 @@ def _cmd_validate(target: str) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
-    from adaptive_ftc import plots
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.engine import simulate
 
-    sc = load_scenario(args.scenario)
+    sc = load_scenario(args.scenario)  # validate everything before touching the output folder
+    from adaptive_ftc import plots
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)

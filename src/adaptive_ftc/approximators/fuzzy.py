@@ -38,7 +38,7 @@ class FuzzyBasis:
     >>> fls = FuzzyBasis(inputs=("x1", "x2"), centers=(-1.0, 0.0, 1.0), width=0.7071)
     >>> fls.size
     9
-    >>> float(fls([0.0, 0.0]).sum())
+    >>> round(float(fls([0.0, 0.0]).sum()), 12)
     1.0
     """
 

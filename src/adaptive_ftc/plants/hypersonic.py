@@ -28,7 +28,7 @@ class HypersonicAngleOfAttack(Plant):
     --------
     >>> plant = HypersonicAngleOfAttack()
     >>> plant.derivative(0.0, [0.0, 0.0], [0.0, 0.0]).round(6).tolist()
-    [0.0, -1e-06]
+    [0.0, -0.000605]
     """
 
     name: ClassVar[str] = "hypersonic"

@@ -466,7 +466,7 @@ class Expression:
     >>> float(f(u=2.0))
     5.8
     >>> str(f.derivative("u"))
-    '0.75*(3*u**2)'
+    '0.75*3*u**2'
     """
 
     text: str

@@ -123,8 +123,8 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     Examples
     --------
     >>> from adaptive_ftc.scenarios import load_scenario
-    >>> loop, solver = load_scenario("hypersonic-direct-s1")
-    >>> result = simulate(loop, solver)
+    >>> sc = load_scenario("hypersonic-direct-s1")
+    >>> result = simulate(sc.loop, sc.solver)
     >>> result.status
     'completed'
     """
