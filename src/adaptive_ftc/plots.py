@@ -1,0 +1,622 @@
+"""Thesis-style figures of a :class:`~adaptive_ftc.sim.result.SimResult` (matplotlib, Agg).
+
+Every figure is built on a bare :class:`matplotlib.figure.Figure` (no ``pyplot``, no GUI, no
+global state), with labelled axes, a legend, a grid and every failure onset/recovery time marked
+as a dashed vertical line (``gid="failure-event"``). A diverged run is drawn up to where it
+stopped, with a red dotted line (``gid="divergence"``) at the last sample.
+
+Kinds
+-----
+``tracking``
+    Per output: position ``y`` against the reference ``y_d`` and, below it, the velocity
+    ``y' = y_d' - e'`` against ``y_d'`` (the thesis's angle of attack and pitch rate, Fig. 2.1).
+``control``
+    Per actuator: commanded ``u_j`` (dashed) and applied ``u_j^f`` (solid); then ``u0``.
+``parameters``
+    The regressor parameters ``theta`` (thin lines), and ``kappa`` / ``tau`` / ``rho`` if present.
+``control_parameters``
+    All actuator signals in one panel, then the parameters (the thesis's Fig. 2.2).
+``modal``
+    Modal displacements ``eta`` and their rates (flexible spacecraft, Figs 3.12-3.13).
+``direction``
+    Control signals; the sign of the direction estimate ``N(tau)`` or ``rho`` against the true
+    control direction ``sign(control gain)``; the estimate itself (Figs 4.3-4.4, 4.11-4.12).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+
+    from adaptive_ftc.sim.result import SimResult
+
+__all__ = ["KINDS", "default_figure_specs", "plot", "save_figure"]
+
+#: Figure kinds understood by :func:`plot`.
+KINDS: tuple[str, ...] = (
+    "tracking",
+    "control",
+    "parameters",
+    "control_parameters",
+    "modal",
+    "direction",
+)
+
+#: Units per plant: (output position, output velocity, actuator signal).
+_UNITS: dict[str, tuple[str, str, str]] = {
+    "hypersonic": ("rad", "rad/s", "rad"),
+    "wingrock": ("rad", "rad/s", ""),
+    "manipulator": ("rad", "rad/s", "N·m"),
+    "spacecraft": ("rad", "rad/s", "N·m"),
+}
+
+_GREEK = {
+    "alpha",
+    "beta",
+    "gamma",
+    "delta",
+    "eta",
+    "theta",
+    "kappa",
+    "lambda",
+    "rho",
+    "sigma",
+    "tau",
+    "phi",
+    "psi",
+    "omega",
+}
+
+_WIDTH = 8.0
+_MAX_POINTS = 4000  # samples per line after thinning (rendering cost grows with points)
+_ROW_HEIGHT = 2.3
+_DPI = 120
+
+
+# ---------------------------------------------------------------------------- helpers
+def _tex(name: str) -> str:
+    """Math-text label of a signal name: ``"q1_dot"`` -> ``$\\dot{q}_{1}$``, ``"alpha"`` -> α."""
+    dot = name.endswith("_dot")
+    base = name[: -len("_dot")] if dot else name
+    m = re.fullmatch(r"([A-Za-z]+)_?(\w*)", base)
+    if not m:
+        return name
+    stem, sub = m.group(1), m.group(2)
+    core = f"\\{stem}" if stem in _GREEK else stem
+    if len(stem) > 1 and stem not in _GREEK:
+        core = f"\\mathrm{{{stem}}}"
+    if dot:
+        core = f"\\dot{{{core}}}"
+    if sub:
+        core = f"{core}_{{{sub.replace('_', ',')}}}"
+    return f"${core}$"
+
+
+def _unit(result: SimResult, which: int) -> str:
+    units = _UNITS.get(str(result.meta.get("plant", "")), ("", "", ""))
+    return units[which]
+
+
+def _with_unit(label: str, unit: str) -> str:
+    return f"{label} ({unit})" if unit else label
+
+
+def _t_end(result: SimResult) -> float:
+    t_final = result.meta.get("t_final")
+    if t_final is not None and math.isfinite(float(t_final)):
+        return float(t_final)
+    return float(result.time[-1]) if result.time.size else 1.0
+
+
+def _new_figure(n_rows: int, n_cols: int = 1, *, sharex: bool = True) -> tuple[Figure, list[Axes]]:
+    fig = Figure(figsize=(_WIDTH if n_cols == 1 else 11.0, 1.2 + _ROW_HEIGHT * n_rows), dpi=_DPI)
+    axes = fig.subplots(n_rows, n_cols, sharex=sharex, squeeze=False)
+    return fig, list(axes.ravel())
+
+
+def _decorate(ax: Axes, result: SimResult, *, legend: bool = True, loc: str = "best") -> None:
+    """Grid, failure/recovery lines, divergence line, time limits and legend."""
+    ax.grid(True, linewidth=0.4, alpha=0.6)
+    first = True
+    for t in result.failure_times:
+        ax.axvline(
+            t,
+            color="0.35",
+            linestyle="--",
+            linewidth=0.9,
+            gid="failure-event",
+            label="failure / recovery" if first else "_nolegend_",
+        )
+        first = False
+    if result.status != "completed" and result.time.size:
+        ax.axvline(
+            float(result.time[-1]),
+            color="tab:red",
+            linestyle=":",
+            linewidth=1.2,
+            gid="divergence",
+            label=f"diverged at t = {result.time[-1]:.3g} s",
+        )
+    t0 = float(result.time[0]) if result.time.size else 0.0
+    t1 = _t_end(result)
+    if t1 > t0:
+        ax.set_xlim(t0, t1)
+    if legend:
+        handles, labels = ax.get_legend_handles_labels()
+        if handles:
+            ax.legend(loc=loc, fontsize=7, ncol=min(len(handles), 4), framealpha=0.8)
+
+
+def _finish(fig: Figure, axes: Sequence[Axes], title: str | None) -> Figure:
+    for ax in axes:
+        if ax.get_subplotspec() is not None and ax.get_subplotspec().is_last_row():
+            ax.set_xlabel("time (s)")
+    if title:
+        fig.suptitle(title, fontsize=11, y=1.0 - 0.12 / fig.get_figheight())
+    # fixed margins in inches: as neat as a layout engine here, and several times faster
+    w, h = fig.get_figwidth(), fig.get_figheight()
+    n_cols = fig.axes[0].get_gridspec().ncols if fig.axes else 1
+    fig.subplots_adjust(
+        left=0.95 / w,
+        right=1.0 - 0.2 / w,
+        bottom=0.55 / h,
+        top=1.0 - (0.5 if title else 0.2) / h,
+        hspace=0.35 / _ROW_HEIGHT * 1.0,
+        wspace=0.28 if n_cols > 1 else 0.2,
+    )
+    return fig
+
+
+def _thin(result: SimResult, max_points: int = _MAX_POINTS) -> SimResult:
+    """A copy keeping about ``max_points`` evenly strided samples (first and last kept)."""
+    n = result.time.size
+    if n <= max_points:
+        return result
+    idx = np.unique(np.r_[np.arange(0, n, math.ceil(n / max_points)), n - 1])
+    changes = {
+        f.name: getattr(result, f.name)[idx]
+        for f in dataclasses.fields(result)
+        if isinstance(getattr(result, f.name), np.ndarray)
+        and getattr(result, f.name).shape[:1] == (n,)
+    }
+    return dataclasses.replace(result, **changes)
+
+
+def _select_outputs(result: SimResult, outputs: Sequence[int] | None) -> list[int]:
+    p = len(result.output_names)
+    if outputs is None:
+        return list(range(p))
+    picked = []
+    for o in outputs:
+        if isinstance(o, bool) or not isinstance(o, (int, np.integer)) or not 1 <= o <= p:
+            raise ValueError(
+                f"`outputs` must list output numbers from 1 to {p} "
+                f"({', '.join(result.output_names)}); got {o!r}."
+            )
+        picked.append(int(o) - 1)
+    if not picked:
+        raise ValueError("`outputs` must name at least one output; got an empty list.")
+    return picked
+
+
+def _velocity(result: SimResult) -> np.ndarray:
+    """Output velocity ``y' = y_d' - e'`` (from ``e = y_d - y``)."""
+    return result.yd_dot - result.edot
+
+
+def _other_adaptive(result: SimResult) -> list[tuple[str, np.ndarray]]:
+    """kappa / tau / rho adaptive states (not theta, not filter states)."""
+    out = []
+    for i, name in enumerate(result.adaptive_names):
+        if name.startswith(("kappa", "tau", "rho")):
+            out.append((name, result.adaptive[:, i]))
+    return out
+
+
+# ---------------------------------------------------------------------------- panels
+def _tracking_panels(
+    axes: Sequence[Axes],
+    result: SimResult,
+    picked: Sequence[int],
+    baselines: Mapping[str, SimResult],
+) -> None:
+    pos_unit, vel_unit = _unit(result, 0), _unit(result, 1)
+    vel = _velocity(result)
+    for k, i in enumerate(picked):
+        name = result.output_names[i]
+        ax_p, ax_v = axes[2 * k], axes[2 * k + 1]
+        ax_p.plot(
+            result.time, result.yd[:, i], color="k", linewidth=1.0, linestyle=":", label="reference"
+        )
+        ax_p.plot(result.time, result.y[:, i], color="tab:blue", linewidth=1.2, label=_tex(name))
+        ax_v.plot(
+            result.time,
+            result.yd_dot[:, i],
+            color="k",
+            linewidth=1.0,
+            linestyle=":",
+            label="reference",
+        )
+        ax_v.plot(
+            result.time, vel[:, i], color="tab:blue", linewidth=1.2, label=_tex(f"{name}_dot")
+        )
+        for c, (label, base) in enumerate(baselines.items()):
+            color = f"C{(c + 1) % 10}"
+            if base.time.size == 0:
+                continue
+            diverged = base.status != "completed"
+            suffix = " (diverged)" if diverged else ""
+            ax_p.plot(
+                base.time,
+                base.y[:, i],
+                color=color,
+                linestyle="--",
+                linewidth=1.0,
+                label=f"{label}{suffix}",
+            )
+            ax_v.plot(
+                base.time,
+                _velocity(base)[:, i],
+                color=color,
+                linestyle="--",
+                linewidth=1.0,
+                label=f"{label}{suffix}",
+            )
+            if diverged:
+                for ax, sig in ((ax_p, base.y[:, i]), (ax_v, _velocity(base)[:, i])):
+                    ax.plot(base.time[-1:], sig[-1:], marker="x", color=color, linestyle="none")
+        ax_p.set_ylabel(_with_unit(_tex(name), pos_unit))
+        ax_v.set_ylabel(_with_unit(_tex(f"{name}_dot"), vel_unit))
+        _clip_to_main(ax_p, result.y[:, i], result.yd[:, i])
+        _clip_to_main(ax_v, vel[:, i], result.yd_dot[:, i])
+        _decorate(ax_p, result)
+        _decorate(ax_v, result)
+
+
+def _clip_to_main(ax: Axes, *signals: np.ndarray) -> None:
+    """Keep the y-range on the main run so that a diverging baseline does not flatten it."""
+    vals = np.concatenate([np.asarray(s, dtype=float).ravel() for s in signals])
+    vals = vals[np.isfinite(vals)]
+    if vals.size == 0:
+        return
+    lo, hi = float(vals.min()), float(vals.max())
+    pad = 0.25 * (hi - lo) if hi > lo else max(abs(hi), 1e-6) * 0.5
+    ax.set_ylim(lo - pad, hi + pad)
+
+
+def _actuator_panel(ax: Axes, result: SimResult, j: int) -> None:
+    name = result.actuator_names[j]
+    color = f"C{j % 10}"
+    ax.plot(
+        result.time,
+        result.u_cmd[:, j],
+        color=color,
+        linestyle="--",
+        linewidth=0.9,
+        alpha=0.8,
+        label=f"{_tex(name)} commanded",
+    )
+    ax.plot(
+        result.time,
+        result.u_applied[:, j],
+        color=color,
+        linewidth=1.2,
+        label=f"{_tex(name)} applied",
+    )
+    ax.set_ylabel(_with_unit(_tex(name), _unit(result, 2)))
+    _decorate(ax, result)
+
+
+def _u0_panel(ax: Axes, result: SimResult) -> None:
+    for i, name in enumerate(result.output_names):
+        label = "$u_0$" if len(result.output_names) == 1 else f"$u_{{0,{i + 1}}}$ ({name})"
+        ax.plot(result.time, result.u0[:, i], color=f"C{i % 10}", linewidth=1.1, label=label)
+    if np.any(result.u_f != 0):
+        ax.plot(
+            result.time,
+            result.u_f,
+            color="tab:purple",
+            linewidth=1.1,
+            linestyle="-.",
+            label="$u_f$ (compensator)",
+        )
+    ax.set_ylabel("design signal")
+    _decorate(ax, result)
+
+
+def _all_actuators_panel(ax: Axes, result: SimResult) -> None:
+    for j, name in enumerate(result.actuator_names):
+        color = f"C{j % 10}"
+        ax.plot(result.time, result.u_applied[:, j], color=color, linewidth=1.1, label=_tex(name))
+        ax.plot(
+            result.time,
+            result.u_cmd[:, j],
+            color=color,
+            linewidth=0.7,
+            linestyle=":",
+            alpha=0.8,
+            label="commanded (dotted)" if j == 0 else "_nolegend_",
+        )
+    if len(result.output_names) == 1:
+        ax.plot(result.time, result.u0[:, 0], color="k", linewidth=0.7, alpha=0.6, label="$u_0$")
+    ax.set_ylabel(_with_unit("control", _unit(result, 2)))
+    _decorate(ax, result)
+
+
+def _theta_panel(ax: Axes, result: SimResult) -> None:
+    theta = result.theta
+    n = theta.shape[1]
+    if n:
+        ax.plot(result.time, theta, linewidth=0.5, alpha=0.75)
+        norm = np.linalg.norm(theta, axis=1)
+        ax.plot(
+            result.time, norm, color="k", linewidth=1.3, label=rf"$\|\theta\|$ ({n} components)"
+        )
+    else:
+        ax.text(0.5, 0.5, "no adaptive parameters", transform=ax.transAxes, ha="center")
+    ax.set_ylabel(r"$\theta$")
+    _decorate(ax, result, loc="upper left")
+
+
+def _other_adaptive_panel(
+    ax: Axes, result: SimResult, series: list[tuple[str, np.ndarray]]
+) -> None:
+    for c, (name, values) in enumerate(series):
+        ax.plot(result.time, values, color=f"C{c % 10}", linewidth=1.1, label=_tex(name))
+    ax.set_ylabel(
+        ", ".join(_tex(s) for s in sorted({re.sub(r"[\d_]+$", "", n) for n, _ in series}))
+    )
+    _decorate(ax, result)
+
+
+# ---------------------------------------------------------------------------- kinds
+def _plot_tracking(result, outputs, baselines):
+    picked = _select_outputs(result, outputs)
+    fig, axes = _new_figure(2 * len(picked))
+    _tracking_panels(axes, result, picked, baselines)
+    return fig, axes
+
+
+def _plot_control(result, outputs, baselines):
+    m = len(result.actuator_names)
+    n_cols = 1 if m <= 3 else 2
+    n_rows = math.ceil((m + 1) / n_cols)
+    fig, axes = _new_figure(n_rows, n_cols)
+    for j in range(m):
+        _actuator_panel(axes[j], result, j)
+    _u0_panel(axes[m], result)
+    for k in range(m + 1, len(axes)):
+        axes[k].set_visible(False)
+        above = axes[k - n_cols]  # the panel above a hidden one is the last of its column
+        above.tick_params(labelbottom=True)
+        above.set_xlabel("time (s)")
+    return fig, axes[: m + 1]
+
+
+def _plot_parameters(result, outputs, baselines):
+    others = _other_adaptive(result)
+    fig, axes = _new_figure(1 + bool(others))
+    _theta_panel(axes[0], result)
+    if others:
+        _other_adaptive_panel(axes[1], result, others)
+    return fig, axes
+
+
+def _plot_control_parameters(result, outputs, baselines):
+    others = _other_adaptive(result)
+    fig, axes = _new_figure(2 + bool(others))
+    _all_actuators_panel(axes[0], result)
+    _theta_panel(axes[1], result)
+    if others:
+        _other_adaptive_panel(axes[2], result, others)
+    return fig, axes
+
+
+def _plot_modal(result, outputs, baselines):
+    disp = [
+        i
+        for i, n in enumerate(result.state_names)
+        if n.startswith("eta") and not n.endswith("_dot")
+    ]
+    rate = [
+        i for i, n in enumerate(result.state_names) if n.startswith("eta") and n.endswith("_dot")
+    ]
+    if not disp and not rate:
+        raise ValueError(
+            f"A 'modal' figure needs states named 'eta...'; this run's states are "
+            f"{', '.join(result.state_names)}."
+        )
+    fig, axes = _new_figure(2)
+    for ax, idx, ylabel in ((axes[0], disp, "modal displacement"), (axes[1], rate, "modal rate")):
+        for c, i in enumerate(idx):
+            name = result.state_names[i]
+            ax.plot(
+                result.time,
+                result.states[:, i],
+                color=f"C{c % 10}",
+                linewidth=1.0,
+                label=_tex(name),
+            )
+        ax.set_ylabel(ylabel)
+        _decorate(ax, result)
+    return fig, axes
+
+
+def _plot_direction(result, outputs, baselines):
+    fig, axes = _new_figure(3)
+    _all_actuators_panel(axes[0], result)
+    design = str(result.meta.get("design", ""))
+    est = r"N(\tau)" if design == "nussbaum" else (r"\rho" if design == "sign" else "gain")
+    ax = axes[1]
+    ax.step(
+        result.time,
+        np.sign(result.control_gain),
+        where="post",
+        color="k",
+        linewidth=1.6,
+        label="true direction sign(control gain)",
+    )
+    ax.step(
+        result.time,
+        np.sign(result.gain),
+        where="post",
+        color="tab:orange",
+        linewidth=1.1,
+        linestyle="--",
+        label=f"sign(${est}$)",
+    )
+    ax.set_ylim(-1.4, 1.4)
+    ax.set_yticks([-1, 0, 1])
+    ax.set_ylabel("control direction")
+    _decorate(ax, result)
+    ax = axes[2]
+    ax.plot(result.time, result.gain, color="tab:orange", linewidth=1.1, label=f"${est}$")
+    for name, values in _other_adaptive(result):
+        if name == "tau":
+            ax.plot(result.time, values, color="tab:green", linewidth=0.9, label=r"$\tau$")
+    ax.axhline(0.0, color="0.5", linewidth=0.6)
+    ax.set_ylabel("direction estimate")
+    _decorate(ax, result)
+    return fig, axes
+
+
+_BUILDERS = {
+    "tracking": _plot_tracking,
+    "control": _plot_control,
+    "parameters": _plot_parameters,
+    "control_parameters": _plot_control_parameters,
+    "modal": _plot_modal,
+    "direction": _plot_direction,
+}
+
+
+# ---------------------------------------------------------------------------- public API
+def plot(
+    result: SimResult,
+    kind: str = "tracking",
+    *,
+    outputs: Sequence[int] | None = None,
+    title: str | None = None,
+    baselines: Mapping[str, SimResult] | None = None,
+) -> Figure:
+    """Draw a thesis-style figure of a recorded run.
+
+    Parameters
+    ----------
+    result
+        The run to draw.
+    kind
+        One of :data:`KINDS` (see the module docstring).
+    outputs
+        1-based output numbers to draw on ``tracking`` figures (default: all).
+    title
+        Figure title (``suptitle``).
+    baselines
+        Label -> other run (e.g. ``{"frozen adaptation": r_frozen}``), drawn dashed on the
+        tracking panels; a diverged baseline is drawn up to where it stopped.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        An Agg-renderable figure (no ``pyplot`` state is touched).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``kind`` (the message lists the valid kinds), an output number out of
+        range, or a ``modal`` figure of a run without ``eta`` states.
+
+    Examples
+    --------
+    >>> from adaptive_ftc import load_scenario
+    >>> r = load_scenario("hypersonic-direct-s1").run()          # doctest: +SKIP
+    >>> fig = plot(r, "tracking", title="Fig. 2.1")               # doctest: +SKIP
+    >>> fig.savefig("fig_2.1.png")                                # doctest: +SKIP
+    """
+    if kind not in _BUILDERS:
+        from adaptive_ftc.errors import did_you_mean
+
+        raise ValueError(
+            f"Unknown figure kind '{kind}'.{did_you_mean(kind, KINDS)} "
+            f"Valid kinds: {', '.join(KINDS)}."
+        )
+    if result.time.size == 0:
+        raise ValueError("Cannot plot a run with no recorded samples.")
+    thin_baselines = {k: _thin(v) for k, v in (baselines or {}).items()}
+    fig, axes = _BUILDERS[kind](_thin(result), outputs, thin_baselines)
+    return _finish(fig, axes, title)
+
+
+def save_figure(
+    result: SimResult,
+    spec: Mapping[str, Any],
+    path: str | Path,
+    *,
+    baselines: Mapping[str, SimResult] | None = None,
+) -> Path:
+    """Render one ``[[figure]]`` table of a scenario to a PNG file (dpi 120).
+
+    Parameters
+    ----------
+    result
+        The run to draw.
+    spec
+        A figure table: ``number``, ``kind``, ``caption`` and optionally ``outputs``
+        (1-based output numbers). The title reads ``"Fig. <number>: <caption>"``.
+    path
+        Destination file (parent folders are created).
+    baselines
+        See :func:`plot`; only tracking panels draw them.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    for key in ("kind",):
+        if key not in spec:
+            raise ValueError(f"Figure table {dict(spec)!r} is missing the key '{key}'.")
+    number = spec.get("number")
+    caption = str(spec.get("caption", "")).strip()
+    title = f"Fig. {number}: {caption}" if number is not None else caption or None
+    outputs = spec.get("outputs")
+    fig = plot(result, str(spec["kind"]), outputs=outputs, title=title, baselines=baselines)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=_DPI, format="png")
+    return path
+
+
+def default_figure_specs(result: SimResult) -> list[dict[str, Any]]:
+    """Figure tables for a run without its own: tracking, control, parameters (+ modal, direction).
+
+    ``modal`` is added when the run has ``eta`` states, ``direction`` for the ``nussbaum`` and
+    ``sign`` designs. Numbers are ``"1"``, ``"2"``, ... and captions name the run.
+    """
+    name = str(result.meta.get("scenario", result.meta.get("name", "run")))
+    kinds = ["tracking", "control", "parameters"]
+    if any(n.startswith("eta") for n in result.state_names):
+        kinds.append("modal")
+    if result.meta.get("design") in ("nussbaum", "sign"):
+        kinds.append("direction")
+    captions = {
+        "tracking": "outputs and references",
+        "control": "actuator commands and outputs",
+        "parameters": "adaptive parameters",
+        "modal": "modal displacements and rates",
+        "direction": "control direction estimate",
+    }
+    return [
+        {"number": str(i + 1), "kind": k, "caption": f"{name}: {captions[k]}"}
+        for i, k in enumerate(kinds)
+    ]

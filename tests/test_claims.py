@@ -1,0 +1,320 @@
+"""Claim evaluator (docs/claims.md) on synthetic runs built so that the truth is known: every kind
+PASSes where the data support the claim and FAILs where they do not, with the measured number."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from adaptive_ftc.claims import (
+    CLAIM_KINDS,
+    ClaimError,
+    ClaimResult,
+    evaluate_claim,
+    evaluate_claims,
+)
+from adaptive_ftc.sim.result import SimResult
+from tests.conftest import assert_close
+
+T_FINAL = 100.0
+TIME = np.linspace(0.0, T_FINAL, 10001)  # dt = 0.01
+
+
+def make_result(
+    *,
+    e: np.ndarray | None = None,
+    u_applied: np.ndarray | None = None,
+    u_f: np.ndarray | None = None,
+    gain: np.ndarray | None = None,
+    control_gain: np.ndarray | None = None,
+    eta: np.ndarray | None = None,
+    failure_times: tuple[float, ...] = (40.0, 70.0),
+    status: str = "completed",
+) -> SimResult:
+    """A synthetic run: 2 outputs, 3 actuators, states ``[y1, y2, eta1, eta2]``."""
+    n = TIME.size
+    e = np.zeros((n, 2)) if e is None else e
+    u_applied = np.ones((n, 3)) if u_applied is None else u_applied
+    eta = np.zeros((n, 2)) if eta is None else eta
+    yd = np.column_stack([np.sin(TIME), np.cos(TIME)])
+    y = yd - e
+    return SimResult(
+        time=TIME,
+        states=np.column_stack([y, eta]),
+        adaptive=np.zeros((n, 1)),
+        y=y,
+        yd=yd,
+        yd_dot=np.zeros((n, 2)),
+        e=e,
+        edot=np.zeros((n, 2)),
+        s=e,
+        sdot=np.zeros((n, 2)),
+        u0=np.zeros((n, 2)),
+        u_cmd=u_applied.copy(),
+        u_applied=u_applied,
+        u_f=np.zeros(n) if u_f is None else u_f,
+        gain=np.ones(n) if gain is None else gain,
+        control_gain=np.ones(n) if control_gain is None else control_gain,
+        state_names=("y1", "y2", "eta1", "eta2"),
+        output_names=("y1", "y2"),
+        actuator_names=("u1", "u2", "u3"),
+        adaptive_names=("theta_1",),
+        theta_slices=(slice(0, 1),),
+        failure_times=failure_times,
+        failures=(),
+        status=status,
+        message="" if status == "completed" else "state left the bound",
+        meta={"t_final": T_FINAL, "design": "direct"},
+    )
+
+
+def truncated(r: SimResult, t_stop: float) -> SimResult:
+    """The run as if it had diverged at ``t_stop``."""
+    keep = r.time <= t_stop
+    arrays = {
+        f.name: getattr(r, f.name)[keep]
+        for f in dataclasses.fields(r)
+        if isinstance(getattr(r, f.name), np.ndarray)
+    }
+    return dataclasses.replace(r, **arrays, status="diverged", message="state left the bound")
+
+
+def error_after(level_late: float, level_early: float = 1.0, t_switch: float = 80.0) -> np.ndarray:
+    """Sinusoidal error of amplitude ``level_early`` before ``t_switch``, ``level_late`` after
+    (RMS of a full-period sine = amplitude / sqrt(2))."""
+    amp = np.where(TIME < t_switch, level_early, level_late)
+    return np.column_stack([amp * np.sin(2 * np.pi * TIME), 0.5 * amp * np.sin(2 * np.pi * TIME)])
+
+
+# ---------------------------------------------------------------------------- tracking
+def test_tracking_passes_below_threshold_and_measures_the_worst_output_rms():
+    r = make_result(e=error_after(0.01))
+    c = evaluate_claim({"kind": "tracking", "text": "t", "window": 20, "threshold": 0.01}, r)
+    assert c.passed and c.verdict == "PASS"
+    assert_close(c.measured, 0.01 / math.sqrt(2), atol=1e-4, what="RMS of 0.01 sin over 20 s")
+    assert c.threshold == 0.01
+    assert "y1" in c.detail and "y2" in c.detail
+
+
+def test_tracking_fails_when_one_output_exceeds_threshold():
+    r = make_result(e=error_after(0.05))
+    c = evaluate_claim({"kind": "tracking", "text": "t", "threshold": 0.02}, r)  # window 20
+    assert not c.passed and c.verdict == "FAIL"
+    assert_close(c.measured, 0.05 / math.sqrt(2), atol=1e-4)
+
+
+def test_tracking_baseline_ratio_passes_only_when_frozen_is_worse_enough():
+    r = make_result(e=error_after(0.01))
+    claim = {"kind": "tracking", "text": "t", "threshold": 0.01, "baseline_ratio": 3.0}
+    worse = make_result(e=error_after(0.05))  # 5x worse
+    assert evaluate_claim(claim, r, frozen=worse).passed
+    similar = make_result(e=error_after(0.02))  # only 2x worse
+    c = evaluate_claim(claim, r, frozen=similar)
+    assert not c.passed
+    assert "2 x adaptive" in c.detail
+
+
+def test_tracking_diverged_baseline_counts_as_infinitely_worse():
+    r = make_result(e=error_after(0.01))
+    claim = {"kind": "tracking", "text": "t", "threshold": 0.01, "baseline_ratio": 100.0}
+    frozen = truncated(make_result(e=error_after(0.01)), 50.0)
+    c = evaluate_claim(claim, r, frozen=frozen)
+    assert c.passed and "diverged" in c.detail
+
+
+def test_tracking_with_baseline_ratio_needs_the_frozen_run():
+    claim = {"kind": "tracking", "text": "t", "threshold": 0.01, "baseline_ratio": 3.0}
+    with pytest.raises(ClaimError, match="frozen"):
+        evaluate_claim(claim, make_result())
+
+
+def test_tracking_fails_for_a_diverged_run_even_with_small_error():
+    r = truncated(make_result(), 90.0)  # stops inside the last window
+    c = evaluate_claim({"kind": "tracking", "text": "t", "threshold": 1.0}, r)
+    assert not c.passed and "diverged" in c.detail
+
+
+# ---------------------------------------------------------------------------- recovery
+def test_recovery_checks_the_window_before_each_next_event():
+    # large error right after each event, small in the 5 s before the next event (or end)
+    amp = np.full(TIME.size, 0.001)
+    for t in (40.0, 70.0):
+        amp[(TIME >= t) & (TIME < t + 10)] = 1.0
+    e = np.column_stack([amp * np.sin(2 * np.pi * TIME), amp * np.sin(2 * np.pi * TIME)])
+    claim = {"kind": "recovery", "text": "t", "window": 5.0, "threshold": 0.01}
+    c = evaluate_claim(claim, make_result(e=e))
+    assert c.passed, c.detail
+    assert c.detail.count("t=") == 2
+    # error not recovered before the end of the run: the second event FAILs
+    amp[TIME > 70] = 1.0
+    e = np.column_stack([amp * np.sin(2 * np.pi * TIME), amp * np.sin(2 * np.pi * TIME)])
+    c = evaluate_claim(claim, make_result(e=e))
+    assert not c.passed
+    assert_close(c.measured, 1 / math.sqrt(2), atol=1e-3)
+
+
+def test_recovery_without_events_fails_honestly():
+    c = evaluate_claim(
+        {"kind": "recovery", "text": "t", "window": 5, "threshold": 1},
+        make_result(failure_times=()),
+    )
+    assert not c.passed and "no failure" in c.detail
+
+
+# ---------------------------------------------------------------------------- bounded
+def test_bounded_measures_largest_state_or_actuator_signal():
+    u = np.ones((TIME.size, 3))
+    u[5000, 2] = 7.5
+    c = evaluate_claim({"kind": "bounded", "text": "t", "bound": 10}, make_result(u_applied=u))
+    assert c.passed and c.measured == 7.5
+    c = evaluate_claim({"kind": "bounded", "text": "t", "bound": 5}, make_result(u_applied=u))
+    assert not c.passed and c.measured == 7.5
+
+
+def test_bounded_fails_for_a_diverged_run():
+    c = evaluate_claim(
+        {"kind": "bounded", "text": "t", "bound": 1e6}, truncated(make_result(), 30.0)
+    )
+    assert not c.passed and math.isnan(c.measured)
+
+
+# ---------------------------------------------------------------------------- redistribution
+def _redistributed(after_level: float) -> np.ndarray:
+    u = np.ones((TIME.size, 3))
+    u[TIME >= 40.0, 0] = 0.0  # actuator 1 fails at 40 s
+    u[TIME >= 40.0, 1:] = after_level  # healthy 2, 3 take over
+    return u
+
+
+def test_redistribution_passes_when_healthy_actuators_work_harder():
+    claim = {"kind": "redistribution", "text": "t", "time": 40, "healthy": [2, 3], "window": 10}
+    c = evaluate_claim(claim, make_result(u_applied=_redistributed(1.5)))
+    assert c.passed and c.measured == pytest.approx(1.5) and c.threshold == 1.1
+
+
+def test_redistribution_fails_when_healthy_effort_does_not_rise_by_factor():
+    claim = {"kind": "redistribution", "text": "t", "time": 40, "healthy": [2, 3], "window": 10}
+    c = evaluate_claim(claim, make_result(u_applied=_redistributed(1.05)))
+    assert not c.passed and c.measured == pytest.approx(1.05)
+    # settle skips a transient: effort rises only after 45 s
+    u = np.ones((TIME.size, 3))
+    u[TIME >= 45.0, 1:] = 1.15  # mean over [40, 50] s is only ~1.075
+    claim = {**claim, "settle": 5.0}
+    assert evaluate_claim(claim, make_result(u_applied=u)).passed
+    assert not evaluate_claim({**claim, "settle": 0.0}, make_result(u_applied=u)).passed
+
+
+# ---------------------------------------------------------------------------- recovered_used
+def test_recovered_used_compares_mean_absolute_output_with_min_level():
+    u = np.ones((TIME.size, 3))
+    u[(TIME >= 40) & (TIME < 70), 1] = 0.0  # actuator 2 down from 40 to 70 s
+    u[TIME >= 70, 1] = -0.4
+    claim = {"kind": "recovered_used", "text": "t", "actuator": 2, "time": 70, "window": 10}
+    c = evaluate_claim({**claim, "min_level": 0.3}, make_result(u_applied=u))
+    assert c.passed and c.measured == pytest.approx(0.4)
+    c = evaluate_claim({**claim, "min_level": 0.5}, make_result(u_applied=u))
+    assert not c.passed and c.measured == pytest.approx(0.4)
+
+
+# ---------------------------------------------------------------------------- fault_indicator
+def test_fault_indicator_detects_the_compensator_moving_after_the_failure():
+    u_f = np.where(TIME >= 40.0, 0.2 * (1 - np.exp(-(TIME - 40.0))), 0.05)
+    claim = {"kind": "fault_indicator", "text": "t", "time": 40, "window": 5}
+    c = evaluate_claim({**claim, "threshold": 0.1}, make_result(u_f=u_f))
+    assert c.passed
+    assert_close(c.measured, 0.2 * (1 - math.exp(-5)) - 0.05, atol=1e-9)  # 0.05 -> 0.199
+    c = evaluate_claim({**claim, "threshold": 0.5}, make_result(u_f=u_f))
+    assert not c.passed
+    # a compensator that does not react at all
+    c = evaluate_claim({**claim, "threshold": 0.01}, make_result(u_f=np.full(TIME.size, 0.3)))
+    assert not c.passed and c.measured == 0.0
+
+
+# ---------------------------------------------------------------------------- modal_decay
+def test_modal_decay_compares_last_window_peak_with_run_peak():
+    decaying = np.exp(-0.05 * TIME)[:, None] * np.sin(np.outer(TIME, [3.0, 5.0]))
+    claim = {"kind": "modal_decay", "text": "t", "states": ["eta1", "eta2"], "window": 10}
+    c = evaluate_claim({**claim, "fraction": 0.05}, make_result(eta=decaying))
+    assert c.passed
+    assert_close(c.measured, math.exp(-0.05 * 90), atol=2e-3, what="envelope at 90 s / peak")
+    sustained = np.sin(np.outer(TIME, [3.0, 5.0]))
+    c = evaluate_claim({**claim, "fraction": 0.05}, make_result(eta=sustained))
+    assert not c.passed and c.measured == pytest.approx(1.0, abs=1e-3)
+
+
+def test_modal_decay_unknown_state_names_the_key():
+    claim = {"kind": "modal_decay", "text": "t", "states": ["eta3"], "window": 10, "fraction": 0.1}
+    with pytest.raises(ClaimError, match="'states'.*'eta3'"):
+        evaluate_claim(claim, make_result())
+
+
+# ---------------------------------------------------------------------------- sign
+def test_sign_passes_when_estimate_settles_to_true_direction():
+    gain = np.where(TIME < 30.0, 2.0, -3.0)  # estimate switches at 30 s
+    true = -np.ones(TIME.size)
+    claim = {"kind": "sign", "text": "t", "window": 50}
+    c = evaluate_claim(claim, make_result(gain=gain, control_gain=true))
+    assert c.passed and c.measured == 1.0
+    c = evaluate_claim({**claim, "window": 80}, make_result(gain=gain, control_gain=true))
+    assert not c.passed
+    assert_close(c.measured, 1 - 1000 / 8001, atol=1e-12, what="samples 20..30 s disagree")
+    assert "first mismatch at t = 20" in c.detail
+
+
+def test_sign_fails_when_estimate_settles_to_the_wrong_direction():
+    c = evaluate_claim(
+        {"kind": "sign", "text": "t", "window": 20},
+        make_result(gain=np.full(TIME.size, 5.0), control_gain=np.full(TIME.size, -0.2)),
+    )
+    assert not c.passed and c.measured == 0.0
+
+
+# ---------------------------------------------------------------------------- errors
+def test_unknown_kind_names_the_claim_and_the_valid_kinds():
+    with pytest.raises(ClaimError) as info:
+        evaluate_claim(
+            {"kind": "trackng", "text": "Tracking is kept", "threshold": 1}, make_result()
+        )
+    msg = str(info.value)
+    assert "'trackng'" in msg and "Did you mean 'tracking'?" in msg and "Tracking is kept" in msg
+    for kind in CLAIM_KINDS:
+        assert kind in msg
+
+
+def test_missing_key_names_the_claim_and_the_key():
+    with pytest.raises(
+        ClaimError, match=r"claim 'recovery' \('after a failure'\) is missing .*'threshold'"
+    ):
+        evaluate_claim({"kind": "recovery", "text": "after a failure", "window": 5}, make_result())
+    with pytest.raises(ClaimError, match="missing the key 'kind'"):
+        evaluate_claim({"text": "x"}, make_result())
+
+
+def test_misspelt_key_is_rejected_rather_than_defaulted():
+    claim = {"kind": "redistribution", "text": "t", "time": 40, "healthy": [2], "window": 5}
+    with pytest.raises(ClaimError, match="Unknown key 'factr'.*Did you mean 'factor'"):
+        evaluate_claim({**claim, "factr": 2.0}, make_result())
+
+
+def test_invalid_values_are_reported_with_the_key():
+    with pytest.raises(ClaimError, match="'healthy'.*from 1 to 3; got 4"):
+        evaluate_claim(
+            {"kind": "redistribution", "text": "t", "time": 40, "healthy": [4], "window": 5},
+            make_result(),
+        )
+    with pytest.raises(ClaimError, match="'threshold'.*finite number"):
+        evaluate_claim({"kind": "tracking", "text": "t", "threshold": "small"}, make_result())
+
+
+def test_evaluate_claims_keeps_order_and_names_the_position_of_a_bad_claim():
+    claims = [
+        {"kind": "bounded", "text": "a", "bound": 10},
+        {"kind": "sign", "text": "b", "window": 10},
+    ]
+    out = evaluate_claims(claims, make_result())
+    assert [c.text for c in out] == ["a", "b"] and all(isinstance(c, ClaimResult) for c in out)
+    with pytest.raises(ClaimError, match=r"#2: .*missing the key 'window'"):
+        evaluate_claims([claims[0], {"kind": "sign", "text": "b"}], make_result())
