@@ -94,9 +94,7 @@ def test_free_motion_settles_on_a_limit_cycle(name):
     assert np.all(r.u_applied == 0.0), "design 'none' must leave the ailerons at zero"
     _, peaks = cycle_peaks(r, 5.0)
     assert peaks.size > 20
-    per_second = [
-        np.max(r.states[between(r, a, a + 1.0), 0]) for a in (6.0, 7.0, 8.0, 9.0)
-    ]
+    per_second = [np.max(r.states[between(r, a, a + 1.0), 0]) for a in (6.0, 7.0, 8.0, 9.0)]
     # steady: neither decaying nor growing over the last 4 s (0.1 % drift at most)
     drift = (max(per_second) - min(per_second)) / max(per_second)
     assert drift < 1e-3, f"amplitude drifts by {drift:.2%} over the last 4 s: {per_second}"
@@ -352,7 +350,14 @@ def test_scenario_files_load_with_the_thesis_gains_and_figures():
         sc = scenario(name)
         c = sc.loop.controller
         assert (c.design, c.lam, c.eta1, c.eta2, c.sigma, c.eps0, c.k, c.k0) == (
-            "estimation", 5.0, 20.0, 20.0, 0.1, 0.005, 20.0, 10.0
+            "estimation",
+            5.0,
+            20.0,
+            20.0,
+            0.1,
+            0.005,
+            20.0,
+            10.0,
         )
         assert c.theta0 == 0.0 and c.kappa0 == 0.0
         assert c.regressor.inputs == ("e", "edot") and c.regressor.bias

@@ -23,7 +23,9 @@ class FailureEstimation(AdaptiveController):
 
     ``basis`` gives the known failure basis ``varpi_j(t)`` of each actuator as expressions of
     ``t``; one tuple per actuator, or a single tuple used for every actuator. The thesis does
-    not state it for the wing-rock runs; the catalogue uses ``("1",)`` (see the README).
+    not state it for the wing-rock runs; the catalogue uses ``("1", "sin(5*t)", "cos(5*t)")`` for
+    every aileron (see the notes of ``wingrock-estimation-s1``). With the same basis for every
+    actuator the ``kappa_j`` stay equal.
     """
 
     design: ClassVar[str] = "estimation"

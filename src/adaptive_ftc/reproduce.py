@@ -1,0 +1,444 @@
+"""One-command reproduction of the thesis's simulations (``aftc reproduce``).
+
+For every catalogue scenario (or the ones named) three runs are made, in parallel over processes:
+
+``adaptive``
+    the scenario as the thesis ran it (adaptation on, failures on);
+``frozen``
+    adaptation frozen at the initial parameters (what the failures do without adaptation);
+``failure_free``
+    adaptation on, no failures (the nominal behaviour).
+
+Variants that would repeat the adaptive run are skipped: ``frozen`` when the scenario has no
+adaptation (open-loop runs), ``failure_free`` when it has no failures.
+
+Everything is written into ``out_dir``::
+
+    figures/fig_<number>.png    every [[figure]] table, baselines overlaid on tracking figures
+    data/<scenario>[_frozen|_failure_free].nc
+    metrics.csv                 one row per run (+ frozen/adaptive error ratio per scenario)
+    claims.csv                  one row per [[claims]] table, PASS/FAIL with the measured number
+    report.html                 self-contained report (figures embedded)
+
+A figure number used by several scenarios (e.g. the ``+``/``-`` variants of one thesis figure) is
+written ``fig_<number>_<scenario>.png``; a scenario without [[figure]] tables gets the default
+figures of :func:`adaptive_ftc.plots.default_figure_specs`, written
+``fig_<scenario>_<kind>.png``.
+
+Quick mode (``quick=True``, for CI) shortens every run to
+``min(T, max(T/4, t_first + T/10))`` where ``T`` is the scenario's duration and ``t_first`` its
+first failure event, so at least the first failure happens inside the shortened run (failures
+later than that are simply not reached). Claims are still evaluated, but on shortened runs:
+the report says so and its verdicts are not the thesis check.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import csv
+import dataclasses
+import math
+import multiprocessing
+import os
+import time
+import traceback
+import warnings
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from adaptive_ftc.claims import ClaimError, ClaimResult, evaluate_claims
+from adaptive_ftc.report import FigureEntry, ScenarioEntry, write_report
+from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
+from adaptive_ftc.sim.result import SimResult
+
+__all__ = ["VARIANTS", "quick_duration", "run_reproduction"]
+
+#: Run variants per scenario, in report order.
+VARIANTS: tuple[str, ...] = ("adaptive", "frozen", "failure_free")
+
+_BASELINE_LABELS = {"frozen": "frozen adaptation", "failure_free": "failure-free"}
+
+
+# ---------------------------------------------------------------------------- scenario set-up
+def quick_duration(sc: Scenario) -> float:
+    """Shortened duration of quick mode: ``min(T, max(T/4, t_first + T/10))``."""
+    t0, T = float(sc.loop.t0), float(sc.loop.t_final)
+    span = T - t0
+    events = sorted(
+        t for f in _failures_of(sc) for t in getattr(f, "jump_times", ()) if t0 < t < T
+    )
+    first = events[0] if events else t0
+    return min(T, max(t0 + span / 4, first + span / 10))
+
+
+def _failures_of(sc: Scenario) -> tuple:
+    failures = sc.loop.failures
+    return tuple(getattr(failures, "failures", failures))
+
+
+def _prepare(name: str, quick: bool) -> Scenario:
+    sc = load_scenario(name)
+    if quick:
+        sc = dataclasses.replace(
+            sc, loop=dataclasses.replace(sc.loop, t_final=quick_duration(sc))
+        )
+    return sc
+
+
+def _variants(sc: Scenario) -> list[str]:
+    out = ["adaptive"]
+    if sc.loop.adapt:
+        out.append("frozen")
+    if _failures_of(sc):
+        out.append("failure_free")
+    return out
+
+
+def _data_path(out_dir: Path, name: str, variant: str) -> Path:
+    suffix = "" if variant == "adaptive" else f"_{variant}"
+    return out_dir / "data" / f"{name}{suffix}.nc"
+
+
+# ---------------------------------------------------------------------------- worker tasks
+def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[str, Any]:
+    """Run one variant in a worker process, write its netCDF, return the result."""
+    start = time.perf_counter()
+    try:
+        sc = _prepare(name, quick)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # divergence is recorded in the result's status
+            result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
+        result.meta["variant"] = variant
+        result.to_netcdf(_data_path(Path(out_dir), name, variant))
+        return {"result": result, "error": "", "wall": time.perf_counter() - start}
+    except Exception:  # noqa: BLE001 - reported in the report and metrics, the others go on
+        return {"result": None, "error": traceback.format_exc(limit=3), "wall": 0.0}
+
+
+def _figure_task(
+    result: SimResult, spec: dict[str, Any], path: str, baselines: dict[str, SimResult]
+) -> str:
+    """Render one figure in a worker process; returns an error text or ``""``."""
+    from adaptive_ftc.plots import save_figure
+
+    try:
+        base = baselines if spec.get("kind") == "tracking" else None
+        save_figure(result, spec, path, baselines=base)
+        return ""
+    except Exception as exc:  # noqa: BLE001 - a broken figure must not stop the reproduction
+        return f"{type(exc).__name__}: {exc}"
+
+
+# ---------------------------------------------------------------------------- figures plan
+def _figure_plan(scenarios: Sequence[Scenario]) -> dict[str, list[tuple[dict[str, Any], str]]]:
+    """Per scenario: (figure spec, file name), with unique file names across scenarios."""
+    counts = Counter(str(f.get("number")) for sc in scenarios for f in sc.figure_specs)
+    plan: dict[str, list[tuple[dict[str, Any], str]]] = {}
+    for sc in scenarios:
+        items = []
+        for spec in sc.figure_specs:
+            number = str(spec.get("number"))
+            fname = f"fig_{number}.png" if counts[number] == 1 else f"fig_{number}_{sc.name}.png"
+            items.append((dict(spec), fname))
+        plan[sc.name] = items
+    return plan
+
+
+def _default_specs(sc: Scenario, result: SimResult) -> list[tuple[dict[str, Any], str]]:
+    from adaptive_ftc.plots import default_figure_specs
+
+    figs = ", ".join(sc.figures)
+    items = []
+    for spec in default_figure_specs(result):
+        spec = dict(spec)
+        spec["caption"] = spec["caption"] + (f" (cf. thesis Fig. {figs})" if figs else "")
+        spec["number"] = sc.name
+        items.append((spec, f"fig_{sc.name}_{spec['kind']}.png"))
+    return items
+
+
+# ---------------------------------------------------------------------------- metrics
+def _metrics_row(name: str, variant: str, result: SimResult | None, err: str, wall: float):
+    row: dict[str, Any] = {"scenario": name, "variant": variant}
+    if result is None:
+        row.update(status="error", message=err.strip().splitlines()[-1] if err else "")
+        return row
+    m = result.metrics()
+    row.update(
+        status=result.status,
+        message=result.message,
+        t_end=m.get("t_end", math.nan),
+        rms_error=m.get("rms_error", math.nan),
+        max_error=m.get("max_error", math.nan),
+        final_window_s=m.get("final_window_s", math.nan),
+        rms_error_final=m.get("rms_error_final", math.nan),
+        max_error_final=m.get("max_error_final", math.nan),
+        peak_command=m.get("peak_command", math.nan),
+        peak_applied=m.get("peak_applied", math.nan),
+        wall_time_s=wall,
+    )
+    return row
+
+
+def _error_ratio(adaptive: SimResult | None, frozen: SimResult | None) -> float:
+    """RMS error of the frozen run over that of the adaptive run, in the adaptive run's final
+    window (10 % of the duration); ``inf`` when the frozen run diverged, ``nan`` if unknown."""
+    if adaptive is None or frozen is None or adaptive.status != "completed":
+        return math.nan
+    t_end = float(adaptive.meta.get("t_final", adaptive.time[-1]))
+    start = t_end - 0.1 * (t_end - float(adaptive.time[0]))
+    if frozen.status != "completed" or not frozen.window(start, t_end).any():
+        return math.inf
+    a = float(max(adaptive.rms_error(start, t_end)))
+    f = float(max(frozen.rms_error(start, t_end)))
+    return f / a if a > 0 else math.inf
+
+
+_METRIC_FIELDS = [
+    "scenario",
+    "variant",
+    "status",
+    "message",
+    "t_end",
+    "rms_error",
+    "max_error",
+    "final_window_s",
+    "rms_error_final",
+    "max_error_final",
+    "peak_command",
+    "peak_applied",
+    "wall_time_s",
+    "error_ratio_frozen_over_adaptive",
+]
+
+
+def _write_csv(path: Path, fields: Sequence[str], rows: Sequence[dict[str, Any]]) -> Path:
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(fields), extrasaction="ignore")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: row.get(k, "") for k in fields})
+    return path
+
+
+# ---------------------------------------------------------------------------- main entry
+def run_reproduction(
+    out_dir: str | Path,
+    *,
+    quick: bool = False,
+    jobs: int | None = None,
+    progress: bool = True,
+    names: Sequence[str] | None = None,
+) -> dict[str, Any]:
+    """Run the catalogue, write figures, data, metrics, claims and the HTML report.
+
+    Parameters
+    ----------
+    out_dir
+        Output folder (created).
+    quick
+        Shorten every run (see the module docstring) for a fast smoke test.
+    jobs
+        Worker processes (default ``os.cpu_count()``); ``1`` runs everything in this process.
+    progress
+        Show a tqdm progress bar.
+    names
+        Scenario names (default: the whole catalogue).
+
+    Returns
+    -------
+    dict
+        ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``, ``n_errors``,
+        ``wall_time_s``, ``report`` (path of report.html) and ``out_dir``.
+
+    Examples
+    --------
+    >>> summary = run_reproduction("out", quick=True, names=["hypersonic-direct-s1"])  # doctest: +SKIP
+    >>> summary["n_fail"]                                                               # doctest: +SKIP
+    0
+    """
+    from tqdm.auto import tqdm
+
+    t_start = time.perf_counter()
+    out = Path(out_dir)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    (out / "data").mkdir(parents=True, exist_ok=True)
+    scenario_names = list(names) if names is not None else list_scenarios()
+    scenarios = [_prepare(n, quick) for n in scenario_names]  # validates every name first
+    plan = _figure_plan(scenarios)
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+
+    results: dict[tuple[str, str], dict[str, Any]] = {}
+    fig_errors: dict[tuple[str, str], str] = {}
+    figures: dict[str, list[FigureEntry]] = {sc.name: [] for sc in scenarios}
+    sim_tasks = [(sc.name, v) for sc in scenarios for v in _variants(sc)]
+    by_name = {sc.name: sc for sc in scenarios}
+
+    executor: cf.Executor
+    if jobs == 1:
+        executor = _InlineExecutor()
+    else:
+        ctx = multiprocessing.get_context("fork" if os.name == "posix" else None)
+        executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    bar = tqdm(total=len(sim_tasks), disable=not progress, desc="reproduce", unit="task")
+    with executor:
+        pending: dict[cf.Future, tuple] = {
+            executor.submit(_simulate_task, n, v, quick, str(out)): ("sim", n, v)
+            for n, v in sim_tasks
+        }
+        while pending:
+            done, _ = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+            for fut in done:
+                tag = pending.pop(fut)
+                bar.update(1)
+                if tag[0] == "sim":
+                    _, name, variant = tag
+                    results[(name, variant)] = fut.result()
+                    needed = [(name, v) for v in _variants(by_name[name])]
+                    if all(k in results for k in needed):
+                        new = _submit_figures(executor, by_name[name], plan, results, out)
+                        for f, ftag, entry in new:
+                            pending[f] = ftag
+                            figures[name].append(entry)
+                        bar.total += len(new)
+                        bar.refresh()
+                else:
+                    _, name, fname = tag
+                    fig_errors[(name, fname)] = fut.result()
+    bar.close()
+
+    # claims, metrics, report
+    metric_rows, claim_rows, entries = [], [], []
+    n_pass = n_fail = n_errors = 0
+    for sc in scenarios:
+        adaptive = results[(sc.name, "adaptive")]["result"]
+        frozen = results.get((sc.name, "frozen"), {}).get("result")
+        ratio = _error_ratio(adaptive, frozen) if (sc.name, "frozen") in results else math.nan
+        for v in _variants(sc):
+            rec = results[(sc.name, v)]
+            row = _metrics_row(sc.name, v, rec["result"], rec["error"], rec["wall"])
+            if v == "adaptive":
+                row["error_ratio_frozen_over_adaptive"] = ratio
+            metric_rows.append(row)
+            n_errors += rec["result"] is None
+        verdicts: list[ClaimResult] = []
+        claim_error = ""
+        if adaptive is not None:
+            try:
+                verdicts = evaluate_claims(sc.claims, adaptive, frozen=frozen)
+            except ClaimError as exc:
+                claim_error = f"{sc.name}: {exc}"
+        elif sc.claims:
+            claim_error = "the adaptive run raised an error: " + results[(sc.name, "adaptive")][
+                "error"
+            ].strip().splitlines()[-1]
+            verdicts = [
+                ClaimResult(
+                    kind=str(c.get("kind", "")),
+                    text=str(c.get("text", "")),
+                    passed=False,
+                    measured=math.nan,
+                    threshold=math.nan,
+                    detail="not evaluated: the run raised an error",
+                )
+                for c in sc.claims
+            ]
+        for c in verdicts:
+            n_pass += c.passed
+            n_fail += not c.passed
+            claim_rows.append(
+                {
+                    "scenario": sc.name,
+                    "section": sc.section,
+                    "kind": c.kind,
+                    "verdict": c.verdict,
+                    "measured": c.measured,
+                    "threshold": c.threshold,
+                    "text": " ".join(c.text.split()),
+                    "detail": c.detail,
+                }
+            )
+        for entry in figures[sc.name]:
+            err = fig_errors.get((sc.name, entry.path.name), "")
+            if err:
+                entry.error = err
+        statuses = {
+            v: (results[(sc.name, v)]["result"].status if results[(sc.name, v)]["result"]
+                is not None else "error: " + results[(sc.name, v)]["error"].strip().splitlines()[-1])
+            for v in _variants(sc)
+        }
+        entries.append(
+            ScenarioEntry(
+                name=sc.name,
+                title=sc.title,
+                section=sc.section,
+                thesis_figures=tuple(sc.figures),
+                description=sc.description.strip(),
+                notes=sc.notes.strip(),
+                failures=tuple(adaptive.failures) if adaptive is not None else (),
+                duration=float(sc.loop.t_final),
+                figures=figures[sc.name],
+                claims=verdicts,
+                claim_error=claim_error,
+                error_ratio=ratio,
+                statuses=statuses,
+            )
+        )
+    _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
+    _write_csv(
+        out / "claims.csv",
+        ["scenario", "section", "kind", "verdict", "measured", "threshold", "text", "detail"],
+        claim_rows,
+    )
+    wall = time.perf_counter() - t_start
+    report = write_report(out / "report.html", entries, quick=quick, wall_time_s=wall, jobs=jobs)
+    return {
+        "n_scenarios": len(scenarios),
+        "n_runs": len(sim_tasks),
+        "n_claims": n_pass + n_fail,
+        "n_pass": n_pass,
+        "n_fail": n_fail,
+        "n_errors": n_errors,
+        "wall_time_s": time.perf_counter() - t_start,
+        "report": report,
+        "out_dir": out,
+    }
+
+
+def _submit_figures(executor, sc, plan, results, out):
+    """Submit the figure tasks of a scenario whose runs are all done."""
+    adaptive = results[(sc.name, "adaptive")]["result"]
+    if adaptive is None or adaptive.time.size == 0:
+        return []
+    items = plan[sc.name] or _default_specs(sc, adaptive)
+    baselines = {
+        _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
+        for v in ("frozen", "failure_free")
+        if (sc.name, v) in results and results[(sc.name, v)]["result"] is not None
+    }
+    new = []
+    for spec, fname in items:
+        path = out / "figures" / fname
+        fut = executor.submit(_figure_task, adaptive, spec, str(path), baselines)
+        entry = FigureEntry(
+            number=str(spec.get("number", "")),
+            caption=str(spec.get("caption", "")),
+            kind=str(spec.get("kind", "")),
+            path=path,
+        )
+        new.append((fut, ("fig", sc.name, fname), entry))
+    return new
+
+
+class _InlineExecutor(cf.Executor):
+    """Runs tasks at submission in this process (``jobs=1``; easier to debug and profile)."""
+
+    def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
+        fut: cf.Future = cf.Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller through the future
+            fut.set_exception(exc)
+        return fut
