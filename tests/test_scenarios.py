@@ -38,6 +38,10 @@ def write(tmp_path: Path, text: str) -> Path:
 
 THESIS = {  # SPEC §7: every thesis simulation and its figures
     "hypersonic-direct-s1": ("2.1", "2.2"), "hypersonic-direct-s2": ("2.3", "2.4"),
+    "hypersonic-nussbaum-s1-pos": ("4.1", "4.2"), "hypersonic-nussbaum-s1-neg": ("4.3", "4.4"),
+    "hypersonic-nussbaum-s2-pos": ("4.5", "4.6"), "hypersonic-nussbaum-s2-neg": ("4.7", "4.8"),
+    "hypersonic-sign-s1-rho0pos": ("4.9", "4.10"), "hypersonic-sign-s1-rho0neg": ("4.11", "4.12"),
+    "hypersonic-sign-s2-rho0pos": ("4.13", "4.14"), "hypersonic-sign-s2-rho0neg": ("4.15", "4.16"),
     "wingrock-estimation-s1": ("2.6", "2.7", "2.8"),
     "wingrock-estimation-s2": ("2.9", "2.10", "2.11"),
     "manipulator-mimo-s1": ("3.2", "3.3", "3.4"), "manipulator-mimo-s2": ("3.5", "3.6", "3.7"),

@@ -163,6 +163,14 @@ def _mask(result: SimResult, start: float, end: float, *, right_open: bool = Fal
     return lo & hi
 
 
+def _uncovered(result: SimResult) -> str:
+    """Why a window has no samples: the run diverged, or it ends before the window."""
+    if why := _diverged(result):
+        return why
+    end = f"{result.time[-1]:.4g} s" if result.time.size else "its start"
+    return f"the run ends at {end}"
+
+
 def _diverged(result: SimResult) -> str:
     if result.status == "completed":
         return ""
@@ -284,8 +292,7 @@ def _redistribution(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -
     before = _mask(r, t - window, t, right_open=True)
     after = _mask(r, t + settle, t + settle + window)
     if not before.any() or not after.any():
-        why = _diverged(r) or "the run does not cover both windows"
-        return _fail(c, factor, f"no samples around t = {t:g} s: {why}")
+        return _fail(c, factor, f"no samples around t = {t:g} s: {_uncovered(r)}")
     lvl_before = float(np.mean(np.abs(r.u_applied[np.ix_(before, idx)])))
     lvl_after = float(np.mean(np.abs(r.u_applied[np.ix_(after, idx)])))
     ratio = lvl_after / lvl_before if lvl_before > 0 else (math.inf if lvl_after > 0 else 0.0)
@@ -303,7 +310,7 @@ def _recovered_used(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -
     t, window, level = float(c["time"]), float(c["window"]), float(c["min_level"])
     mask = _mask(r, t, t + window)
     if not mask.any():
-        return _fail(c, level, f"no samples in [{t:g}, {t + window:g}] s: {_diverged(r)}")
+        return _fail(c, level, f"no samples in [{t:g}, {t + window:g}] s: {_uncovered(r)}")
     used = float(np.mean(np.abs(r.u_applied[mask, j])))
     detail = (
         f"mean |applied| of {r.actuator_names[j]} over [{t:g}, {t + window:g}] s: "
@@ -317,8 +324,7 @@ def _fault_indicator(c: dict[str, Any], r: SimResult, frozen: SimResult | None) 
     before = np.flatnonzero(r.time < t - 1e-9)
     mask = _mask(r, t, t + window)
     if before.size == 0 or not mask.any():
-        why = _diverged(r) or "the run does not cover the window"
-        return _fail(c, thr, f"no samples around t = {t:g} s: {why}")
+        return _fail(c, thr, f"no samples around t = {t:g} s: {_uncovered(r)}")
     ref = float(r.u_f[before[-1]])
     move = float(np.max(np.abs(r.u_f[mask] - ref)))
     detail = (

@@ -66,9 +66,7 @@ def quick_duration(sc: Scenario) -> float:
     """Shortened duration of quick mode: ``min(T, max(T/4, t_first + T/10))``."""
     t0, T = float(sc.loop.t0), float(sc.loop.t_final)
     span = T - t0
-    events = sorted(
-        t for f in _failures_of(sc) for t in getattr(f, "jump_times", ()) if t0 < t < T
-    )
+    events = sorted(t for f in _failures_of(sc) for t in getattr(f, "jump_times", ()) if t0 < t < T)
     first = events[0] if events else t0
     return min(T, max(t0 + span / 4, first + span / 10))
 
@@ -81,9 +79,7 @@ def _failures_of(sc: Scenario) -> tuple:
 def _prepare(name: str, quick: bool) -> Scenario:
     sc = load_scenario(name)
     if quick:
-        sc = dataclasses.replace(
-            sc, loop=dataclasses.replace(sc.loop, t_final=quick_duration(sc))
-        )
+        sc = dataclasses.replace(sc, loop=dataclasses.replace(sc.loop, t_final=quick_duration(sc)))
     return sc
 
 
@@ -255,9 +251,9 @@ def run_reproduction(
 
     Examples
     --------
-    >>> summary = run_reproduction("out", quick=True, names=["hypersonic-direct-s1"])  # doctest: +SKIP
-    >>> summary["n_fail"]                                                               # doctest: +SKIP
-    0
+    >>> s = run_reproduction("out", quick=True, names=["hypersonic-direct-s1"])  # doctest: +SKIP
+    >>> s["report"]                                                               # doctest: +SKIP
+    PosixPath('out/report.html')
     """
     from tqdm.auto import tqdm
 
@@ -331,9 +327,10 @@ def run_reproduction(
             except ClaimError as exc:
                 claim_error = f"{sc.name}: {exc}"
         elif sc.claims:
-            claim_error = "the adaptive run raised an error: " + results[(sc.name, "adaptive")][
-                "error"
-            ].strip().splitlines()[-1]
+            claim_error = (
+                "the adaptive run raised an error: "
+                + results[(sc.name, "adaptive")]["error"].strip().splitlines()[-1]
+            )
             verdicts = [
                 ClaimResult(
                     kind=str(c.get("kind", "")),
@@ -365,8 +362,11 @@ def run_reproduction(
             if err:
                 entry.error = err
         statuses = {
-            v: (results[(sc.name, v)]["result"].status if results[(sc.name, v)]["result"]
-                is not None else "error: " + results[(sc.name, v)]["error"].strip().splitlines()[-1])
+            v: (
+                results[(sc.name, v)]["result"].status
+                if results[(sc.name, v)]["result"] is not None
+                else "error: " + results[(sc.name, v)]["error"].strip().splitlines()[-1]
+            )
             for v in _variants(sc)
         }
         entries.append(

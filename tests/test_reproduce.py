@@ -1,0 +1,121 @@
+"""One-command reproduction: files, metrics rows, claims verdicts and a self-contained report."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import math
+import re
+
+import pytest
+import xarray as xr
+
+from adaptive_ftc import load_scenario
+from adaptive_ftc.claims import ClaimResult
+from adaptive_ftc.report import FigureEntry, ScenarioEntry, render_report
+from adaptive_ftc.reproduce import quick_duration, run_reproduction
+
+NAMES = ["hypersonic-direct-s1", "hypersonic-direct-s2"]
+
+
+@pytest.fixture(scope="module")
+def reproduction(tmp_path_factory):
+    out = tmp_path_factory.mktemp("repro")
+    summary = run_reproduction(out, quick=True, names=NAMES, progress=False, jobs=2)
+    return out, summary
+
+
+def test_quick_mode_keeps_the_first_failure_inside_the_run():
+    sc = load_scenario("hypersonic-direct-s1")  # 120 s, first failure at 40 s
+    assert quick_duration(sc) == pytest.approx(max(120 / 4, 40 + 12))
+
+
+def test_reproduction_writes_figures_data_tables_and_report(reproduction):
+    out, summary = reproduction
+    assert summary["n_scenarios"] == 2 and summary["n_runs"] == 6
+    assert summary["n_claims"] == summary["n_pass"] + summary["n_fail"] > 0
+    assert summary["report"] == out / "report.html"
+    for number in ("2.1", "2.2", "2.3", "2.4"):  # the thesis figure numbers of both scenarios
+        png = out / "figures" / f"fig_{number}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for name in NAMES:
+        for suffix in ("", "_frozen", "_failure_free"):
+            ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="scipy")
+            assert ds.sizes["time"] > 100
+            ds.close()
+
+
+def test_metrics_csv_has_one_row_per_run_and_the_adaptation_ratio(reproduction):
+    out, _ = reproduction
+    with (out / "metrics.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["scenario"], r["variant"]) for r in rows] == [
+        (n, v) for n in NAMES for v in ("adaptive", "frozen", "failure_free")
+    ]
+    for r in rows:
+        assert r["status"] == "completed"
+        assert (
+            0 < float(r["rms_error"]) <= float(r["max_error"])
+            and 0 <= float(r["rms_error_final"]) <= float(r["max_error_final"])
+            and float(r["peak_command"]) > 0
+        )
+        assert float(r["t_end"]) == pytest.approx(52.0)  # quick duration
+    for r in rows:
+        if r["variant"] == "adaptive":
+            # frozen adaptation leaves a much larger error than the adaptive design
+            assert float(r["error_ratio_frozen_over_adaptive"]) > 10
+        else:
+            assert r["error_ratio_frozen_over_adaptive"] == ""
+
+
+def test_claims_csv_matches_the_scenario_claims(reproduction):
+    out, summary = reproduction
+    with (out / "claims.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    expected = [(n, c["kind"]) for n in NAMES for c in load_scenario(n).claims]
+    assert [(r["scenario"], r["kind"]) for r in rows] == expected
+    assert {r["verdict"] for r in rows} <= {"PASS", "FAIL"}
+    assert sum(r["verdict"] == "PASS" for r in rows) == summary["n_pass"]
+
+
+def test_report_is_self_contained_with_embedded_figures_and_verdicts(reproduction):
+    out, summary = reproduction
+    page = (out / "report.html").read_text(encoding="utf-8")
+    images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+    assert len(images) == 4
+    assert base64.b64decode(images[0])[:8] == b"\x89PNG\r\n\x1a\n"
+    # nothing is fetched from elsewhere
+    assert not re.search(r'(src|href)="(https?:|//|file:)', page)
+    assert "<script" not in page and "<link" not in page
+    assert "PASS" in page
+    assert page.count('class="badge pass">PASS<') == summary["n_pass"]
+    assert page.count('class="badge fail">FAIL<') == summary["n_fail"]
+    assert "Quick mode" in page
+    for name in NAMES:
+        assert f'id="sc-{name}"' in page
+
+
+def test_report_shows_a_failed_claim_with_its_number(tmp_path):
+    failed = ClaimResult(
+        kind="tracking",
+        text="tracking is re-established",
+        passed=False,
+        measured=0.0423,
+        threshold=0.001,
+        detail="RMS error over [100, 120] s: alpha 0.0423 (<= 0.001 required)",
+    )
+    entry = ScenarioEntry(
+        name="demo",
+        title="Demo",
+        section="2.3.4",
+        claims=[failed],
+        error_ratio=math.inf,
+        figures=[FigureEntry("2.1", "missing", "tracking", tmp_path / "nope.png")],
+        statuses={"adaptive": "completed"},
+    )
+    page = render_report([entry])
+    assert 'class="badge fail">FAIL<' in page and 'badge pass">PASS<' not in page
+    assert "measured <b>0.0423</b> vs threshold <b>0.001</b>" in page
+    assert 'class="badge fail">0/1<' in page  # summary table
+    assert "figure failed: file not written" in page
+    assert "∞" in page
