@@ -40,8 +40,8 @@ from adaptive_ftc.plants import (
     TwoLinkManipulator,
     WingRock,
 )
-from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.sim import ClosedLoop, SimResult, SolverOptions, simulate
 from adaptive_ftc.sim.batch import simulate_many
 

@@ -238,7 +238,9 @@ def _tracking_panels(
         ax_p.plot(
             result.time, result.yd[:, i], color="k", linewidth=1.0, linestyle=":", label="reference"
         )
-        ax_p.plot(result.time, result.y[:, i], color="tab:blue", linewidth=1.2, label=_tex(name))
+        ax_p.plot(
+            result.time, result.y[:, i], color="tab:blue", linewidth=1.2, zorder=3, label=_tex(name)
+        )
         ax_v.plot(
             result.time,
             result.yd_dot[:, i],
@@ -248,7 +250,12 @@ def _tracking_panels(
             label="reference",
         )
         ax_v.plot(
-            result.time, vel[:, i], color="tab:blue", linewidth=1.2, label=_tex(f"{name}_dot")
+            result.time,
+            vel[:, i],
+            color="tab:blue",
+            linewidth=1.2,
+            zorder=3,
+            label=_tex(f"{name}_dot"),
         )
         for c, (label, base) in enumerate(baselines.items()):
             color = f"C{(c + 1) % 10}"
@@ -261,7 +268,9 @@ def _tracking_panels(
                 base.y[:, i],
                 color=color,
                 linestyle="--",
-                linewidth=1.0,
+                linewidth=0.9,
+                alpha=0.85,
+                zorder=2,
                 label=f"{label}{suffix}",
             )
             ax_v.plot(
@@ -269,7 +278,9 @@ def _tracking_panels(
                 _velocity(base)[:, i],
                 color=color,
                 linestyle="--",
-                linewidth=1.0,
+                linewidth=0.9,
+                alpha=0.85,
+                zorder=2,
                 label=f"{label}{suffix}",
             )
             if diverged:

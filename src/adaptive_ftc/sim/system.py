@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -175,7 +174,3 @@ class ClosedLoop:
                 f"-> {f.pattern()}"
             )
         return out
-
-
-def _seq(x) -> Sequence:  # pragma: no cover - tiny helper
-    return x if isinstance(x, (list, tuple)) else (x,)
