@@ -35,8 +35,9 @@ def test_bad_scenario_is_a_clear_error_and_keeps_earlier_results(tmp_path, capsy
 
 def test_run_writes_data_figures_and_metrics(tmp_path, capsys):
     src = tmp_path / "short.toml"
-    src.write_text('extends = "hypersonic-direct-s1"\nname = "short"\nfigures = ["2.1"]\n'
-                   "duration = 45.0\n")
+    src.write_text(
+        'extends = "hypersonic-direct-s1"\nname = "short"\nfigures = ["2.1"]\nduration = 45.0\n'
+    )
     out = tmp_path / "o"
     assert main(["run", str(src), "--out", str(out), "--quiet", "--csv"]) == 0
     assert (out / "data" / "short.nc").is_file()

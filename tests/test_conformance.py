@@ -50,8 +50,13 @@ def _loop_for(plant_name: str, design: str) -> ClosedLoop:
     R = np.zeros((p, m))
     for j in range(m):
         R[j * p // m, j] = 1.0
-    return ClosedLoop(plant=plant, controller=ctrl, allocation=R if p > 1 else R[0],
-                      reference=("0.01*sin(t)",) * p, t_final=0.5)
+    return ClosedLoop(
+        plant=plant,
+        controller=ctrl,
+        allocation=R if p > 1 else R[0],
+        reference=("0.01*sin(t)",) * p,
+        t_final=0.5,
+    )
 
 
 @pytest.mark.parametrize("design", sorted(DESIGNS))
@@ -76,12 +81,15 @@ def test_every_design_runs_on_every_plant_deterministically(plant_name, design):
 @pytest.mark.parametrize("model", sorted(FAILURE_MODELS))
 def test_every_failure_model_is_applied_by_the_kernel_as_its_expression(model):
     cls = FAILURE_MODELS[model]
-    extra = {"parameterised_stuck": {"coefficients": (0.1, 0.05), "basis": ("1", "sin(t)")},
-             "position_limit": {"lower": -0.01, "upper": 0.02},
-             "nonaffine": {"output": "0.5*u**3 + 0.1*x1"},
-             "affine": {"effectiveness": "0.5 + 0.1*sin(t)", "bias": "0.2*x1*x2"},
-             "stuck": {"value": "0.1*cos(t)"}, "bias": {"bias": 0.05},
-             "loss_of_effectiveness": {"effectiveness": 0.4}}.get(model, {})
+    extra = {
+        "parameterised_stuck": {"coefficients": (0.1, 0.05), "basis": ("1", "sin(t)")},
+        "position_limit": {"lower": -0.01, "upper": 0.02},
+        "nonaffine": {"output": "0.5*u**3 + 0.1*x1"},
+        "affine": {"effectiveness": "0.5 + 0.1*sin(t)", "bias": "0.2*x1*x2"},
+        "stuck": {"value": "0.1*cos(t)"},
+        "bias": {"bias": 0.05},
+        "loss_of_effectiveness": {"effectiveness": 0.4},
+    }.get(model, {})
     sc = load_scenario("hypersonic-direct-s1")
     fail = cls(actuator=1, onset=1.0, recovery=3.0, **extra)
     loop = replace(sc.loop, failures=(fail,), t_final=4.0)
@@ -100,8 +108,12 @@ def test_kernel_fuzzy_regressor_matches_the_numpy_implementation():
 
     sc = load_scenario("hypersonic-direct-s1")
     for normalised in (True, False):
-        fls = FuzzyBasis(inputs=("alpha", "q"), centers=((-1.0, 0.0, 1.0), (-0.5, 0.5)),
-                         width=0.6, normalised=normalised)
+        fls = FuzzyBasis(
+            inputs=("alpha", "q"),
+            centers=((-1.0, 0.0, 1.0), (-0.5, 0.5)),
+            width=0.6,
+            normalised=normalised,
+        )
         loop = replace(sc.loop, controller=replace(sc.loop.controller, regressor=fls))
         asm = assemble(loop)
         rng = np.random.default_rng(3)

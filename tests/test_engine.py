@@ -31,9 +31,16 @@ def oscillator(failures=()) -> ClosedLoop:
     """Wing-rock plant reduced to phi'' = -W^2 phi + u1 + u2 + u3, open loop (u0 = 0)."""
     plant = WingRock(a0=W**2, a1=0.0, a2=0.0, a3=0.0, a4=0.0, b=(1.0, 1.0, 1.0))
     ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
-    return ClosedLoop(plant=plant, controller=ctrl, allocation=(0.0, 0.0, 0.0),
-                      reference=("0",), initial_state=(1.0, 0.0), failures=failures,
-                      t_final=4.0, adapt=False)
+    return ClosedLoop(
+        plant=plant,
+        controller=ctrl,
+        allocation=(0.0, 0.0, 0.0),
+        reference=("0",),
+        initial_state=(1.0, 0.0),
+        failures=failures,
+        t_final=4.0,
+        adapt=False,
+    )
 
 
 def analytic(t: np.ndarray, stuck: bool) -> np.ndarray:
@@ -71,16 +78,22 @@ def test_variable_step_error_at_the_onset_does_not_depend_on_the_max_step():
     loop = oscillator((Stuck(actuator=1, onset=T_ON, value=STUCK),))
     errs = []
     for max_step in (np.inf, 1.0, 0.1):
-        r = simulate(loop, SolverOptions(method="DOP853", rtol=1e-11, atol=1e-12,
-                                         max_step=max_step, record_dt=0.05))
+        r = simulate(
+            loop,
+            SolverOptions(
+                method="DOP853", rtol=1e-11, atol=1e-12, max_step=max_step, record_dt=0.05
+            ),
+        )
         errs.append(np.max(np.abs(r.states[:, 0] - analytic(r.time, True))))
     # the jump is integrated exactly whatever the step: all errors are at tolerance level
     assert max(errs) < 1e-8, errs
 
 
 def test_records_land_on_the_requested_grid_with_failure_times_in_their_own_phase():
-    r = simulate(oscillator((Stuck(actuator=1, onset=T_ON, value=STUCK),)),
-                 SolverOptions(dt=0.01, record_dt=0.05))
+    r = simulate(
+        oscillator((Stuck(actuator=1, onset=T_ON, value=STUCK),)),
+        SolverOptions(dt=0.01, record_dt=0.05),
+    )
     assert_close(r.time, np.arange(0, 4.0001, 0.05), atol=1e-12)
     on = r.time >= T_ON
     assert_close(r.u_applied[on, 0], STUCK, atol=0)

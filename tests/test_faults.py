@@ -35,22 +35,37 @@ def out(f):
 
 def test_each_model_outputs_its_definition():
     assert_close(out(LossOfEffectiveness(actuator=1, effectiveness=0.75)), 0.75 * U, atol=0)
-    assert_close(out(LossOfEffectiveness(actuator=1, effectiveness="exp(-(t - 25))")),
-                 np.exp(-(T - 25)) * U, atol=1e-15)
+    assert_close(
+        out(LossOfEffectiveness(actuator=1, effectiveness="exp(-(t - 25))")),
+        np.exp(-(T - 25)) * U,
+        atol=1e-15,
+    )
     assert_close(out(Stuck(actuator=1, value=3.5)), np.full(5, 3.5), atol=0)
-    assert_close(out(Stuck(actuator=1, value="0.1 + 0.05*cos(0.5*t) - 0.08*sin(0.5*t)")),
-                 0.1 + 0.05 * np.cos(0.5 * T) - 0.08 * np.sin(0.5 * T), atol=1e-15)
-    assert_close(out(ParameterisedStuck(actuator=1, coefficients=(1.0, -30.0, 20.0),
-                                        basis=("1", "sin(5*t)", "cos(5*t)"))),
-                 1 - 30 * np.sin(5 * T) + 20 * np.cos(5 * T), atol=1e-12)
+    assert_close(
+        out(Stuck(actuator=1, value="0.1 + 0.05*cos(0.5*t) - 0.08*sin(0.5*t)")),
+        0.1 + 0.05 * np.cos(0.5 * T) - 0.08 * np.sin(0.5 * T),
+        atol=1e-15,
+    )
+    assert_close(
+        out(
+            ParameterisedStuck(
+                actuator=1, coefficients=(1.0, -30.0, 20.0), basis=("1", "sin(5*t)", "cos(5*t)")
+            )
+        ),
+        1 - 30 * np.sin(5 * T) + 20 * np.cos(5 * T),
+        atol=1e-12,
+    )
     assert_close(out(Bias(actuator=1, bias=2.0)), U + 2, atol=0)
-    assert_close(out(Affine(actuator=1, effectiveness=0.4, bias="0.5*x1*x2")),
-                 0.4 * U + 0.5 * X1 * X2, atol=1e-15)
-    assert_close(out(NonAffine(actuator=1, output="0.75*u**3 - 0.2")), 0.75 * U**3 - 0.2,
-                 atol=1e-15)
+    assert_close(
+        out(Affine(actuator=1, effectiveness=0.4, bias="0.5*x1*x2")),
+        0.4 * U + 0.5 * X1 * X2,
+        atol=1e-15,
+    )
+    assert_close(
+        out(NonAffine(actuator=1, output="0.75*u**3 - 0.2")), 0.75 * U**3 - 0.2, atol=1e-15
+    )
     assert_close(out(Reversal(actuator=1)), -U, atol=0)
-    assert_close(out(PositionLimit(actuator=1, lower=-1.0, upper=0.5)), np.clip(U, -1, 0.5),
-                 atol=0)
+    assert_close(out(PositionLimit(actuator=1, lower=-1.0, upper=0.5)), np.clip(U, -1, 0.5), atol=0)
 
 
 def test_incipient_failure_blends_in_over_its_ramp():
@@ -72,8 +87,10 @@ def test_incipient_failure_blends_in_over_its_ramp():
         (lambda: NonAffine(actuator=1, output="u**"), "invalid syntax"),
         (lambda: NonAffine(actuator=1, output="__import__('os')"), "unknown function"),
         (lambda: PositionLimit(actuator=1, lower=1.0, upper=0.0), "lower < upper"),
-        (lambda: ParameterisedStuck(actuator=1, coefficients=(1.0,), basis=("1", "t")),
-         "one coefficient per basis"),
+        (
+            lambda: ParameterisedStuck(actuator=1, coefficients=(1.0,), basis=("1", "t")),
+            "one coefficient per basis",
+        ),
     ],
 )
 def test_invalid_failures_are_rejected_at_construction(make, match):
@@ -95,9 +112,13 @@ def test_schedule_rejects_overlaps_and_unknown_actuators_and_finds_breakpoints()
 
 def test_compensability_rejects_a_group_with_every_actuator_lost():
     R = np.array([[1, 1, 0, 0], [0, 0, 1, 1]], dtype=float)
-    sched = FailureSchedule((Stuck(actuator=1, onset=5.0, value=1.0),
-                             LossOfEffectiveness(actuator=2, onset=10.0, recovery=15.0,
-                                                 effectiveness=0.0)), 4)
+    sched = FailureSchedule(
+        (
+            Stuck(actuator=1, onset=5.0, value=1.0),
+            LossOfEffectiveness(actuator=2, onset=10.0, recovery=15.0, effectiveness=0.0),
+        ),
+        4,
+    )
     report = check_compensability(sched, R, 30.0)
     assert not report.ok
     bad = [iv for iv in report.intervals if not iv.ok]

@@ -18,8 +18,12 @@ def run_all(name: str, normalised: bool = True):
     if not normalised:
         ctrl = sc.loop.controller
         reg: FuzzyBasis = ctrl.regressor  # type: ignore[attr-defined]
-        sc = replace(sc, loop=replace(sc.loop, controller=replace(
-            ctrl, regressor=replace(reg, normalised=False))))
+        sc = replace(
+            sc,
+            loop=replace(
+                sc.loop, controller=replace(ctrl, regressor=replace(reg, normalised=False))
+            ),
+        )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DivergenceWarning)
         return sc.run(), sc.run(adapt=False)
@@ -46,8 +50,9 @@ def test_scenario1_effort_moves_to_the_healthy_elevator_after_the_stuck_failure(
     assert after > 1.1 * before
     stuck = res.u_applied[res.window(40, 79.99), 1]
     t = res.time[res.window(40, 79.99)]
-    np.testing.assert_allclose(stuck, 0.1 + 0.05 * np.cos(0.5 * t) - 0.08 * np.sin(0.5 * t),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        stuck, 0.1 + 0.05 * np.cos(0.5 * t) - 0.08 * np.sin(0.5 * t), atol=1e-12
+    )
 
 
 def test_scenario2_recovered_elevator_is_exploited_again():
@@ -58,7 +63,10 @@ def test_scenario2_recovered_elevator_is_exploited_again():
     # while failed its applied output is the state-dependent pattern, not its command
     w = res.window(40, 69.99)
     x1, x2 = res.states[w, 0], res.states[w, 1]
-    np.testing.assert_allclose(res.u_applied[w, 1], 0.05 * res.u_cmd[w, 1] + 0.2 * x1
-                               - 0.03 * np.sin(0.5 * res.time[w]), atol=1e-12)
+    np.testing.assert_allclose(
+        res.u_applied[w, 1],
+        0.05 * res.u_cmd[w, 1] + 0.2 * x1 - 0.03 * np.sin(0.5 * res.time[w]),
+        atol=1e-12,
+    )
     assert during > 0
     del x2

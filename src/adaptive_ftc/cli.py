@@ -36,8 +36,11 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
     r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
     r.add_argument("--dt", type=float, help="override the fixed step")
-    r.add_argument("--no-baselines", action="store_true",
-                   help="skip the frozen-adaptation and failure-free comparison runs")
+    r.add_argument(
+        "--no-baselines",
+        action="store_true",
+        help="skip the frozen-adaptation and failure-free comparison runs",
+    )
     r.add_argument("--csv", action="store_true", help="also write CSV tables")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     rep = sub.add_parser("reproduce", help="reproduce every figure of the thesis with a report")
@@ -54,8 +57,7 @@ def _cmd_list() -> int:
     rows = []
     for name in list_scenarios():
         sc = load_scenario(name)
-        rows.append((name, f"§{sc.section}" if sc.section else "", ", ".join(sc.figures),
-                     sc.title))
+        rows.append((name, f"§{sc.section}" if sc.section else "", ", ".join(sc.figures), sc.title))
     w0 = max([len(r[0]) for r in rows] + [8])
     w2 = max([len(r[2]) for r in rows] + [7])
     print(f"{'scenario':<{w0}}  {'thesis':<7}  {'figures':<{w2}}  title")
@@ -69,8 +71,10 @@ def _cmd_validate(target: str) -> int:
 
     sc = load_scenario(target)
     loop = sc.loop
-    print(f"{sc.name}: OK ({loop.plant.name} plant, '{loop.controller.design}' design, "
-          f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s))")
+    print(
+        f"{sc.name}: OK ({loop.plant.name} plant, '{loop.controller.design}' design, "
+        f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s))"
+    )
     for line in loop.describe_failures():
         print(f"  failure {line}")
     report = loop.compensability()
@@ -78,8 +82,10 @@ def _cmd_validate(target: str) -> int:
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
     if not report.ok:
-        print(f"{sc.name}: WARNING - some intervals are not compensable; the thesis's "
-              "guarantees do not hold there.")
+        print(
+            f"{sc.name}: WARNING - some intervals are not compensable; the thesis's "
+            "guarantees do not hold there."
+        )
         return 1
     return 0
 
@@ -92,6 +98,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
     from adaptive_ftc import plots
+
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)
@@ -109,8 +116,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         # divergence is reported below from each result's status (a frozen baseline is
         # expected to diverge under some failures)
         warnings.simplefilter("ignore", DivergenceWarning)
-        for key, loop in tqdm(variants.items(), desc=sc.name, disable=args.quiet,
-                              total=len(variants)):
+        for key, loop in tqdm(
+            variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
+        ):
             results[key] = simulate(loop, solver)
     if results["adaptive"].message:
         print(f"warning: {results['adaptive'].message}", file=sys.stderr)
@@ -129,19 +137,31 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for i, spec in enumerate(specs):
         path = out / "figures" / f"fig_{spec.get('number', i + 1)}.png"
         figures.append(str(plots.save_figure(main, spec, path, baselines=baselines or None)))
-    (out / "metrics.json").write_text(json.dumps(
-        {"scenario": sc.name, "runs": summary, "recovery": main.recovery(),
-         "figures": figures}, indent=2, default=float))
+    (out / "metrics.json").write_text(
+        json.dumps(
+            {"scenario": sc.name, "runs": summary, "recovery": main.recovery(), "figures": figures},
+            indent=2,
+            default=float,
+        )
+    )
     m = summary["adaptive"]
-    print(f"{sc.name}: {main.status}; RMS error {m['rms_error']:.3g}, last "
-          f"{m['final_window_s']:.3g} s {m['rms_error_final']:.3g}; peak command "
-          f"{m['peak_command']:.3g}")
+    print(
+        f"{sc.name}: {main.status}; RMS error {m['rms_error']:.3g}, last "
+        f"{m['final_window_s']:.3g} s {m['rms_error_final']:.3g}; peak command "
+        f"{m['peak_command']:.3g}"
+    )
     for key in ("frozen", "failure_free"):
         if key in summary:
             b = summary[key]
-            print(f"  {key.replace('_', '-')}: {results[key].status}; last-window RMS error "
-                  f"{b['rms_error_final']:.3g}" + (f" (stopped at t = {b['t_end']:.4g} s)"
-                                                   if results[key].status != "completed" else ""))
+            print(
+                f"  {key.replace('_', '-')}: {results[key].status}; last-window RMS error "
+                f"{b['rms_error_final']:.3g}"
+                + (
+                    f" (stopped at t = {b['t_end']:.4g} s)"
+                    if results[key].status != "completed"
+                    else ""
+                )
+            )
     print(f"wrote {len(figures)} figure(s) and {len(results)} dataset(s) to {out}")
     return 0 if main.status == "completed" else 3
 
@@ -149,11 +169,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc.reproduce import run_reproduction
 
-    summary = run_reproduction(args.out, quick=args.quick, jobs=args.jobs,
-                               progress=not args.quiet)
-    print(f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
-          f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS; report: "
-          f"{summary['report']}")
+    summary = run_reproduction(args.out, quick=args.quick, jobs=args.jobs, progress=not args.quiet)
+    print(
+        f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
+        f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS; report: "
+        f"{summary['report']}"
+    )
     return 0
 
 

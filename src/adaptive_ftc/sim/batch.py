@@ -15,8 +15,13 @@ from adaptive_ftc.sim.system import ClosedLoop
 __all__ = ["simulate_many"]
 
 
-def simulate_many(loops: Sequence[ClosedLoop], solver: SolverOptions | None = None, *,
-                  jobs: int | None = None, progress: bool = False) -> list[SimResult]:
+def simulate_many(
+    loops: Sequence[ClosedLoop],
+    solver: SolverOptions | None = None,
+    *,
+    jobs: int | None = None,
+    progress: bool = False,
+) -> list[SimResult]:
     """Simulate many closed loops in parallel (e.g. a Monte Carlo campaign).
 
     The fixed-step path runs in the compiled kernel without the GIL, so threads give real

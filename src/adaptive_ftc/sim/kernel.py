@@ -178,10 +178,11 @@ def regressor(M, r, sig, phi, off, mu):
     _regressor(
         M[F_RKIND][r],
         M[F_RNIN][r],
-        M[F_RIN][r],
-        M[F_RNMF][r],
-        M[F_RC][r],
-        M[F_RA][r],
+        r,
+        M[F_RIN],
+        M[F_RNMF],
+        M[F_RC],
+        M[F_RA],
         M[F_RSIZE][r],
         sig,
         phi,
@@ -191,22 +192,24 @@ def regressor(M, r, sig, phi, off, mu):
 
 
 @_hot
-def _regressor(kind, nin, idx, nmf, cen, aa, size, sig, phi, off, mu):
+def _regressor(kind, nin, r, idx, nmf, cen, aa, size, sig, phi, off, mu):
+    # the model's arrays are indexed in place ([r, i, l]): creating views costs more than the
+    # arithmetic here
     if kind == REG_LINEAR_BIAS or kind == REG_LINEAR:
         j = off
         if kind == REG_LINEAR_BIAS:
             phi[j] = 1.0
             j += 1
         for i in range(nin):
-            phi[j] = sig[idx[i]]
+            phi[j] = sig[idx[r, i]]
             j += 1
         return
-    maxmf = cen.shape[1]
+    maxmf = cen.shape[2]
     for i in range(nin):
-        z = sig[idx[i]]
-        for l in range(nmf[i]):
-            d = z - cen[i, l]
-            mu[i * maxmf + l] = math.exp(-aa[i, l] * d * d)
+        z = sig[idx[r, i]]
+        for l in range(nmf[r, i]):
+            d = z - cen[r, i, l]
+            mu[i * maxmf + l] = math.exp(-aa[r, i, l] * d * d)
     total = 0.0
     # odometer over membership indices (last input fastest), no integer division
     cnt = mu[mu.size - nin :]  # the tail of the work buffer holds the rule counters
@@ -219,7 +222,7 @@ def _regressor(kind, nin, idx, nmf, cen, aa, size, sig, phi, off, mu):
         i = nin - 1
         while i >= 0:
             cnt[i] += 1.0
-            if cnt[i] < nmf[i]:
+            if cnt[i] < nmf[r, i]:
                 break
             cnt[i] = 0.0
             i -= 1
@@ -430,10 +433,11 @@ def closed_loop(t, Y, phase, M, W, dY):
         _regressor(
             M[F_RKIND][r],
             M[F_RNIN][r],
-            M[F_RIN][r],
-            M[F_RNMF][r],
-            M[F_RC][r],
-            M[F_RA][r],
+            r,
+            M[F_RIN],
+            M[F_RNMF],
+            M[F_RC],
+            M[F_RA],
             rsize[r],
             sig,
             phi,
@@ -460,16 +464,16 @@ def closed_loop(t, Y, phase, M, W, dY):
         u0[0] += comp
     # allocation u = R^T u0 and actuator failures
     R = M[F_R]
-    pp = M[F_PHASE][phase]
+    pp = M[F_PHASE]
     for j in range(m):
         acc = 0.0
         for i in range(p):
             acc += R[i, j] * u0[i]
         u[j] = acc
-        if pp[j] < 0:
+        if pp[phase, j] < 0:
             uf[j] = acc
         else:
-            k_ = pp[j]
+            k_ = pp[phase, j]
             uf[j] = eval_program(ops, vals, ps[k_], ps[k_ + 1], t, x, acc, stack)
     plant_derivative(ints[I_PLANT], M[F_PLANT], t, x, uf, xdot)
     for i in range(nx):
