@@ -140,11 +140,7 @@ class Failure(ABC):
             text = f"u + {w}*(({text}) - u)"
         ctx = context or f"{type(self).__name__}(actuator={self.actuator})"
         if not strict:
-            from adaptive_ftc.scenarios.expressions import parse
-
-            names = _names_in(text)
-            parse(text, tuple(sorted(set(variables) | names)), context=ctx)
-            return Expression(text, tuple(sorted(set(variables) | names)), context=ctx)
+            variables = tuple(sorted(set(variables) | _names_in(text)))
         return Expression(text, tuple(variables), context=ctx)
 
 
