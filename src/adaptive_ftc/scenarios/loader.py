@@ -10,6 +10,7 @@ nothing runs until the whole file is valid.
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,11 +21,12 @@ from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.plants import PLANTS
+from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.engine import SolverOptions, simulate
 from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["CATALOG", "Scenario", "list_scenarios", "load_scenario"]
+__all__ = ["CATALOG", "Scenario", "list_scenarios", "load_scenario", "scenario_schema"]
 
 #: Folder of the thesis scenarios shipped with the package.
 CATALOG = Path(__file__).with_name("catalog")
@@ -47,6 +49,196 @@ _TOP = {
     "figure",
     "tags",
 }
+
+
+#: Limits of the file itself (sizes the loader accepts before building anything).
+MAX_FILE_BYTES = 1_000_000
+MAX_ARRAY_ITEMS = 10_000
+MAX_STRING_CHARS = 100_000
+MAX_FAILURES = 1_000
+#: Largest magnitude of a number in a scenario file (physical settings are far below).
+MAX_NUMBER = 1e100
+
+_TEXT = {"type": "string", "maxLength": MAX_STRING_CHARS}
+_STRINGS = {"type": "array", "items": _TEXT, "maxItems": MAX_ARRAY_ITEMS}
+
+#: Top-level keys that are not tables built from a class: their schema.
+_TOP_SCHEMA: dict[str, dict[str, Any]] = {
+    "name": {"type": "string", "maxLength": 200, "description": "default: the file name"},
+    "title": _TEXT,
+    "section": {"type": "string", "maxLength": 200, "description": "thesis section"},
+    "figures": {**_STRINGS, "description": "thesis figures reproduced"},
+    "description": _TEXT,
+    "notes": _TEXT,
+    "tags": _STRINGS,
+    "extends": {
+        "type": "string",
+        "maxLength": 1000,
+        "description": "scenario name or path whose tables this file overrides",
+    },
+    "duration": {
+        "type": "number",
+        "exclusiveMinimum": 0,
+        "maximum": MAX_NUMBER,
+        "description": "seconds",
+    },
+    "claims": {
+        "type": "array",
+        "items": {"type": "object"},
+        "maxItems": MAX_ARRAY_ITEMS,
+        "description": "[[claims]] tables, see docs/claims.md",
+    },
+    "figure": {
+        "type": "array",
+        "items": {"type": "object", "required": ["kind"]},
+        "maxItems": MAX_ARRAY_ITEMS,
+        "description": "[[figure]] tables: number, kind, caption, outputs",
+    },
+}
+
+
+def _split_top(text: str, sep: str) -> list[str]:
+    """Split ``text`` on ``sep`` outside brackets."""
+    parts, depth, cur = [], 0, ""
+    for ch in text:
+        if ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        if ch == sep and depth == 0:
+            parts.append(cur.strip())
+            cur = ""
+        else:
+            cur += ch
+    parts.append(cur.strip())
+    return parts
+
+
+def _type_schema(annotation: str) -> dict[str, Any]:
+    """JSON Schema of a dataclass field annotation (the subset the components use)."""
+    options = [a for a in _split_top(annotation, "|") if a != "None"]
+    if len(options) > 1:
+        return {"anyOf": [_type_schema(a) for a in options]}
+    a = options[0] if options else "float"
+    if a == "int":
+        return {"type": "integer", "minimum": -MAX_NUMBER, "maximum": MAX_NUMBER}
+    if a == "float":
+        return {"type": "number"}
+    if a == "bool":
+        return {"type": "boolean"}
+    if a == "str":
+        return {"type": "string", "maxLength": MAX_STRING_CHARS}
+    if a == "Value":  # a number or an expression
+        return {"anyOf": [{"type": "number"}, {"type": "string", "maxLength": 2000}]}
+    if a == "tuple":
+        return {
+            "type": "array",
+            "items": {"anyOf": [{"type": "number"}, {"type": "string", "maxLength": 2000}]},
+            "maxItems": MAX_ARRAY_ITEMS,
+        }
+    if a.startswith("tuple[") and a.endswith("]"):
+        inner = _split_top(a[6:-1], ",")
+        if len(inner) == 2 and inner[1] == "...":
+            return {"type": "array", "items": _type_schema(inner[0]), "maxItems": MAX_ARRAY_ITEMS}
+        if all(i == inner[0] for i in inner):
+            return {
+                "type": "array",
+                "items": _type_schema(inner[0]),
+                "minItems": len(inner),
+                "maxItems": len(inner),
+            }
+    return {}  # not expressible: checked by the class itself
+
+
+def _class_schema(cls: type, skip: set[str] = frozenset()) -> dict[str, Any]:
+    """``properties``/``required`` of a component class, from its dataclass fields."""
+    props: dict[str, Any] = {}
+    required = []
+    for f in dataclasses.fields(cls):
+        if not f.init or f.name in skip:
+            continue
+        sch = dict(_type_schema(str(f.type)))
+        if f.default is not dataclasses.MISSING:
+            d = f.default
+            if isinstance(d, (int, float, str, bool)) and not (
+                isinstance(d, float) and not math.isfinite(d)
+            ):
+                sch["default"] = d
+            elif isinstance(d, tuple):
+                sch["default"] = _listed(d)
+        elif f.default_factory is dataclasses.MISSING:  # type: ignore[misc]
+            required.append(f.name)
+        props[f.name] = sch
+    return {"properties": props, "required": required}
+
+
+def _listed(v: Any) -> Any:
+    return [_listed(x) for x in v] if isinstance(v, (tuple, list)) else v
+
+
+def _check_value(value: Any, schema: dict[str, Any], *, allow_inf: bool = False) -> str | None:
+    """Why ``value`` does not match ``schema`` (the subset :func:`_type_schema` makes), or
+    ``None``."""
+    if "anyOf" in schema:
+        reasons = [_check_value(value, s, allow_inf=allow_inf) for s in schema["anyOf"]]
+        if any(r is None for r in reasons):
+            return None
+        return " or ".join(dict.fromkeys(r for r in reasons if r))
+    kind = schema.get("type")
+    if kind is None:
+        return None
+    if kind == "boolean":
+        return None if isinstance(value, bool) else f"expected true or false, got {_show(value)}"
+    if kind in ("number", "integer"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return f"expected a number, got {_show(value)}"
+        if kind == "integer" and not isinstance(value, int):
+            return f"expected a whole number, got {_show(value)}"
+        v = float(value) if abs(value) < 10**400 else math.inf
+        if math.isnan(v):
+            return "expected a number, got nan"
+        if math.isinf(v) and not allow_inf:
+            return f"expected a finite number, got {_show(value)}"
+        if math.isfinite(v) and abs(v) > MAX_NUMBER:
+            return f"expected a number of magnitude <= {MAX_NUMBER:g}, got {_show(value)}"
+        if "exclusiveMinimum" in schema and not v > schema["exclusiveMinimum"]:
+            return f"expected a number > {schema['exclusiveMinimum']}, got {_show(value)}"
+        return None
+    if kind == "string":
+        if not isinstance(value, str):
+            return f"expected a string, got {_show(value)}"
+        if len(value) > schema.get("maxLength", MAX_STRING_CHARS):
+            return f"the text is longer than {schema.get('maxLength', MAX_STRING_CHARS)} characters"
+        return None
+    if kind == "array":
+        if not isinstance(value, list):
+            return f"expected a list, got {_show(value)}"
+        n = len(value)
+        if n > schema.get("maxItems", MAX_ARRAY_ITEMS):
+            return f"expected at most {schema.get('maxItems', MAX_ARRAY_ITEMS)} items, got {n}"
+        if n < schema.get("minItems", 0):
+            return f"expected {schema['minItems']} items, got {n}"
+        items = schema.get("items")
+        if items:
+            for i, item in enumerate(value):
+                why = _check_value(item, items, allow_inf=allow_inf)
+                if why:
+                    return f"item {i + 1}: {why}"
+        return None
+    if kind == "object":
+        return None if isinstance(value, dict) else f"expected a table, got {_show(value)}"
+    return None
+
+
+def _show(value: Any) -> str:
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 @dataclass(frozen=True)
@@ -74,6 +266,7 @@ class Scenario:
     claims: tuple[dict[str, Any], ...] = ()
     figure_specs: tuple[dict[str, Any], ...] = ()
     source: Path | None = field(default=None, compare=False)
+    text: str = field(default="", compare=False, repr=False)
 
     def run(
         self, *, adapt: bool = True, failures: bool = True, solver: SolverOptions | None = None
@@ -85,7 +278,16 @@ class Scenario:
         if not adapt:
             loop = loop.frozen()
         result = simulate(loop, solver or self.solver)
+        self.stamp(result)
+        return result
+
+    def stamp(self, result: SimResult) -> SimResult:
+        """Record the scenario's name and file text in ``result.meta`` (provenance)."""
         result.meta["scenario"] = self.name
+        if self.source is not None:
+            result.meta["scenario_file"] = self.source.name
+        if self.text:
+            result.meta["scenario_file_text"] = self.text
         return result
 
 
@@ -95,8 +297,17 @@ def list_scenarios() -> list[str]:
 
 
 def _resolve(name_or_path: str | Path) -> Path:
+    if isinstance(name_or_path, str) and (not name_or_path.strip() or "\x00" in name_or_path):
+        raise ScenarioError(
+            f"Scenario name {name_or_path!r} is empty or not printable; give a catalogue name "
+            "('aftc list') or a path to a .toml file."
+        )
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    try:
+        exists = p.exists()
+    except (OSError, ValueError):
+        exists = False
+    if p.suffix == ".toml" or exists:
         if not p.is_file():
             raise ScenarioError(f"Scenario file '{p}' does not exist.")
         return p
@@ -111,25 +322,42 @@ def _resolve(name_or_path: str | Path) -> Path:
     )
 
 
-def _read(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+def _read(path: Path, seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], str]:
+    """Parse ``path`` (and the files it ``extends``); return the merged data and the text of
+    every file read (for the provenance of the results)."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(
+                f"{path}: the file has {size} bytes; scenario files are limited to "
+                f"{MAX_FILE_BYTES} bytes."
+            )
+        text = path.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not UTF-8 text; save the file as UTF-8.") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read the file: {exc.strerror}.") from None
+    except (ValueError, RecursionError, MemoryError) as exc:
+        raise ScenarioError(
+            f"{path}: not a usable TOML file ({type(exc).__name__}: {str(exc)[:200]})."
+        ) from None
     base = data.pop("extends", None)
     if base is None:
-        return data
-    if not isinstance(base, str):
+        return data, text
+    if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: `extends` must be a scenario name or path (a string).")
+    if len(seen) > 20:
+        raise ScenarioError(f"{path}: `extends` chains more than 20 files; flatten them.")
     base_path = _resolve(base if not base.endswith(".toml") else path.parent / base)
     if base_path.resolve() in seen or base_path.resolve() == path.resolve():
         raise ScenarioError(f"{path}: `extends = '{base}'` makes a cycle.")
-    merged = _read(base_path, seen + (path.resolve(),))
+    merged, base_text = _read(base_path, seen + (path.resolve(),))
     for key in ("name", "title", "figures", "description", "notes", "claims", "figure"):
         merged.pop(key, None)  # metadata is never inherited
-    return _merge(merged, data)
+    return _merge(merged, data), f"# extends {base_path.name}:\n{base_text}\n# {path.name}:\n{text}"
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -142,28 +370,107 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+class _Problems(Exception):
+    """Internal: a table could not be built (its problems are already recorded)."""
+
+
 class _Ctx:
+    """Collects every problem of a file, one line each (``[table] key: problem. Fix.``)."""
+
     def __init__(self, path: Path) -> None:
         self.path = path
+        self.problems: list[str] = []
 
     def err(self, where: str, msg: str) -> ScenarioError:
         return ScenarioError(f"{self.path}: [{where}] {msg}" if where else f"{self.path}: {msg}")
 
-    def keys(self, table: dict[str, Any], allowed: set[str], where: str) -> None:
-        if not isinstance(table, dict):
-            raise self.err(where, f"must be a table; got {type(table).__name__}.")
+    def add(self, where: str, msg: str) -> None:
+        line = f"[{where}] {msg}" if where else msg
+        if line not in self.problems:
+            self.problems.append(line)
+
+    def raise_if_any(self) -> None:
+        if not self.problems:
+            return
+        if len(self.problems) == 1:
+            raise ScenarioError(f"{self.path}: {self.problems[0]}")
+        lines = "\n".join(f"  {p}" for p in self.problems)
+        raise ScenarioError(f"{self.path}: {len(self.problems)} problems:\n{lines}")
+
+    def table(self, value: Any, where: str) -> dict[str, Any] | None:
+        if not isinstance(value, dict):
+            self.add(where, f"must be a table ([{where}] section); got {_show(value)}.")
+            return None
+        return value
+
+    def keys(self, table: dict[str, Any], allowed: set[str], where: str) -> bool:
+        ok = True
         for key in table:
             if key not in allowed:
-                raise self.err(
+                ok = False
+                self.add(
                     where,
                     f"unknown key '{key}'.{did_you_mean(key, allowed)} "
-                    f"Allowed keys: {', '.join(sorted(allowed))}.",
+                    f"Allowed keys: {', '.join(sorted(allowed)) or 'none'}.",
                 )
+        return ok
 
     def need(self, table: dict[str, Any], key: str, where: str) -> Any:
         if key not in table:
-            raise self.err(where, f"missing key '{key}'.")
+            self.add(where, f"missing key '{key}'.")
+            raise _Problems
         return table[key]
+
+    def typed(self, table: dict[str, Any], props: dict[str, Any], where: str) -> bool:
+        """Check every value of ``table`` against its schema; record one line per bad key."""
+        ok = True
+        for key, value in table.items():
+            sch = props.get(key)
+            if not sch:
+                continue
+            default = sch.get("default")
+            allow_inf = key in ("lower", "upper", "max_step") or (
+                isinstance(default, float) and math.isinf(default)
+            )
+            why = _check_value(value, sch, allow_inf=allow_inf)
+            if why:
+                ok = False
+                self.add(where, f"`{key}`: {why}. {_fix(sch)}")
+        return ok
+
+
+_NOUN = {
+    "number": ("a number", "numbers", "1.5", "0.1, 0.2"),
+    "integer": ("a whole number", "whole numbers", "2", "1, 2"),
+    "boolean": ("true or false", "booleans", "true", "true, false"),
+    "string": ("a quoted string", "strings", '"0.1*sin(t)"', '"x1", "x2"'),
+    "object": ("a table", "tables", "{...}", "{...}"),
+}
+
+
+def _fix(schema: dict[str, Any]) -> str:
+    """A short 'write it like this' hint for a schema."""
+    if "anyOf" in schema:
+        return "Write " + " or ".join(_what(s) for s in schema["anyOf"]) + "."
+    return f"Write {_what(schema)}."
+
+
+def _what(schema: dict[str, Any]) -> str:
+    kind = schema.get("type", "")
+    if kind == "array":
+        items = schema.get("items", {})
+        n = schema.get("minItems")
+        count = f"{n} " if n and n == schema.get("maxItems") else ""
+        if items.get("type") in _NOUN:
+            noun = _NOUN[items["type"]]
+            return f"a list of {count}{noun[1]}, e.g. [{noun[3]}]"
+        if items.get("type") == "array":
+            return f"a list of {count}lists of numbers, e.g. [[1.0, 0.0], [0.0, 1.0]]"
+        return f'a list of {count}numbers or expressions, e.g. [0.5, "sin(t)"]'
+    if kind in _NOUN:
+        noun = _NOUN[kind]
+        return f"{noun[0]}, e.g. {noun[2]}"
+    return "a valid value"
 
 
 def _tupled(value: Any) -> Any:
@@ -176,135 +483,261 @@ def _fields(cls: type) -> set[str]:
     return {f.name for f in dataclasses.fields(cls) if f.init}
 
 
+#: Exceptions a component constructor may raise on a bad value that passed the type tables;
+#: each becomes one problem line naming the table.
+_BUILD_ERRORS = (
+    ConfigurationError,
+    ExpressionError,
+    TypeError,
+    ValueError,
+    ArithmeticError,
+    RecursionError,
+    MemoryError,
+    IndexError,
+    KeyError,
+)
+
+
 def _build(cls: type, kwargs: dict[str, Any], ctx: _Ctx, where: str):
     try:
         return cls(**{k: _tupled(v) for k, v in kwargs.items()})
     except (ConfigurationError, ExpressionError) as exc:
-        raise ctx.err(where, str(exc)) from None
-    except TypeError as exc:
-        raise ctx.err(where, f"invalid value: {exc}.") from None
+        ctx.add(where, str(exc))
+    except MemoryError:
+        ctx.add(where, "the settings need more memory than available; use smaller sizes.")
+    except RecursionError:
+        ctx.add(where, "a value nests too deeply; simplify it.")
+    except _BUILD_ERRORS as exc:
+        ctx.add(where, f"invalid value ({type(exc).__name__}: {exc}). Check the keys' values.")
+    raise _Problems
 
 
-def _regressor(table: dict[str, Any], ctx: _Ctx, where: str):
+def _component(cls: type, table: dict[str, Any], ctx: _Ctx, where: str, skip=frozenset()):
+    """Check keys and types of ``table`` against ``cls``'s fields, then build it."""
+    schema = _class_schema(cls, set(skip))
+    ok = ctx.keys(table, set(schema["properties"]) | set(skip), where)
+    ok = ctx.typed(table, schema["properties"], where) and ok
+    missing = [k for k in schema["required"] if k not in table]
+    for k in missing:
+        ctx.add(where, f"missing key '{k}'.")
+    if not ok or missing:
+        raise _Problems
+    return _build(cls, table, ctx, where)
+
+
+def _regressor(table: Any, ctx: _Ctx, where: str):
+    table = ctx.table(table, where)
+    if table is None:
+        raise _Problems
     kind = ctx.need(table, "type", where)
     body = {k: v for k, v in table.items() if k != "type"}
     if kind == "fuzzy":
-        ctx.keys(body, _fields(FuzzyBasis), where)
-        return _build(FuzzyBasis, body, ctx, where)
+        return _component(FuzzyBasis, body, ctx, where)
     if kind == "linear":
-        ctx.keys(body, _fields(LinearRegressor), where)
-        return _build(LinearRegressor, body, ctx, where)
-    raise ctx.err(
+        return _component(LinearRegressor, body, ctx, where)
+    ctx.add(
         where,
-        f"unknown regressor type '{kind}'.{did_you_mean(kind, ['fuzzy', 'linear'])}"
+        f"unknown regressor type {_show(kind)}.{did_you_mean(str(kind), ['fuzzy', 'linear'])}"
         " Use 'fuzzy' or 'linear'.",
     )
+    raise _Problems
+
+
+def _choice(ctx: _Ctx, where: str, what: str, value: Any, choices) -> bool:
+    if isinstance(value, str) and value in choices:
+        return True
+    ctx.add(
+        where,
+        f"unknown {what} {_show(value)}.{did_you_mean(str(value), choices)} "
+        f"Available: {', '.join(choices)}.",
+    )
+    return False
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """Load and validate a scenario from the catalogue (by name) or from a TOML file.
 
+    Every problem of the file is reported at once, one line each naming the table, the key
+    and the fix; the run size is checked against :mod:`adaptive_ftc.sim.budget`.
+
     Raises
     ------
     ScenarioError
-        With the file, table and key of the first problem and how to fix it.
+        With the file and every problem found.
     """
+    if not isinstance(name_or_path, (str, Path)):
+        raise ScenarioError(
+            f"A scenario is given by name or path (a string); got {type(name_or_path).__name__}."
+        )
     path = _resolve(name_or_path)
     ctx = _Ctx(path)
-    data = _read(path)
+    data, text = _read(path)
+    try:
+        return _load(data, text, path, ctx)
+    except _Problems:
+        pass
+    ctx.raise_if_any()
+    raise ctx.err("", "invalid scenario.")  # pragma: no cover - _Problems always records a line
+
+
+def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     ctx.keys(data, _TOP - {"extends"}, "")
+    for key, sch in _TOP_SCHEMA.items():
+        if key in data and key != "extends":
+            why = _check_value(data[key], sch)
+            if why:
+                ctx.add("", f"`{key}`: {why}. {_fix(sch)}")
     name = str(data.get("name", path.stem))
-    # plant
-    ptab = dict(ctx.need(data, "plant", ""))
-    model = ctx.need(ptab, "model", "plant")
-    if model not in PLANTS:
-        raise ctx.err(
-            "plant",
-            f"unknown plant model '{model}'.{did_you_mean(model, PLANTS)} "
-            f"Available: {', '.join(PLANTS)}.",
-        )
-    pcls = PLANTS[model]
-    x0 = ptab.pop("initial_state", ())
-    ptab.pop("model")
-    ctx.keys(ptab, _fields(pcls), "plant")
-    plant = _build(pcls, ptab, ctx, "plant")
-    # reference
-    rtab = data.get("reference", {"outputs": ["0"] * plant.n_outputs})
-    ctx.keys(rtab, {"outputs"}, "reference")
-    outputs = ctx.need(rtab, "outputs", "reference")
-    if isinstance(outputs, (str, int, float)):
-        outputs = [outputs]
-    # controller
-    ctab = dict(ctx.need(data, "controller", ""))
-    design = ctx.need(ctab, "design", "controller")
-    allocation = ctab.pop("allocation", None)
-    ctab.pop("design")
-    if design == "none":
-        ctx.keys(ctab, set(), "controller")
-        ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
-        adapt = False
-        if allocation is None:
-            allocation = [[0.0] * plant.n_actuators for _ in range(plant.n_outputs)]
-    else:
-        if design not in DESIGNS:
-            raise ctx.err(
-                "controller",
-                f"unknown design '{design}'."
-                f"{did_you_mean(design, DESIGNS)} Available: "
-                f"{', '.join(list(DESIGNS) + ['none'])}.",
-            )
-        dcls = DESIGNS[design]
-        adapt = bool(ctab.pop("adapt", True))
-        if "regressor" not in ctab:
-            raise ctx.err(
-                "controller", "missing table [controller.regressor] (type = 'fuzzy' or 'linear')."
-            )
-        regs = ctab.pop("regressor")
-        if isinstance(regs, list):
-            if dcls is not MimoDirectAdaptive:
-                raise ctx.err(
-                    "controller.regressor",
-                    "a list of regressors is only allowed for the 'mimo' design.",
+    # ---------------------------------------------------------------- plant
+    plant = None
+    ptab = ctx.table(data["plant"], "plant") if "plant" in data else None
+    if "plant" not in data:
+        ctx.add("", "missing table [plant] (model = 'hypersonic', 'wingrock', ...).")
+    if ptab is not None:
+        try:
+            ptab = dict(ptab)
+            model = ctx.need(ptab, "model", "plant")
+            x0 = ptab.pop("initial_state", [])
+            why = _check_value(x0, _INITIAL_STATE)
+            if why:
+                ctx.add("plant", f"`initial_state`: {why}. {_fix(_INITIAL_STATE)}")
+            ptab.pop("model")
+            if _choice(ctx, "plant", "plant model", model, list(PLANTS)):
+                plant = _component(PLANTS[model], ptab, ctx, "plant")
+        except _Problems:
+            plant = None
+    # ---------------------------------------------------------------- reference
+    outputs: Any = None
+    if "reference" in data:
+        rtab = ctx.table(data["reference"], "reference")
+        if rtab is not None:
+            ctx.keys(rtab, {"outputs"}, "reference")
+            if "outputs" not in rtab:
+                ctx.add("reference", "missing key 'outputs' (one expression of t per output).")
+            else:
+                outputs = rtab["outputs"]
+                if isinstance(outputs, (str, int, float)) and not isinstance(outputs, bool):
+                    outputs = [outputs]
+                why = _check_value(outputs, _OUTPUTS)
+                if why:
+                    ctx.add("reference", f"`outputs`: {why}. {_fix(_OUTPUTS)}")
+                    outputs = None
+    elif plant is not None:
+        outputs = ["0"] * plant.n_outputs
+    # ---------------------------------------------------------------- controller
+    ctrl = None
+    adapt = True
+    allocation = None
+    if "controller" not in data:
+        ctx.add("", "missing table [controller] (design = 'direct', 'estimation', ...).")
+    ctab = ctx.table(data["controller"], "controller") if "controller" in data else None
+    if ctab is not None:
+        try:
+            ctab = dict(ctab)
+            design = ctx.need(ctab, "design", "controller")
+            allocation = ctab.pop("allocation", None)
+            if allocation is not None:
+                why = _check_value(allocation, _ALLOCATION)
+                if why:
+                    ctx.add("controller", f"`allocation`: {why}. {_fix(_ALLOCATION)}")
+                    allocation = None
+                    raise _Problems
+            ctab.pop("design")
+            if design == "none":
+                ctx.keys(ctab, set(), "controller")
+                ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
+                adapt = False
+                if allocation is None and plant is not None:
+                    allocation = [[0.0] * plant.n_actuators for _ in range(plant.n_outputs)]
+            elif _choice(ctx, "controller", "design", design, list(DESIGNS) + ["none"]):
+                dcls = DESIGNS[design]
+                adapt = ctab.pop("adapt", True)
+                if not isinstance(adapt, bool):
+                    ctx.add("controller", f"`adapt`: expected true or false, got {_show(adapt)}.")
+                    adapt = True
+                if "regressor" not in ctab:
+                    ctx.add(
+                        "controller",
+                        "missing table [controller.regressor] (type = 'fuzzy' or 'linear').",
+                    )
+                    raise _Problems
+                regs = ctab.pop("regressor")
+                if isinstance(regs, list):
+                    if dcls is not MimoDirectAdaptive:
+                        ctx.add(
+                            "controller.regressor",
+                            "a list of regressors is only allowed for the 'mimo' design.",
+                        )
+                        raise _Problems
+                    if not regs or len(regs) > 100:
+                        ctx.add("controller.regressor", "give 1 to 100 [[controller.regressor]].")
+                        raise _Problems
+                    reg = []
+                    bad = False
+                    for i, r in enumerate(regs):
+                        try:
+                            reg.append(_regressor(r, ctx, f"controller.regressor.{i + 1}"))
+                        except _Problems:
+                            bad = True
+                    if bad:
+                        raise _Problems
+                    reg = tuple(reg)
+                else:
+                    reg = _regressor(regs, ctx, "controller.regressor")
+                ctrl = _component(
+                    dcls, {**ctab, "regressor": reg}, ctx, "controller", {"regressor"}
                 )
-            reg = tuple(
-                _regressor(r, ctx, f"controller.regressor.{i + 1}") for i, r in enumerate(regs)
-            )
-        else:
-            reg = _regressor(regs, ctx, "controller.regressor")
-        ctx.keys(ctab, _fields(dcls) - {"regressor"}, "controller")
-        ctrl = _build(dcls, {**ctab, "regressor": reg}, ctx, "controller")
-    if allocation is None:
-        raise ctx.err(
-            "controller",
-            "missing key 'allocation' (the matrix R of u = R^T u0, or "
-            "the list of proportional gains b_j for a single-output plant).",
-        )
-    # failures
+            if allocation is None and ctrl is not None:
+                ctx.add(
+                    "controller",
+                    "missing key 'allocation' (the matrix R of u = R^T u0, or "
+                    "the list of proportional gains b_j for a single-output plant).",
+                )
+        except _Problems:
+            ctrl = None
+    # ---------------------------------------------------------------- failures
     failures = []
+    failures_ok = True
     ftabs = data.get("failures", [])
     if not isinstance(ftabs, list):
-        raise ctx.err("failures", "write each failure as a [[failures]] table.")
+        ctx.add("failures", "write each failure as a [[failures]] table.")
+        ftabs, failures_ok = [], False
+    if len(ftabs) > MAX_FAILURES:
+        ctx.add("failures", f"at most {MAX_FAILURES} [[failures]] tables; got {len(ftabs)}.")
+        ftabs, failures_ok = [], False
     for i, ft in enumerate(ftabs):
         where = f"failures.{i + 1}"
-        ft = dict(ft)
-        fmodel = ctx.need(ft, "model", where)
-        if fmodel not in FAILURE_MODELS:
-            raise ctx.err(
-                where,
-                f"unknown failure model '{fmodel}'."
-                f"{did_you_mean(fmodel, FAILURE_MODELS)} Available: "
-                f"{', '.join(FAILURE_MODELS)}.",
-            )
-        fcls = FAILURE_MODELS[fmodel]
-        ft.pop("model")
-        ctx.keys(ft, _fields(fcls), where)
-        ctx.need(ft, "actuator", where)
-        failures.append(_build(fcls, ft, ctx, where))
-    # solver
-    stab = data.get("solver", {})
-    ctx.keys(stab, _fields(SolverOptions), "solver")
-    solver = _build(SolverOptions, stab, ctx, "solver")
-    duration = ctx.need(data, "duration", "")
+        try:
+            ft = ctx.table(ft, where)
+            if ft is None:
+                raise _Problems
+            ft = dict(ft)
+            fmodel = ctx.need(ft, "model", where)
+            if not _choice(ctx, where, "failure model", fmodel, list(FAILURE_MODELS)):
+                raise _Problems
+            ft.pop("model")
+            failures.append(_component(FAILURE_MODELS[fmodel], ft, ctx, where))
+        except _Problems:
+            failures_ok = False
+    # ---------------------------------------------------------------- solver
+    solver = None
+    stab = ctx.table(data.get("solver", {}), "solver")
+    if stab is not None:
+        try:
+            solver = _component(SolverOptions, stab, ctx, "solver")
+        except _Problems:
+            solver = None
+    if "duration" not in data:
+        ctx.add("", "missing key 'duration' (seconds, e.g. duration = 10.0).")
+    duration = data.get("duration")
+    claims = data.get("claims", [])
+    figs = data.get("figure", [])
+    if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
+        ctx.add("claims", "write claims as [[claims]] tables.")
+    if not isinstance(figs, list) or not all(isinstance(f, dict) for f in figs):
+        ctx.add("figure", "write figures as [[figure]] tables.")
+    if ctx.problems or plant is None or ctrl is None or not failures_ok or outputs is None:
+        raise _Problems
     loop = _build(
         ClosedLoop,
         dict(
@@ -321,17 +754,30 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         ctx,
         "",
     )
+    if solver is None:
+        raise _Problems
+    # the run must fit in memory and finish: steps, samples and recorded bytes
+    try:
+        check_run_size(loop, solver)
+    except ConfigurationError as exc:
+        ctx.add("solver", str(exc))
+        raise _Problems from None
     # resolve every expression and regressor input now, so nothing half-runs
     try:
-        from adaptive_ftc.sim.assemble import assemble
+        try:
+            from adaptive_ftc.sim.compose import generate
+        except ImportError:  # the engine before the code-generation rewrite
+            from adaptive_ftc.sim.assemble import assemble
 
-        assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+            assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+        else:
+            generate(loop, sdot=solver.sdot)  # checks every part without compiling
     except (ConfigurationError, ExpressionError) as exc:
-        raise ctx.err("", str(exc)) from None
-    claims = data.get("claims", [])
-    figs = data.get("figure", [])
-    if not isinstance(claims, list) or not isinstance(figs, list):
-        raise ctx.err("", "write claims as [[claims]] and figures as [[figure]] tables.")
+        ctx.add("", str(exc))
+        raise _Problems from None
+    except _BUILD_ERRORS as exc:
+        ctx.add("", f"the loop cannot be assembled ({type(exc).__name__}: {exc}).")
+        raise _Problems from None
     return Scenario(
         name=name,
         title=str(data.get("title", name)),
@@ -345,4 +791,142 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         claims=tuple(dict(c) for c in claims),
         figure_specs=tuple(dict(f) for f in figs),
         source=path,
+        text=text,
     )
+
+
+_INITIAL_STATE = {"type": "array", "items": {"type": "number"}, "maxItems": 1000}
+_OUTPUTS = {
+    "type": "array",
+    "items": {"anyOf": [{"type": "number"}, {"type": "string", "maxLength": 2000}]},
+    "maxItems": 1000,
+}
+_ALLOCATION = {
+    "anyOf": [
+        {"type": "array", "items": {"type": "number"}, "maxItems": 1000},
+        {
+            "type": "array",
+            "items": {"type": "array", "items": {"type": "number"}, "maxItems": 1000},
+            "maxItems": 1000,
+        },
+    ]
+}
+
+
+# ---------------------------------------------------------------------------- JSON Schema
+def scenario_schema() -> dict[str, Any]:
+    """JSON Schema (draft 2020-12) of the scenario format, generated from the loader's tables
+    and the component classes' fields (``aftc schema`` prints it).
+
+    Examples
+    --------
+    >>> sorted(scenario_schema()["properties"])[:3]
+    ['claims', 'controller', 'description']
+    """
+    from adaptive_ftc._version import __version__
+
+    def obj(props: dict[str, Any], required=(), extra: dict[str, Any] | None = None):
+        out = {"type": "object", "properties": props, "additionalProperties": False}
+        if required:
+            out["required"] = list(required)
+        if extra:
+            out.update(extra)
+        return out
+
+    plants = []
+    for key, cls in PLANTS.items():
+        sch = _class_schema(cls)
+        plants.append(
+            obj(
+                {"model": {"const": key}, "initial_state": _INITIAL_STATE, **sch["properties"]},
+                ["model", *sch["required"]],
+                {"title": f"plant '{key}'"},
+            )
+        )
+    regs = []
+    for key, cls in (("fuzzy", FuzzyBasis), ("linear", LinearRegressor)):
+        sch = _class_schema(cls)
+        regs.append(
+            obj(
+                {"type": {"const": key}, **sch["properties"]},
+                ["type", *sch["required"]],
+                {"title": f"regressor '{key}'"},
+            )
+        )
+    reg_schema = {"oneOf": regs}
+    designs = [
+        obj(
+            {"design": {"const": "none"}, "allocation": _ALLOCATION},
+            ["design"],
+            {"title": "open loop"},
+        )
+    ]
+    for key, cls in DESIGNS.items():
+        sch = _class_schema(cls, {"regressor"})
+        regressor = (
+            {"anyOf": [reg_schema, {"type": "array", "items": reg_schema, "maxItems": 100}]}
+            if cls is MimoDirectAdaptive
+            else reg_schema
+        )
+        designs.append(
+            obj(
+                {
+                    "design": {"const": key},
+                    "allocation": _ALLOCATION,
+                    "adapt": {"type": "boolean", "default": True},
+                    "regressor": regressor,
+                    **sch["properties"],
+                },
+                ["design", "allocation", "regressor", *sch["required"]],
+                {"title": f"design '{key}'"},
+            )
+        )
+    fails = []
+    for key, cls in FAILURE_MODELS.items():
+        sch = _class_schema(cls)
+        fails.append(
+            obj(
+                {"model": {"const": key}, **sch["properties"]},
+                ["model", *sch["required"]],
+                {"title": f"failure '{key}'"},
+            )
+        )
+    solver = _class_schema(SolverOptions)
+    props = {
+        **{k: v for k, v in _TOP_SCHEMA.items()},
+        "plant": {"oneOf": plants},
+        "reference": obj({"outputs": _OUTPUTS}, ["outputs"]),
+        "controller": {"oneOf": designs},
+        "failures": {"type": "array", "items": {"oneOf": fails}, "maxItems": MAX_FAILURES},
+        "solver": obj(solver["properties"]),
+    }
+    props = dict(sorted(props.items()))
+    partial = {k: _without_required(v) for k, v in props.items()}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://github.com/adaptive-ftc/adaptive-ftc/docs/scenario.schema.json",
+        "title": f"adaptive-ftc scenario file (adaptive-ftc {__version__})",
+        "description": "Generated by `aftc schema` from the scenario loader's tables; see "
+        "docs/scenario-format.md. TOML files map to JSON objects one to one.",
+        "type": "object",
+        "propertyNames": {"enum": list(props)},
+        # a file that `extends` another overrides any part of it: its tables may be partial
+        "if": {"required": ["extends"]},
+        "then": {"properties": partial},
+        "else": {"properties": props, "required": ["plant", "controller", "duration"]},
+    }
+
+
+def _without_required(schema: Any) -> Any:
+    """The schema with every ``required`` dropped and ``oneOf`` relaxed to ``anyOf`` (the
+    partial tables of a file that ``extends`` another)."""
+    if isinstance(schema, list):
+        return [_without_required(s) for s in schema]
+    if not isinstance(schema, dict):
+        return schema
+    out = {}
+    for k, v in schema.items():
+        if k == "required":
+            continue
+        out["anyOf" if k == "oneOf" else k] = _without_required(v)
+    return out
