@@ -109,6 +109,14 @@ _NUMPY = {
     "_inside": lambda a, lo, hi: np.where((a > lo) & (a < hi), 1.0, 0.0),
 }
 
+#: Parse-time limits: characters, nesting depth of the syntax tree, number of syntax nodes,
+#: magnitude of a literal, and size of a symbolic derivative (nodes of the expanded tree).
+MAX_LENGTH = 2000
+MAX_DEPTH = 100
+MAX_NODES = 1000
+MAX_LITERAL = 1e100
+MAX_DERIVATIVE_NODES = 20_000
+
 # Node = ("const", value) | ("var", name) | ("bin", op, a, b) | ("neg", a) | ("call", f, args)
 Node = tuple
 
@@ -116,6 +124,9 @@ Node = tuple
 # ----------------------------------------------------------------------------- parsing
 def _err(text: str, what: str, context: str) -> ExpressionError:
     where = f" in {context}" if context else ""
+    text = text if len(text) <= 80 else text[:77] + "..."
+    if len(what) > 400:
+        what = what[:397] + "..."
     return ExpressionError(f"Bad expression '{text}'{where}: {what}")
 
 
@@ -124,15 +135,16 @@ def parse(text: str, variables: tuple[str, ...], *, context: str = "") -> Node:
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise _err(str(text), "expected a number or a string expression.", context)
     if isinstance(text, (int, float)):
-        value = float(text)
-        if not math.isfinite(value):
-            raise _err(str(text), "the number must be finite.", context)
-        return ("const", value)
+        return ("const", _literal(text, str(text)[:40], context))
     src = text.strip()
     if not src:
         raise _err(text, "the expression is empty.", context)
-    if len(src) > 2000:
-        raise _err(src[:40] + "...", "the expression is longer than 2000 characters.", context)
+    if len(src) > MAX_LENGTH:
+        raise _err(
+            src[:40] + "...",
+            f"the expression is longer than {MAX_LENGTH} characters; split it or simplify it.",
+            context,
+        )
     try:
         tree = ast.parse(src, mode="eval")
     except SyntaxError as exc:
@@ -142,14 +154,86 @@ def parse(text: str, variables: tuple[str, ...], *, context: str = "") -> Node:
             f"invalid syntax{col}. Use Python-style arithmetic, e.g. '0.75*u**3 - 0.2'.",
             context,
         ) from None
+    except (RecursionError, MemoryError, ValueError, OverflowError):
+        raise _err(
+            src[:40] + "...",
+            f"the expression nests too deeply or is too large (at most {MAX_DEPTH} levels); "
+            "simplify it.",
+            context,
+        ) from None
+    _check_shape(tree.body, src, context)
     return _convert(tree.body, src, variables, context)
+
+
+def _literal(value: float | int, shown: str, context: str) -> float:
+    """A finite float of magnitude at most :data:`MAX_LITERAL`, or an ExpressionError."""
+    if isinstance(value, int) and value.bit_length() > 340:  # > 1e100, before float() overflows
+        raise _err(
+            shown,
+            f"the number is larger than {MAX_LITERAL:g} in magnitude; use a smaller one.",
+            context,
+        )
+    v = float(value)
+    if not math.isfinite(v):
+        raise _err(shown, "the number must be finite.", context)
+    if abs(v) > MAX_LITERAL:
+        raise _err(
+            shown,
+            f"the number is larger than {MAX_LITERAL:g} in magnitude; use a smaller one.",
+            context,
+        )
+    return v
+
+
+def _check_shape(root: ast.AST, src: str, context: str) -> None:
+    """Depth and node-count limits, checked without recursion (before converting)."""
+    stack = [(root, 1)]
+    count = 0
+    while stack:
+        node, depth = stack.pop()
+        count += 1
+        if depth > MAX_DEPTH:
+            raise _err(
+                src[:40] + ("..." if len(src) > 40 else ""),
+                f"the expression nests deeper than {MAX_DEPTH} levels; simplify it.",
+                context,
+            )
+        if count > MAX_NODES:
+            raise _err(
+                src[:40] + ("..." if len(src) > 40 else ""),
+                f"the expression has more than {MAX_NODES} terms; simplify it.",
+                context,
+            )
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+
+
+def _tree_size(n: Node, memo: dict[int, int] | None = None) -> int:
+    """Nodes of ``n`` with shared sub-trees counted each time (what printing, evaluating and
+    compiling visit), computed in time linear in the shared graph."""
+    memo = {} if memo is None else memo
+    key = id(n)
+    if key in memo:
+        return memo[key]
+    kind = n[0]
+    if kind in ("const", "var"):
+        size = 1
+    elif kind == "neg":
+        size = 1 + _tree_size(n[1], memo)
+    elif kind == "bin":
+        size = 1 + _tree_size(n[2], memo) + _tree_size(n[3], memo)
+    else:
+        size = 1 + sum(_tree_size(a, memo) for a in n[2])
+    memo[key] = size
+    return size
 
 
 def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> Node:
     if isinstance(n, ast.Constant):
         if isinstance(n.value, bool) or not isinstance(n.value, (int, float)):
-            raise _err(src, f"only numbers are allowed as constants, got {n.value!r}.", context)
-        return ("const", float(n.value))
+            shown = repr(n.value)
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            raise _err(src, f"only numbers are allowed as constants, got {shown}.", context)
+        return ("const", _literal(n.value, src, context))
     if isinstance(n, ast.Name):
         if n.id in variables:
             return ("var", n.id)
@@ -498,8 +582,29 @@ class Expression:
         return self.node[0] == "const"
 
     def derivative(self, var: str) -> Expression:
-        """Symbolic partial derivative with respect to ``var``."""
-        return Expression._from_node(_diff(self.node, var), self.variables)
+        """Symbolic partial derivative with respect to ``var``.
+
+        Raises
+        ------
+        ExpressionError
+            When the derivative would have more than :data:`MAX_DERIVATIVE_NODES` terms
+            (e.g. a product of 200 factors ``t*t*...*t``; write ``t**200`` instead).
+        """
+        limit = MAX_DERIVATIVE_NODES
+        if _tree_size(self.node) > limit:
+            raise self._too_big(var)
+        d = _diff(self.node, var)
+        if _tree_size(d) > limit:
+            raise self._too_big(var)
+        return Expression._from_node(d, self.variables)
+
+    def _too_big(self, var: str) -> ExpressionError:
+        text = self.text if len(self.text) <= 60 else self.text[:57] + "..."
+        return ExpressionError(
+            f"Expression '{text}'{f' in {self.context}' if self.context else ''}: its "
+            f"derivative d/d{var} would have more than {MAX_DERIVATIVE_NODES} terms; simplify "
+            "it (write repeated products as powers, e.g. t**200 instead of t*t*...*t)."
+        )
 
     def __call__(self, **env: Any) -> np.ndarray:
         """Evaluate with numpy; arguments broadcast, so any batch shape works."""
