@@ -204,13 +204,18 @@ def run_single(
     dt: float = 1e-3,
     record_dt: float = 0.01,
     failures: Sequence[Failure] | None = None,
+    records: Sequence[tuple] | None = None,
     read: bool = True,
 ) -> CRun:
     """Run ``hypersonic-direct-s1`` in C ``repeat`` times (``mode``: ``whole`` or ``integrate``).
 
     ``failures`` replaces the scenario's own (numeric LossOfEffectiveness, Bias, Stuck or
-    Affine); ``read=False`` skips reading the records back (timing only).
+    Affine); ``records`` does the same with C failure records (see :func:`failure_records`;
+    kind 4 is the oscillating stuck surface ``p0 + p1 cos(p2 t) - p3 sin(p2 t)`` of scenario 1).
+    ``read=False`` skips reading the records back (timing only).
     """
+    if failures is not None and records is not None:
+        raise CReferenceError("Give `failures` or `records` to run_single, not both.")
     if mode not in ("whole", "integrate"):
         raise CReferenceError(f"`mode` must be 'whole' or 'integrate'; got {mode!r}.")
     with tempfile.TemporaryDirectory(prefix="aftc-cref-run-") as tmp:
@@ -218,8 +223,8 @@ def run_single(
         cmd = [str(exe), "single", "--mode", mode, "--repeat", str(int(repeat))]
         cmd += ["--t-final", repr(float(t_final)), "--dt", repr(float(dt))]
         cmd += ["--record-dt", repr(float(record_dt))]
-        if failures is not None:
-            recs = failure_records(failures)
+        if failures is not None or records is not None:
+            recs = failure_records(failures) if failures is not None else list(records)
             fpath = Path(tmp) / "failures.txt"
             fpath.write_text(f"{len(recs)}\n{_format_records(recs)}")
             cmd += ["--failures", str(fpath)]
