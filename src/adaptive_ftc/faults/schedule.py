@@ -80,11 +80,13 @@ class Interval:
     end: float
     effective: tuple[bool, ...]
     lost_groups: tuple[int, ...]
+    reversed_groups: tuple[int, ...] = ()
 
     @property
     def ok(self) -> bool:
-        """True when every output keeps at least one effective actuator (rank condition)."""
-        return not self.lost_groups
+        """True when every output keeps at least one effective actuator (rank condition) and,
+        for a known-sign design, its control direction (sign conditions (2.16)/(4.6))."""
+        return not self.lost_groups and not self.reversed_groups
 
 
 @dataclass(frozen=True)
@@ -103,28 +105,43 @@ class CompensabilityReport:
         lines = []
         for iv in self.intervals:
             end = "end" if math.isinf(iv.end) else f"{iv.end:g} s"
+
+            def named(groups: tuple[int, ...]) -> str:
+                return ", ".join(
+                    output_names[g] if output_names else f"output {g + 1}" for g in groups
+                )
+
             if iv.ok:
                 lines.append(f"[{iv.start:g} s, {end}): compensable")
-            else:
-                names = [
-                    output_names[g] if output_names else f"output {g + 1}" for g in iv.lost_groups
-                ]
+            elif iv.lost_groups:
                 lines.append(
                     f"[{iv.start:g} s, {end}): NOT compensable - no effective actuator "
-                    f"left for {', '.join(names)}"
+                    f"left for {named(iv.lost_groups)}"
+                )
+            if iv.reversed_groups:
+                lines.append(
+                    f"[{iv.start:g} s, {end}): NOT compensable by this known-sign design - the "
+                    f"control direction of {named(iv.reversed_groups)} is reversed or lost "
+                    "(sign conditions (2.16)/(4.6)); use the 'nussbaum' or 'sign' design"
                 )
         return "\n".join(lines)
 
 
-def _effective(f: Failure | None, variables: tuple[str, ...], samples: dict) -> bool:
-    """An actuator is effective when its output still depends on its command."""
+def _slope(f: Failure | None, variables: tuple[str, ...], samples: dict) -> np.ndarray:
+    """``d u^f / d u`` of an actuator at the sample points (1 for a healthy one)."""
+    n = len(samples["t"])
     if f is None:
-        return True
+        return np.ones(n)
     d = f.expression(variables).derivative("u")
     if d.is_constant:
-        return d.node[1] != 0.0
+        return np.full(n, float(d.node[1]))
     values = d(**{k: v for k, v in samples.items() if k in d.used})
-    return bool(np.any(np.abs(values) > 1e-12))
+    return np.broadcast_to(np.asarray(values, dtype=float), (n,)).copy()
+
+
+def _effective(f: Failure | None, variables: tuple[str, ...], samples: dict) -> bool:
+    """An actuator is effective when its output still depends on its command."""
+    return bool(np.any(np.abs(_slope(f, variables, samples)) > 1e-12))
 
 
 def check_compensability(
@@ -134,6 +151,8 @@ def check_compensability(
     *,
     state_names: Iterable[str] = (),
     t0: float = 0.0,
+    known_sign: bool = False,
+    gains: Sequence[float] | None = None,
 ) -> CompensabilityReport:
     """Check the rank condition ``rank(rho(x, t) R^T) = p`` (3.6) on every interval.
 
@@ -152,12 +171,26 @@ def check_compensability(
         End of the run.
     state_names
         Names the failure expressions may use for states (``x1..xn`` and aliases).
+    known_sign
+        The design assumes a known control direction (``direct``, ``estimation``, ``mimo``):
+        then also check the sign conditions (2.16)/(4.6): along its allocation row, each
+        output's control gain ``sum_j g_j R_ij du^f_j/du_j`` must keep the sign it has with
+        healthy actuators at every sample point (a reversal that flips it is reported, even
+        when the rank condition holds).
+    gains
+        Per-actuator plant gains ``g_j`` weighting the directional gain (default: all 1).
     """
     R = np.atleast_2d(np.asarray(allocation, dtype=float))
     if R.shape[1] != schedule.n_actuators:
         raise ConfigurationError(
             f"The allocation has {R.shape[1]} columns but the schedule has "
             f"{schedule.n_actuators} actuators."
+        )
+    g = np.ones(schedule.n_actuators) if gains is None else np.asarray(gains, dtype=float)
+    if g.shape != (schedule.n_actuators,) or not np.all(np.isfinite(g)):
+        raise ConfigurationError(
+            f"`gains` must be {schedule.n_actuators} finite numbers (one per actuator); got "
+            f"{gains!r}."
         )
     variables = ("t", "u", *state_names)
     rng = np.random.default_rng(0)
@@ -167,7 +200,16 @@ def check_compensability(
         mid = 0.5 * (a + b)
         samples = {name: rng.uniform(-1, 1, 16) for name in variables}
         samples["t"] = rng.uniform(a, b, 16)
-        eff = tuple(_effective(f, variables, samples) for f in schedule.active(mid))
+        slopes = [_slope(f, variables, samples) for f in schedule.active(mid)]
+        eff = tuple(bool(np.any(np.abs(d) > 1e-12)) for d in slopes)
+        reversed_groups: list[int] = []
+        if known_sign:
+            D = np.stack(slopes, axis=0) * g[:, None]  # (m, samples)
+            healthy = R @ g
+            directional = R @ D  # (p, samples)
+            for i in range(R.shape[0]):
+                if healthy[i] != 0 and np.any(directional[i] * np.sign(healthy[i]) <= 1e-12):
+                    reversed_groups.append(i)
         lost = []
         Reff = R * np.asarray(eff, dtype=float)[None, :]
         if np.linalg.matrix_rank(Reff) < R.shape[0]:
@@ -176,5 +218,6 @@ def check_compensability(
                     lost.append(i)
             if not lost:  # rank deficient without an empty row: report every output
                 lost = list(range(R.shape[0]))
-        intervals.append(Interval(a, b, eff, tuple(lost)))
+        reversed_groups = [i for i in reversed_groups if i not in lost]
+        intervals.append(Interval(a, b, eff, tuple(lost), tuple(reversed_groups)))
     return CompensabilityReport(tuple(intervals))
