@@ -48,6 +48,9 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--quick", action="store_true", help="shortened runs (for CI)")
     rep.add_argument("--jobs", type=int, default=None, help="parallel processes")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
+    from adaptive_ftc.campaigns import cli as campaign_cli
+
+    campaign_cli.add_parser(sub)
     return p
 
 
@@ -188,6 +191,10 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_validate(args.scenario)
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "campaign":
+            from adaptive_ftc.campaigns import cli as campaign_cli
+
+            return campaign_cli.main(args)
         return _cmd_reproduce(args)
     except (ScenarioError, ConfigurationError, ExpressionError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -1,0 +1,231 @@
+"""Running a campaign: chunks of members through :func:`simulate_many`, one Parquet part per
+finished chunk, resumable, memory flat in the number of runs (each trajectory is reduced to
+its metrics row and dropped)."""
+
+from __future__ import annotations
+
+import math
+import re
+import signal
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adaptive_ftc.campaigns import store
+from adaptive_ftc.campaigns.sampling import Member, draw_member
+from adaptive_ftc.campaigns.spec import CampaignSpec, load_campaign
+from adaptive_ftc.errors import DivergenceWarning
+from adaptive_ftc.sim.batch import simulate_many
+from adaptive_ftc.sim.result import SimResult
+
+__all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
+
+_DIVERGED = re.compile(r"diverged at t = ([-+0-9.eE]+) s: signal '([^']*)'")
+
+
+@dataclass(frozen=True)
+class CampaignRun:
+    """What :func:`run_campaign` did: the folder, the runs done now and before, timing."""
+
+    out: Path
+    results: Path | None
+    runs_total: int
+    runs_done_now: int
+    runs_resumed: int
+    complete: bool
+    wall_time_s: float
+    summary: dict[str, Any]
+
+
+def recovery_times(result: SimResult, tolerance: float) -> list[float]:
+    """Per failure event: time until ``max |e|`` stays within ``tolerance`` up to the next event
+    (``inf``: not recovered before the next event or the end)."""
+    times = list(result.failure_times)
+    if not times or result.time.size == 0:
+        return []
+    err = np.max(np.abs(result.e), axis=1)
+    ends = times[1:] + [float(result.time[-1])]
+    out = []
+    for t, nxt in zip(times, ends, strict=True):
+        seg = (result.time >= t - 1e-9) & (result.time <= nxt + 1e-9)
+        idx = np.flatnonzero(seg)
+        if idx.size == 0:
+            continue
+        bad = np.flatnonzero(err[idx] > tolerance)
+        if bad.size == 0:
+            out.append(0.0)
+        elif bad[-1] == idx.size - 1:
+            out.append(math.inf)
+        else:
+            out.append(float(result.time[idx[bad[-1] + 1]] - t))
+    return out
+
+
+def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
+    """The outcome columns of one run: status, divergence time/signal, metrics, success."""
+    row: dict[str, Any] = {"status": result.status, "message": result.message}
+    m = result.metrics(final_window=spec.final_window) if result.time.size else {}
+    for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
+        row[key] = float(m.get(key, math.nan))
+    for key in ("peak_command", "peak_applied", "t_end"):
+        row[key] = float(m.get(key, math.nan))
+    hit = _DIVERGED.search(result.message or "")
+    row["divergence_time"] = float(hit.group(1)) if hit else math.nan
+    row["divergence_signal"] = hit.group(2) if hit else ""
+    rec = recovery_times(result, spec.recovery_tolerance)
+    row["worst_recovery_time"] = max(rec) if rec else 0.0
+    rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []
+    rms_after = [v for v in rms_after if not math.isnan(v)]
+    row["worst_recovery_rms"] = max(rms_after) if rms_after else math.nan
+    row["success"] = bool(
+        result.status == "completed" and row["rms_error_final"] <= spec.success_rms
+    )
+    return row
+
+
+def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict[str, Any]]:
+    """Simulate one chunk (every design of members ``chunk*size ..``); rows in (index, design)
+    order. Only metrics rows are kept, never the trajectories."""
+    lo = chunk * spec.chunk_size
+    hi = min(spec.runs, lo + spec.chunk_size)
+    members: list[Member] = [draw_member(spec, i) for i in range(lo, hi)]
+    loops, slots = [], []
+    for mem in members:
+        for d in spec.designs:
+            if mem.loop is not None:
+                slots.append(len(loops))
+                loops.append(mem.design_loop(d))
+            else:
+                slots.append(None)
+    with warnings.catch_warnings():  # a diverged run is a recorded outcome, not a warning
+        warnings.simplefilter("ignore", DivergenceWarning)
+        results = simulate_many(loops, spec.base.solver, jobs=jobs)
+    rows = []
+    k = 0
+    for mem in members:
+        for d in spec.designs:
+            row = dict(mem.columns)
+            row["design"] = d
+            slot = slots[k]
+            k += 1
+            if slot is None:
+                row.update(status="invalid", message=mem.error, success=False)
+            else:
+                row.update(outcome(results[slot], spec))
+                results[slot] = None  # drop the trajectory now
+            rows.append(row)
+    return rows
+
+
+class _Stop(KeyboardInterrupt):
+    """Raised by the SIGTERM handler so a terminated campaign stops like Ctrl-C."""
+
+
+def run_campaign(
+    spec: CampaignSpec | str | Path,
+    out: str | Path,
+    *,
+    jobs: int | None = None,
+    scheduler: Any = None,
+    progress: bool = True,
+    max_chunks: int | None = None,
+    summary: bool = True,
+) -> CampaignRun:
+    """Run (or resume) a campaign into the folder ``out``.
+
+    Finished chunks already in ``out`` are kept and skipped. Each finished chunk is written at
+    once as ``parts/part-NNNNN.parquet``; when every chunk is done, ``results.parquet`` and the
+    summary (``summary.html``, ``summary.json``, ``figures/``) are written.
+
+    Parameters
+    ----------
+    spec
+        A :class:`CampaignSpec`, an example name or a spec file.
+    out
+        Results folder (created; an existing folder must hold the same campaign).
+    jobs
+        Threads per chunk for the local run (default: all cores).
+    scheduler
+        Address of a Dask scheduler (``"tcp://host:8786"``), or a ``distributed.Client`` /
+        ``LocalCluster``: chunks run on the cluster, the results are written here.
+    progress
+        Show a progress bar with an ETA.
+    max_chunks
+        Stop after this many new chunks (the rest is left for a later resume).
+    summary
+        Write the summary when the campaign is complete.
+
+    Examples
+    --------
+    >>> run = run_campaign("hypersonic-loe", "campaign-out")  # doctest: +SKIP
+    >>> run.summary["success_rate"]["adaptive"]  # doctest: +SKIP
+    0.93
+    """
+    from tqdm.auto import tqdm
+
+    if not isinstance(spec, CampaignSpec):
+        spec = load_campaign(spec)
+    out = store.prepare_folder(spec, out)
+    done = store.finished_chunks(spec, out)
+    pending = [c for c in range(spec.n_chunks) if c not in done]
+    if max_chunks is not None:
+        pending = pending[: max(0, int(max_chunks))]
+    n_runs = spec.runs * len(spec.designs)
+
+    def runs_in(c: int) -> int:
+        return (min(spec.runs, (c + 1) * spec.chunk_size) - c * spec.chunk_size) * len(spec.designs)
+
+    resumed = sum(runs_in(c) for c in done)
+    start = time.perf_counter()
+    bar = tqdm(total=n_runs, initial=resumed, disable=not progress, desc=spec.name, unit="run")
+    old = signal.getsignal(signal.SIGTERM)
+    handler_set = False
+    try:
+        try:
+            signal.signal(signal.SIGTERM, _raise_stop)
+            handler_set = True
+        except ValueError:  # not in the main thread: keep the default handler
+            pass
+        if scheduler is not None:
+            from adaptive_ftc.campaigns.dask import run_chunks_dask
+
+            source = run_chunks_dask(spec, pending, scheduler)
+        else:
+            source = ((c, run_chunk(spec, c, jobs)) for c in pending)
+        now = 0
+        for c, rows in source:
+            store.write_part(store.to_table(rows, spec), out, c)
+            now += len(rows)
+            bar.update(len(rows))
+    finally:
+        bar.close()
+        if handler_set:
+            signal.signal(signal.SIGTERM, old)
+    wall = time.perf_counter() - start
+    complete = len(store.finished_chunks(spec, out)) == spec.n_chunks
+    results = None
+    info: dict[str, Any] = {}
+    if complete:
+        results = store.write_results(spec, out)
+        if summary:
+            from adaptive_ftc.campaigns.summary import write_summary
+
+            info = write_summary(spec, out)
+    return CampaignRun(
+        out=out,
+        results=results,
+        runs_total=n_runs,
+        runs_done_now=now,
+        runs_resumed=resumed,
+        complete=complete,
+        wall_time_s=wall,
+        summary=info,
+    )
+
+
+def _raise_stop(signum, frame) -> None:  # pragma: no cover - exercised through the CLI
+    raise _Stop()

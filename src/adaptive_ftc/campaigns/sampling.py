@@ -1,0 +1,189 @@
+"""Drawing campaign members: member ``i`` only depends on ``(seed, i)``.
+
+Each member has its own random stream ``np.random.default_rng([seed, index])`` (numpy's
+``SeedSequence`` entropy pooling), so a member is the same whatever the chunking, the number of
+threads or the scheduler, and :func:`draw_member` alone replays it.
+
+Draw order within a member (documented so that a member can be reproduced by hand): number of
+failures; which actuators (without replacement, then sorted); per failure in actuator order:
+model, onset, ramp, whether it recovers, time to recovery, the model's params then fields in
+spec order; then the initial states, the reference amplitude and the gains in spec order.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec, _fill
+from adaptive_ftc.errors import ConfigurationError, ExpressionError
+from adaptive_ftc.faults import FAILURE_MODELS, Failure
+from adaptive_ftc.sim.system import ClosedLoop
+
+__all__ = ["Member", "draw_member", "severity"]
+
+#: Models whose failure removes the actuator's authority whatever the drawn values.
+_TOTAL = ("stuck", "parameterised_stuck", "reversal")
+
+
+@dataclass(frozen=True)
+class Member:
+    """One drawn member of a campaign: its failures, its closed loop and its table columns."""
+
+    index: int
+    failures: tuple[Failure, ...]
+    severities: tuple[float, ...]
+    params: tuple[dict[str, Any], ...]
+    loop: ClosedLoop | None
+    error: str
+    columns: dict[str, Any]
+
+    def design_loop(self, design: str) -> ClosedLoop:
+        """The member's closed loop for one of the compared designs."""
+        if self.loop is None:
+            raise ConfigurationError(f"Member {self.index} is invalid: {self.error}")
+        return DESIGN_VARIANTS[design](self.loop)
+
+
+def severity(spec: FailureModelSpec, drawn: dict[str, Any]) -> float:
+    """Severity of a drawn failure in [0, 1] (``nan``: not rated).
+
+    ``1 - effectiveness`` for loss of effectiveness and affine failures, ``|bias| / largest
+    |bias|`` for biases, 1 for stuck, parameterised stuck and reversal; the spec may name any
+    drawn value instead (``severity = "a"``: ``|a| / largest |a|``).
+    """
+    dists = dict(spec.fields) | dict(spec.params)
+    if spec.severity is not None:
+        v = drawn.get(spec.severity)
+        if isinstance(v, (int, float)):
+            return float(min(1.0, abs(v) / (dists[spec.severity].scale() or 1.0)))
+        return math.nan
+    if spec.model in _TOTAL:
+        return 1.0
+    if spec.model in ("loss_of_effectiveness", "affine"):
+        v = drawn.get("effectiveness", 1.0)
+        return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
+    if spec.model == "bias":
+        v = drawn.get("bias", 0.0)
+        if isinstance(v, (int, float)) and "bias" in dists:
+            return float(min(1.0, abs(v) / (dists["bias"].scale() or 1.0)))
+    return math.nan
+
+
+def _draw_failure(
+    spec: CampaignSpec, rng: np.random.Generator, actuator: int
+) -> tuple[Failure, float, dict[str, Any]]:
+    weights = np.array([m.weight for m in spec.models], dtype=float)
+    mspec = spec.models[int(rng.choice(len(spec.models), p=weights / weights.sum()))]
+    onset = float(spec.onset.draw(rng))
+    ramp = float(spec.ramp.draw(rng))
+    recovers = bool(rng.uniform() < spec.recovery_probability)
+    to_recovery = float(spec.duration.draw(rng))
+    recovery = onset + to_recovery if recovers else None
+    if recovery is not None:
+        ramp = min(ramp, to_recovery)
+    params = {k: d.draw(rng) for k, d in mspec.params}
+    fields = {k: d.draw(rng) for k, d in mspec.fields}
+    kwargs = {k: _fill(v, params) for k, v in fields.items()}
+    failure = FAILURE_MODELS[mspec.model](
+        actuator=actuator, onset=onset, recovery=recovery, ramp=ramp, **kwargs
+    )
+    drawn = {**params, **fields}
+    return failure, severity(mspec, drawn), drawn
+
+
+def draw_member(spec: CampaignSpec, index: int) -> Member:
+    """Draw member ``index`` of a campaign (deterministic in ``(spec.seed, index)``).
+
+    A draw that the closed loop refuses (e.g. failures overlapping a kept base failure) gives a
+    member with ``loop = None`` and the reason in ``error``; it is recorded, never raised.
+
+    Examples
+    --------
+    >>> from adaptive_ftc.campaigns import load_campaign
+    >>> spec = load_campaign("hypersonic-loe")
+    >>> draw_member(spec, 3).columns == draw_member(spec, 3).columns
+    True
+    """
+    rng = np.random.default_rng([spec.seed, index])
+    base = spec.loop
+    plant = base.plant
+    failures: list[Failure] = []
+    sevs: list[float] = []
+    drawn: list[dict[str, Any]] = []
+    error = ""
+    try:
+        k = int(spec.count.draw(rng))
+        acts = sorted(int(a) for a in rng.choice(spec.actuators, size=k, replace=False))
+        for a in acts:
+            f, s, d = _draw_failure(spec, rng, a)
+            failures.append(f)
+            sevs.append(s)
+            drawn.append(d)
+        x0 = list(base.initial_state)
+        cols: dict[str, Any] = {}
+        for i, d in spec.initial_state:
+            x0[i] = float(d.draw(rng))
+            cols[f"x0_{plant.state_names[i]}"] = x0[i]
+        reference = base.reference
+        if spec.reference_amplitude is not None:
+            amp = float(spec.reference_amplitude.draw(rng))
+            cols["reference_amplitude"] = amp
+            reference = tuple(f"({amp!r})*({r})" for r in reference)
+        gains = {}
+        for key, d in spec.gains:
+            gains[key] = d.draw(rng)
+            cols[f"gain_{key}"] = float(gains[key])
+        ctrl = dataclasses.replace(base.controller, **gains) if gains else base.controller
+        kept = tuple(base.failures.failures) if spec.keep_base else ()
+        loop = dataclasses.replace(
+            base,
+            controller=ctrl,
+            reference=reference,
+            initial_state=tuple(x0),
+            failures=kept + tuple(failures),
+            name=f"{spec.name}[{index}]",
+        )
+    except (ConfigurationError, ExpressionError, ValueError) as exc:
+        loop, error = None, str(exc)
+        cols = {}
+    if loop is not None:
+        report = loop.compensability()
+        names = plant.output_names
+        bad = [ln for ln in report.describe(names).splitlines() if "NOT" in ln]
+        cols["compensable"] = bool(report.ok)
+        cols["compensability"] = "; ".join(bad)
+    else:
+        cols["compensable"] = False
+        cols["compensability"] = ""
+    head: dict[str, Any] = {
+        "index": int(index),
+        "seed": int(spec.seed),
+        "n_failures": len(failures),
+        "models": "+".join(sorted({type(f).model for f in failures})),
+        "severity": float(max(sevs)) if sevs and not all(map(math.isnan, sevs)) else math.nan,
+    }
+    for j in range(spec.max_failures):
+        f = failures[j] if j < len(failures) else None
+        head[f"f{j + 1}_actuator"] = f.actuator if f else 0
+        head[f"f{j + 1}_model"] = type(f).model if f else ""
+        head[f"f{j + 1}_onset"] = float(f.onset) if f else math.nan
+        rec = f.recovery if f is not None else None
+        head[f"f{j + 1}_recovery"] = float(rec) if rec is not None else math.nan
+        head[f"f{j + 1}_ramp"] = float(f.ramp) if f else math.nan
+        head[f"f{j + 1}_severity"] = sevs[j] if f else math.nan
+        head[f"f{j + 1}_params"] = json.dumps(drawn[j], sort_keys=True) if f else "{}"
+    return Member(
+        index=int(index),
+        failures=tuple(failures),
+        severities=tuple(sevs),
+        params=tuple(drawn),
+        loop=loop,
+        error=error,
+        columns={**head, **cols},
+    )

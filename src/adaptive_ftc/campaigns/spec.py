@@ -1,0 +1,637 @@
+"""Campaign spec files (TOML): a base scenario, the designs to compare, N, a seed and
+distributions over failures, initial state, reference amplitude and gains.
+
+The format is described in ``docs/campaigns.md``. Like scenario files, a spec is validated as a
+whole before anything runs; unlike them, *every* problem is reported at once (one line each) in
+a single :class:`CampaignError`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
+from adaptive_ftc.faults import FAILURE_MODELS
+from adaptive_ftc.scenarios.loader import Scenario, load_scenario
+from adaptive_ftc.sim.system import ClosedLoop
+
+__all__ = [
+    "DESIGN_VARIANTS",
+    "EXAMPLES",
+    "CampaignError",
+    "CampaignSpec",
+    "Dist",
+    "FailureModelSpec",
+    "list_campaigns",
+    "load_campaign",
+    "register_design",
+]
+
+#: Folder of the example campaigns shipped with the package.
+EXAMPLES = Path(__file__).with_name("examples")
+
+_COMMON = ("actuator", "onset", "recovery", "ramp")
+_TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "designs"}
+_TOP |= {"duration", "success", "failures", "ranges"}
+_FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
+_FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
+_SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
+_RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
+
+
+class CampaignError(ScenarioError):
+    """A campaign spec is invalid (the message lists every problem, one per line)."""
+
+
+#: Designs a campaign can compare, by name: a function of the base closed loop. Another module
+#: adds baselines with :func:`register_design`.
+DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
+    "adaptive": lambda loop: loop,
+    "frozen": lambda loop: loop.frozen(),
+}
+
+
+def register_design(name: str, make: Callable[[ClosedLoop], ClosedLoop]) -> None:
+    """Make a design variant available to campaigns under ``name``.
+
+    ``make`` turns the member's closed loop (base design, drawn failures) into the loop to
+    simulate, e.g. ``lambda loop: loop.frozen()``.
+    """
+    if not callable(make):
+        raise ConfigurationError(f"register_design('{name}', ...) needs a callable; got {make!r}.")
+    DESIGN_VARIANTS[str(name)] = make
+
+
+# ---------------------------------------------------------------------------- distributions
+_KINDS = ("constant", "uniform", "loguniform", "normal", "integers", "choice")
+
+
+@dataclass(frozen=True)
+class Dist:
+    """A distribution of one drawn value: ``constant``, ``uniform [a, b]``, ``loguniform [a, b]``,
+    ``normal [mean, sd]`` (optionally clipped), ``integers [a, b]`` (inclusive) or ``choice``.
+
+    Examples
+    --------
+    >>> d = Dist("uniform", (0.1, 0.9))
+    >>> d.support()
+    (0.1, 0.9)
+    >>> 0.1 <= d.draw(np.random.default_rng(0)) <= 0.9
+    True
+    """
+
+    kind: str
+    args: tuple = ()
+    weights: tuple[float, ...] | None = None
+    clip: tuple[float, float] | None = None
+
+    def draw(self, rng: np.random.Generator) -> Any:
+        """One value (always consumes the generator the same way for a given kind)."""
+        a = self.args
+        if self.kind == "constant":
+            return a[0]
+        if self.kind == "vector":
+            return tuple(d.draw(rng) for d in a)
+        if self.kind == "uniform":
+            return float(rng.uniform(a[0], a[1]))
+        if self.kind == "loguniform":
+            return float(math.exp(rng.uniform(math.log(a[0]), math.log(a[1]))))
+        if self.kind == "normal":
+            v = float(rng.normal(a[0], a[1]))
+            return float(min(max(v, self.clip[0]), self.clip[1])) if self.clip else v
+        if self.kind == "integers":
+            return int(rng.integers(a[0], a[1], endpoint=True))
+        p = None
+        if self.weights is not None:
+            w = np.asarray(self.weights, dtype=float)
+            p = w / w.sum()
+        return a[int(rng.choice(len(a), p=p))]
+
+    def support(self) -> tuple[Any, ...]:
+        """The extreme values a draw can take (every value for ``choice``/``constant``)."""
+        if self.kind in ("constant", "choice"):
+            return tuple(self.args)
+        if self.kind == "vector":  # the all-low and the all-high vectors
+            return (
+                tuple(d.support()[0] for d in self.args),
+                tuple(d.support()[-1] for d in self.args),
+            )
+        if self.kind == "normal":
+            return tuple(self.clip) if self.clip else (-math.inf, math.inf)
+        return (self.args[0], self.args[1])
+
+    def scale(self) -> float:
+        """Largest magnitude of the support (used to normalise severities)."""
+        vals = [abs(v) for v in self.support() if isinstance(v, (int, float))]
+        return max(vals) if vals else 1.0
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) -> Dist:
+    """Parse a TOML value into a :class:`Dist`; record problems instead of raising."""
+    if _number(value) or (not numeric and isinstance(value, str)):
+        return Dist("constant", (value,))
+    if isinstance(value, list):  # a vector field (e.g. ParameterisedStuck coefficients)
+        items = tuple(
+            _dist(v, f"{where}.{i + 1}", problems, numeric=numeric) for i, v in enumerate(value)
+        )
+        return Dist("vector", items)
+    if not isinstance(value, dict):
+        problems.append(
+            f"[{where}] must be a number or a table such as {{uniform = [a, b]}}; got {value!r}."
+        )
+        return Dist("constant", (0.0,))
+    kinds = [k for k in value if k in _KINDS]
+    extra = set(value) - set(_KINDS) - {"weights", "clip"}
+    if len(kinds) != 1 or extra:
+        bad = sorted(extra) or kinds
+        hint = did_you_mean(bad[0], _KINDS) if bad else ""
+        problems.append(
+            f"[{where}] needs exactly one of {', '.join(_KINDS)} (plus `weights` for choice, "
+            f"`clip` for normal); got keys {sorted(value)}.{hint}"
+        )
+        return Dist("constant", (0.0,))
+    kind = kinds[0]
+    args = value[kind]
+    args = tuple(args) if isinstance(args, list) else (args,)
+    if kind == "choice":
+        w = value.get("weights")
+        if w is not None and (
+            not isinstance(w, list)
+            or len(w) != len(args)
+            or not all(_number(x) and x >= 0 for x in w)
+            or sum(w) <= 0
+        ):
+            problems.append(f"[{where}] `weights` must be {len(args)} numbers >= 0, not all 0.")
+            w = None
+        if not args:
+            problems.append(f"[{where}] `choice` needs at least one value.")
+            return Dist("constant", (0.0,))
+        if numeric and not all(_number(a) for a in args):
+            problems.append(f"[{where}] `choice` values must be finite numbers; got {list(args)}.")
+            return Dist("constant", (0.0,))
+        return Dist("choice", args, tuple(float(x) for x in w) if w else None)
+    if len(args) != 2 or not all(_number(a) for a in args):
+        problems.append(f"[{where}] `{kind}` needs two finite numbers [a, b]; got {list(args)}.")
+        return Dist("constant", (0.0,))
+    a, b = args
+    if kind == "normal":
+        clip = value.get("clip")
+        if b <= 0:
+            problems.append(f"[{where}] the standard deviation of `normal` must be > 0; got {b}.")
+        if clip is not None:
+            if not (isinstance(clip, list) and len(clip) == 2 and all(map(_number, clip))):
+                problems.append(f"[{where}] `clip` must be two numbers [lo, hi].")
+                clip = None
+            elif clip[0] >= clip[1]:
+                problems.append(f"[{where}] `clip` needs lo < hi; got {clip}.")
+        return Dist("normal", (float(a), float(b)), clip=tuple(clip) if clip else None)
+    if a > b:
+        problems.append(f"[{where}] `{kind}` needs a <= b; got [{a}, {b}].")
+    if kind == "loguniform" and a <= 0:
+        problems.append(f"[{where}] `loguniform` needs a > 0; got [{a}, {b}].")
+    if kind == "integers":
+        if not all(float(x).is_integer() for x in args):
+            problems.append(f"[{where}] `integers` needs whole numbers; got {list(args)}.")
+        return Dist("integers", (int(a), int(b)))
+    return Dist(kind, (float(a), float(b)))
+
+
+# ---------------------------------------------------------------------------- failure models
+@dataclass(frozen=True)
+class FailureModelSpec:
+    """How to draw one failure model: its weight in the mix, a distribution per field of the
+    failure class, extra ``params`` for ``{name}`` placeholders in expression fields, and the
+    drawn value that measures the severity."""
+
+    model: str
+    weight: float
+    fields: tuple[tuple[str, Dist], ...]
+    params: tuple[tuple[str, Dist], ...] = ()
+    severity: str | None = None
+
+
+def _model_spec(name: str, table: Any, problems: list[str]) -> FailureModelSpec | None:
+    where = f"failures.models.{name}"
+    if name not in FAILURE_MODELS:
+        problems.append(
+            f"[{where}] unknown failure model '{name}'.{did_you_mean(name, FAILURE_MODELS)} "
+            f"Available: {', '.join(FAILURE_MODELS)}."
+        )
+        return None
+    if not isinstance(table, dict):
+        problems.append(f"[{where}] must be a table.")
+        return None
+    cls = FAILURE_MODELS[name]
+    own = {f.name: f for f in dataclasses.fields(cls) if f.init and f.name not in _COMMON}
+    allowed = set(own) | {"weight", "params", "severity"}
+    for key in table:
+        if key not in allowed:
+            problems.append(
+                f"[{where}] unknown key '{key}'.{did_you_mean(key, allowed)} "
+                f"Allowed keys: {', '.join(sorted(allowed))}."
+            )
+    weight = table.get("weight", 1.0)
+    if not _number(weight) or weight < 0:
+        problems.append(f"[{where}] `weight` must be a number >= 0; got {weight!r}.")
+        weight = 0.0
+    params_t = table.get("params", {})
+    if not isinstance(params_t, dict):
+        problems.append(f"[{where}.params] must be a table of distributions.")
+        params_t = {}
+    params = tuple((k, _dist(v, f"{where}.params.{k}", problems)) for k, v in params_t.items())
+    fields = []
+    for key, f in own.items():
+        if key not in table:
+            continue
+        text_ok = any(t in str(f.type) for t in ("Value", "str"))
+        fields.append((key, _dist(table[key], f"{where}.{key}", problems, numeric=not text_ok)))
+    sev = table.get("severity")
+    names = [k for k, _ in fields] + [k for k, _ in params]
+    if sev is not None and sev not in names:
+        problems.append(
+            f"[{where}] `severity` must name a drawn field or param ({', '.join(names) or 'none'});"
+            f" got {sev!r}."
+        )
+        sev = None
+    spec = FailureModelSpec(name, float(weight), tuple(fields), params, sev)
+    _check_extremes(spec, problems)
+    return spec
+
+
+def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
+    """Build the failure at the extremes of every distribution: an impossible value (negative
+    effectiveness, ...) is refused now instead of in the middle of the campaign."""
+    cls = FAILURE_MODELS[spec.model]
+    params = {k: d.support()[0] for k, d in spec.params}
+    base = {k: d.support()[0] for k, d in spec.fields}
+    cases = [base]
+    for key, d in spec.fields:
+        for v in d.support():
+            cases.append({**base, key: v})
+    seen = set()
+    for case in cases:
+        try:
+            kwargs = {k: _fill(v, params) for k, v in case.items()}
+            cls(actuator=1, onset=0.0, **kwargs)
+        except (ConfigurationError, ExpressionError, KeyError, ValueError, TypeError) as exc:
+            msg = str(exc) if not isinstance(exc, KeyError) else f"unknown placeholder {exc}"
+            if msg not in seen:
+                seen.add(msg)
+                problems.append(f"[failures.models.{spec.model}] impossible draw: {msg}")
+
+
+def _fill(value: Any, params: dict[str, Any]) -> Any:
+    """Substitute ``{name}`` placeholders of an expression string with drawn params."""
+    if isinstance(value, str) and "{" in value:
+        return value.format(**{k: f"({float(v)!r})" for k, v in params.items()})
+    if isinstance(value, list):
+        return tuple(_fill(v, params) for v in value)
+    return value
+
+
+# ---------------------------------------------------------------------------- the spec
+@dataclass(frozen=True)
+class CampaignSpec:
+    """A validated campaign: base scenario, designs, N, seed and the distributions.
+
+    Build it with :func:`load_campaign`. ``data`` is the self-contained spec (base scenario
+    inlined when it is a file) that is saved next to the results and hashed to recognise a
+    campaign when it resumes.
+    """
+
+    name: str
+    title: str
+    base: Scenario
+    designs: tuple[str, ...]
+    runs: int
+    seed: int
+    chunk_size: int
+    t_final: float
+    count: Dist
+    actuators: tuple[int, ...]
+    onset: Dist
+    ramp: Dist
+    recovery_probability: float
+    duration: Dist
+    models: tuple[FailureModelSpec, ...]
+    keep_base: bool
+    initial_state: tuple[tuple[int, Dist], ...]
+    reference_amplitude: Dist | None
+    gains: tuple[tuple[str, Dist], ...]
+    success_rms: float
+    final_window: float
+    recovery_tolerance: float
+    data: dict[str, Any] = field(compare=False, repr=False)
+
+    @property
+    def loop(self) -> ClosedLoop:
+        """The base closed loop (duration overridden by the spec)."""
+        return dataclasses.replace(self.base.loop, t_final=self.t_final)
+
+    @property
+    def n_chunks(self) -> int:
+        """Number of part files the results are written in."""
+        return -(-self.runs // self.chunk_size)
+
+    @property
+    def max_failures(self) -> int:
+        """Largest number of drawn failures per member (width of the table)."""
+        return int(max(self.count.support()))
+
+    def digest(self) -> str:
+        """SHA-256 of the self-contained spec: same digest, same campaign."""
+        # key order matters (the model mix is drawn in spec order), so it is not sorted
+        text = json.dumps(self.data, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+def list_campaigns() -> list[str]:
+    """Names of the example campaigns shipped with the package."""
+    return sorted(p.stem for p in EXAMPLES.glob("*.toml"))
+
+
+def _resolve(name_or_path: str | Path) -> Path:
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise CampaignError(f"Campaign spec '{p}' does not exist.")
+        return p
+    candidate = EXAMPLES / f"{name_or_path}.toml"
+    if candidate.is_file():
+        return candidate
+    names = list_campaigns()
+    raise CampaignError(
+        f"Unknown campaign '{name_or_path}'.{did_you_mean(str(name_or_path), names)} "
+        f"Examples: {', '.join(names)}; or give a path to a .toml file."
+    )
+
+
+def load_campaign(
+    spec: str | Path | dict[str, Any], *, base_dir: Path | None = None
+) -> CampaignSpec:
+    """Load and validate a campaign spec (example name, TOML path, or parsed dict).
+
+    Raises
+    ------
+    CampaignError
+        Listing every problem of the spec, one line each, before anything runs.
+
+    Examples
+    --------
+    >>> spec = load_campaign("hypersonic-loe")
+    >>> spec.designs
+    ('adaptive', 'frozen')
+    """
+    if isinstance(spec, dict):
+        data, label = dict(spec), "campaign"
+        base_dir = base_dir or Path.cwd()
+    else:
+        path = _resolve(spec)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except tomllib.TOMLDecodeError as exc:
+            raise CampaignError(f"{path}: not valid TOML: {exc}.") from None
+        label, base_dir = str(path), path.parent
+    problems: list[str] = []
+    try:
+        spec_obj = _parse(data, base_dir, problems)
+    except ScenarioError as exc:  # the base scenario itself is broken: nothing else to check
+        raise CampaignError(f"{label}: [base] {exc}") from None
+    if problems:
+        lines = "\n".join(f"  - {p}" for p in problems)
+        raise CampaignError(f"{label}: {len(problems)} problem(s), nothing was run:\n{lines}")
+    assert spec_obj is not None
+    return spec_obj
+
+
+def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> CampaignSpec | None:
+    for key in data:
+        if key not in _TOP:
+            problems.append(
+                f"[top] unknown key '{key}'.{did_you_mean(key, _TOP)} "
+                f"Allowed keys: {', '.join(sorted(_TOP))}."
+            )
+    # base scenario: a catalogue name, a file (relative to the spec) or an inlined scenario
+    base = data.get("base")
+    saved = dict(data)
+    if isinstance(base, dict):  # inlined by a previous save
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            p = Path(tmp) / f"{base.get('name', 'base')}.toml"
+            p.write_text(base["text"], encoding="utf-8")
+            scenario = load_scenario(p)
+    elif isinstance(base, str):
+        candidate = (base_dir / base) if base.endswith(".toml") else None
+        if candidate is not None and candidate.is_file():
+            scenario = load_scenario(candidate)
+            saved["base"] = {"name": candidate.stem, "text": candidate.read_text("utf-8")}
+        else:
+            scenario = load_scenario(base)
+    else:
+        raise CampaignError("missing key 'base' (a catalogue scenario name or a .toml path).")
+    loop = scenario.loop
+    m, n = loop.plant.n_actuators, loop.plant.n_states
+    name = str(data.get("name", "campaign"))
+
+    def integer(key: str, default: Any, lo: int) -> int:
+        v = data.get(key, default)
+        if v is None or isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            problems.append(f"[top] `{key}` must be a whole number >= {lo}; got {v!r}.")
+            return max(lo, 1)
+        return v
+
+    runs = integer("runs", None, 1)
+    seed = integer("seed", None, 0)
+    chunk = integer("chunk_size", 50, 1)
+    designs = data.get("designs", ["adaptive"])
+    if not isinstance(designs, list) or not designs:
+        problems.append(f"[top] `designs` must be a non-empty list; got {designs!r}.")
+        designs = ["adaptive"]
+    for d in designs:
+        if d not in DESIGN_VARIANTS:
+            problems.append(
+                f"[top] unknown design '{d}'.{did_you_mean(str(d), DESIGN_VARIANTS)} "
+                f"Available: {', '.join(DESIGN_VARIANTS)}."
+            )
+    t_final = data.get("duration", loop.t_final)
+    if not _number(t_final) or t_final <= loop.t0:
+        problems.append(f"[top] `duration` must be a time > {loop.t0} s; got {t_final!r}.")
+        t_final = loop.t_final
+    # success criterion
+    st = data.get("success", {})
+    _keys(st, _SUCCESS_KEYS, "success", problems)
+    succ = {}
+    for key, default in (
+        ("rms_error_final", None),
+        ("final_window", 0.1 * (t_final - loop.t0)),
+        ("recovery_tolerance", None),
+    ):
+        v = st.get(key, default) if isinstance(st, dict) else default
+        if key == "rms_error_final" and v is None:
+            problems.append(
+                "[success] missing `rms_error_final` (final-window RMS error below which a run "
+                "counts as a success)."
+            )
+            v = 1.0
+        if v is None:
+            v = succ["rms_error_final"]
+        if not _number(v) or v <= 0:
+            problems.append(f"[success] `{key}` must be a positive number; got {v!r}.")
+            v = 1.0
+        succ[key] = float(v)
+    if succ["final_window"] >= t_final - loop.t0:
+        problems.append(
+            f"[success] `final_window` ({succ['final_window']:g} s) must be shorter than the run "
+            f"({t_final:g} s)."
+        )
+    # failures
+    ft = data.get("failures", {})
+    _keys(ft, _FAILURE_KEYS, "failures", problems)
+    ft = ft if isinstance(ft, dict) else {}
+    acts = ft.get("actuators", list(range(1, m + 1)))
+    if not isinstance(acts, list) or not acts:
+        problems.append(f"[failures] `actuators` must be a list of actuator numbers; got {acts!r}.")
+        acts = list(range(1, m + 1))
+    for a in acts:
+        if isinstance(a, bool) or not isinstance(a, int) or not 1 <= a <= m:
+            problems.append(
+                f"[failures] unknown actuator {a!r}: plant '{loop.plant.name}' has actuators "
+                f"1..{m} ({', '.join(loop.plant.actuator_names)})."
+            )
+    n_listed = len(set(map(str, acts)))  # a bad actuator is reported once, not as a count
+    acts = sorted({a for a in acts if isinstance(a, int) and 1 <= a <= m}) or [1]
+    count = _dist(ft.get("count", 1), "failures.count", problems)
+    if count.kind not in ("constant", "integers", "choice") or not all(
+        float(v).is_integer() for v in count.support()
+    ):
+        problems.append("[failures.count] must be a whole number or {integers = [a, b]}.")
+        count = Dist("constant", (1,))
+    lo_c, hi_c = min(count.support()), max(count.support())
+    if lo_c < 0 or hi_c > n_listed:
+        problems.append(
+            f"[failures.count] must stay in [0, {n_listed}] (the number of candidate "
+            f"actuators); got [{lo_c}, {hi_c}]."
+        )
+        count = Dist("constant", (min(max(int(hi_c), 0), len(acts)),))
+    onset = _dist(
+        ft.get("onset", {"uniform": [loop.t0, 0.5 * t_final]}), "failures.onset", problems
+    )
+    o_lo, o_hi = min(onset.support()), max(onset.support())
+    if o_lo < loop.t0:
+        problems.append(
+            f"[failures.onset] onsets must be >= {loop.t0} s; the range starts at {o_lo}."
+        )
+    if o_hi >= t_final:
+        problems.append(
+            f"[failures.onset] onset after the end: the range reaches {o_hi} s but runs end at "
+            f"{t_final:g} s. Lower the upper bound below the duration."
+        )
+    ramp = _dist(ft.get("ramp", 0.0), "failures.ramp", problems)
+    if min(ramp.support()) < 0:
+        problems.append(f"[failures.ramp] ramps must be >= 0 s; got {min(ramp.support())}.")
+    prob = ft.get("recovery_probability", 0.0)
+    if not _number(prob) or not 0 <= prob <= 1:
+        problems.append(f"[failures] `recovery_probability` must be in [0, 1]; got {prob!r}.")
+        prob = 0.0
+    duration = _dist(ft.get("duration", 10.0), "failures.duration", problems)
+    if min(duration.support()) <= 0:
+        problems.append(
+            f"[failures.duration] time to recovery must be > 0 s; got {min(duration.support())}."
+        )
+    mt = ft.get("models", {})
+    if not isinstance(mt, dict) or (not mt and hi_c > 0):
+        problems.append(
+            "[failures.models] needs at least one model table, e.g. "
+            "[failures.models.loss_of_effectiveness] with `effectiveness = {uniform = [0, 1]}`."
+        )
+        mt = {}
+    models = tuple(s for k, v in mt.items() if (s := _model_spec(k, v, problems)) is not None)
+    if models and sum(s.weight for s in models) <= 0:
+        problems.append("[failures.models] the model weights are all 0.")
+    # ranges over initial state, reference amplitude, gains
+    rt = data.get("ranges", {})
+    _keys(rt, _RANGE_KEYS, "ranges", problems)
+    rt = rt if isinstance(rt, dict) else {}
+    x0 = rt.get("initial_state", [])
+    if not isinstance(x0, list) or len(x0) > n:
+        problems.append(
+            f"[ranges] `initial_state` must list at most {n} values/distributions "
+            f"({', '.join(loop.plant.state_names)})."
+        )
+        x0 = []
+    x0d = tuple((i, _dist(v, f"ranges.initial_state.{i + 1}", problems)) for i, v in enumerate(x0))
+    amp = rt.get("reference_amplitude")
+    ampd = None if amp is None else _dist(amp, "ranges.reference_amplitude", problems)
+    gt = rt.get("gains", {})
+    ctrl_fields = {f.name for f in dataclasses.fields(loop.controller) if f.init} - {"regressor"}
+    gains = []
+    for key, v in gt.items() if isinstance(gt, dict) else ():
+        if key not in ctrl_fields:
+            problems.append(
+                f"[ranges.gains] unknown gain '{key}' of design "
+                f"'{loop.controller.design}'.{did_you_mean(key, ctrl_fields)} "
+                f"Available: {', '.join(sorted(ctrl_fields))}."
+            )
+            continue
+        d = _dist(v, f"ranges.gains.{key}", problems)
+        for value in d.support():
+            try:
+                dataclasses.replace(loop.controller, **{key: value})
+            except (ConfigurationError, TypeError, ValueError) as exc:
+                problems.append(f"[ranges.gains.{key}] impossible draw: {exc}")
+                break
+        gains.append((key, d))
+    if problems:
+        return None
+    return CampaignSpec(
+        name=name,
+        title=str(data.get("title", name)),
+        base=scenario,
+        designs=tuple(designs),
+        runs=runs,
+        seed=seed,
+        chunk_size=chunk,
+        t_final=float(t_final),
+        count=count,
+        actuators=tuple(acts),
+        onset=onset,
+        ramp=ramp,
+        recovery_probability=float(prob),
+        duration=duration,
+        models=models,
+        keep_base=bool(ft.get("keep_base", False)),
+        initial_state=x0d,
+        reference_amplitude=ampd,
+        gains=tuple(gains),
+        success_rms=succ["rms_error_final"],
+        final_window=succ["final_window"],
+        recovery_tolerance=succ["recovery_tolerance"],
+        data=saved,
+    )
+
+
+def _keys(table: Any, allowed: set[str], where: str, problems: list[str]) -> None:
+    if not isinstance(table, dict):
+        problems.append(f"[{where}] must be a table; got {type(table).__name__}.")
+        return
+    for key in table:
+        if key not in allowed:
+            problems.append(
+                f"[{where}] unknown key '{key}'.{did_you_mean(key, allowed)} "
+                f"Allowed keys: {', '.join(sorted(allowed))}."
+            )

@@ -1,0 +1,229 @@
+"""The results folder of a campaign: Parquet part files, a manifest, the saved spec.
+
+Layout of ``DIR``::
+
+    campaign.json         the self-contained spec (base scenario inlined when it is a file)
+    manifest.json         spec digest, chunking, finished chunks
+    parts/part-00000.parquet ...   one file per finished chunk, written atomically
+    results.parquet       every run, one row per (member, design), when the campaign is complete
+
+Part files are written to a temporary name and renamed, so a file under ``parts/`` is always
+complete: an interruption at any moment loses at most the chunks in flight.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
+
+__all__ = [
+    "OUTCOME_COLUMNS",
+    "finished_chunks",
+    "prepare_folder",
+    "read_results",
+    "schema",
+    "to_table",
+    "write_part",
+    "write_results",
+]
+
+#: Columns filled from the simulation of one (member, design), with their Arrow type names.
+OUTCOME_COLUMNS: dict[str, str] = {
+    "design": "string",
+    "status": "string",
+    "success": "bool",
+    "message": "string",
+    "divergence_time": "float64",
+    "divergence_signal": "string",
+    "rms_error": "float64",
+    "max_error": "float64",
+    "rms_error_final": "float64",
+    "max_error_final": "float64",
+    "peak_command": "float64",
+    "peak_applied": "float64",
+    "t_end": "float64",
+    "worst_recovery_time": "float64",
+    "worst_recovery_rms": "float64",
+}
+
+
+def _pa():
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:  # pragma: no cover - installed by the `campaigns` extra
+        raise CampaignError(
+            "Campaign results are Parquet files and need pyarrow: "
+            "pip install 'adaptive-ftc[campaigns]'."
+        ) from None
+    return pa, pq
+
+
+def schema(spec: CampaignSpec):
+    """The Arrow schema of the results table of ``spec`` (fixed, so every part matches)."""
+    pa, _ = _pa()
+    types = {
+        "string": pa.string(),
+        "float64": pa.float64(),
+        "int64": pa.int64(),
+        "bool": pa.bool_(),
+    }
+    cols: list[tuple[str, str]] = [
+        ("index", "int64"),
+        ("seed", "int64"),
+        ("n_failures", "int64"),
+        ("models", "string"),
+        ("severity", "float64"),
+    ]
+    for j in range(1, spec.max_failures + 1):
+        cols += [
+            (f"f{j}_actuator", "int64"),
+            (f"f{j}_model", "string"),
+            (f"f{j}_onset", "float64"),
+            (f"f{j}_recovery", "float64"),
+            (f"f{j}_ramp", "float64"),
+            (f"f{j}_severity", "float64"),
+            (f"f{j}_params", "string"),
+        ]
+    names = spec.loop.plant.state_names
+    cols += [(f"x0_{names[i]}", "float64") for i, _ in spec.initial_state]
+    if spec.reference_amplitude is not None:
+        cols.append(("reference_amplitude", "float64"))
+    cols += [(f"gain_{k}", "float64") for k, _ in spec.gains]
+    cols += [("compensable", "bool"), ("compensability", "string")]
+    cols += list(OUTCOME_COLUMNS.items())
+    return pa.schema([(name, types[t]) for name, t in cols])
+
+
+_MISSING = {"string": "", "float64": np.nan, "int64": 0, "bool": False}
+
+
+def to_table(rows: list[dict[str, Any]], spec: CampaignSpec):
+    """Rows (dicts) to an Arrow table with the campaign's schema (missing cells filled)."""
+    pa, _ = _pa()
+    sch = schema(spec)
+    data = {}
+    for fld in sch:
+        fill = _MISSING[str(fld.type).replace("double", "float64")]
+        data[fld.name] = [r.get(fld.name, fill) for r in rows]
+    return pa.Table.from_pydict(data, schema=sch)
+
+
+def _atomic_write(path: Path, write) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    def write(tmp: str) -> None:
+        Path(tmp).write_text(json.dumps(data, indent=2, default=str), "utf-8")
+
+    _atomic_write(path, write)
+
+
+def part_path(out: Path, chunk: int) -> Path:
+    """Path of the part file of one chunk."""
+    return Path(out) / "parts" / f"part-{chunk:05d}.parquet"
+
+
+def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
+    """Create ``out`` for ``spec`` or check that it holds the same campaign (to resume).
+
+    Raises
+    ------
+    CampaignError
+        When ``out`` holds the results of a different spec.
+    """
+    out = Path(out)
+    manifest = out / "manifest.json"
+    if manifest.is_file():
+        try:
+            old = json.loads(manifest.read_text("utf-8"))
+        except (OSError, ValueError) as exc:
+            raise CampaignError(
+                f"{manifest} is unreadable ({exc}); delete the folder or choose another --out."
+            ) from None
+        if old.get("digest") != spec.digest():
+            raise CampaignError(
+                f"'{out}' holds the results of a different campaign spec "
+                f"('{old.get('name', '?')}'). Use another --out folder, or delete '{out}' to "
+                "start again."
+            )
+        return out
+    if out.exists() and any(out.iterdir()):
+        raise CampaignError(
+            f"'{out}' exists and is not a campaign folder (no manifest.json). Choose an empty "
+            "or new --out folder."
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    _write_json(out / "campaign.json", spec.data)
+    _write_json(
+        manifest,
+        {
+            "name": spec.name,
+            "digest": spec.digest(),
+            "runs": spec.runs,
+            "designs": list(spec.designs),
+            "chunk_size": spec.chunk_size,
+            "n_chunks": spec.n_chunks,
+        },
+    )
+    return out
+
+
+def finished_chunks(spec: CampaignSpec, out: Path) -> set[int]:
+    """Chunks whose part file is present (part files are only ever complete)."""
+    return {c for c in range(spec.n_chunks) if part_path(out, c).is_file()}
+
+
+def write_part(table, out: Path, chunk: int) -> Path:
+    """Write one chunk's table atomically."""
+    _, pq = _pa()
+    path = part_path(out, chunk)
+    _atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+    return path
+
+
+def write_results(spec: CampaignSpec, out: Path) -> Path:
+    """Concatenate the part files into ``results.parquet`` (streamed, one part at a time)."""
+    _, pq = _pa()
+    path = Path(out) / "results.parquet"
+
+    def write(tmp: str) -> None:
+        with pq.ParquetWriter(tmp, schema(spec)) as writer:
+            for c in range(spec.n_chunks):
+                writer.write_table(pq.read_table(part_path(out, c), schema=schema(spec)))
+
+    _atomic_write(path, write)
+    return path
+
+
+def read_results(out: str | Path):
+    """The results table of a campaign folder as a pandas DataFrame (complete or partial)."""
+    import pandas as pd
+
+    out = Path(out)
+    full = out / "results.parquet"
+    if full.is_file():
+        return pd.read_parquet(full)
+    parts = sorted((out / "parts").glob("part-*.parquet"))
+    if not parts:
+        raise CampaignError(
+            f"'{out}' holds no campaign results (no results.parquet, no parts/). Run "
+            f"'aftc campaign SPEC --out {out}' first."
+        )
+    return pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
