@@ -16,7 +16,14 @@ from pathlib import Path
 
 from adaptive_ftc.errors import ConfigurationError
 
-__all__ = ["atomic_path", "atomic_write_text", "check_output_dir", "commit_staged", "staging_dir"]
+__all__ = [
+    "atomic_path",
+    "atomic_write_text",
+    "check_output_dir",
+    "commit_staged",
+    "discard_staged",
+    "staging_dir",
+]
 
 #: Prefix of temporary files and staging folders (left-overs of a killed process can go).
 TMP_PREFIX = ".aftc-tmp-"
@@ -40,6 +47,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(name)
     try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
         yield tmp
         _fsync(tmp)
         os.replace(tmp, path)
@@ -47,6 +55,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

@@ -1,9 +1,29 @@
-"""The ``aftc`` command-line tool: list, validate and run scenarios; reproduce the thesis."""
+"""The ``aftc`` command-line tool: list, validate and run scenarios; reproduce the thesis.
+
+Exit status (also in ``aftc --help`` and the README):
+
+====  ===========================================================================
+0     success
+1     internal error (a bug: please report it with the command line)
+2     invalid input: scenario file, command-line argument, output folder
+3     the run diverged (``aftc run``)
+4     thesis claims failed, or some runs raised errors (``aftc reproduce``)
+5     not compensable: the failures break the rank (3.6) or sign (2.16)/(4.6)
+      conditions of the design (``aftc validate``)
+130   interrupted (Ctrl-C or SIGTERM); earlier complete results are kept
+====  ===========================================================================
+
+Every file is written to a staging folder inside ``--out`` and moved into place only when the
+command has finished, each with an atomic rename, so a failed or interrupted command leaves
+the earlier complete results untouched.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import signal
 import sys
 import warnings
 from dataclasses import replace
@@ -17,7 +37,60 @@ from adaptive_ftc.errors import (
     ScenarioError,
 )
 
-__all__ = ["main"]
+__all__ = [
+    "EXIT_CLAIMS_FAILED",
+    "EXIT_DIVERGED",
+    "EXIT_INTERNAL",
+    "EXIT_INTERRUPTED",
+    "EXIT_INVALID",
+    "EXIT_NOT_COMPENSABLE",
+    "EXIT_OK",
+    "main",
+]
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_INVALID = 2
+EXIT_DIVERGED = 3
+EXIT_CLAIMS_FAILED = 4
+EXIT_NOT_COMPENSABLE = 5
+EXIT_INTERRUPTED = 130
+
+_EPILOG = """exit status:
+  0    success
+  1    internal error (a bug: please report it with the command line)
+  2    invalid input (scenario file, argument, output folder)
+  3    the run diverged (run)
+  4    thesis claims failed or runs raised errors (reproduce)
+  5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
+  130  interrupted (Ctrl-C, SIGTERM); earlier complete results are kept
+"""
+
+#: Designs that assume a known control direction (sign conditions (2.16)/(4.6) apply).
+KNOWN_SIGN_DESIGNS = ("direct", "estimation", "mimo")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def _count(low: int, high: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {low}..{high}, got {value}")
+        return value
+
+    return parse
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -25,32 +98,50 @@ def _parser() -> argparse.ArgumentParser:
         prog="aftc",
         description="Adaptive actuator-failure compensation: run the thesis scenarios and your "
         "own scenario files.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"adaptive-ftc {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the thesis scenarios with their figures")
-    v = sub.add_parser("validate", help="check a scenario file (and its compensability)")
+    v = sub.add_parser(
+        "validate", help="check a scenario file (and its compensability)", epilog=_EPILOG
+    )
     v.add_argument("scenario", help="scenario name or path to a .toml file")
-    r = sub.add_parser("run", help="run one scenario; write data and figures")
+    r = sub.add_parser("run", help="run one scenario; write data and figures", epilog=_EPILOG)
     r.add_argument("scenario", help="scenario name or path to a .toml file")
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
     r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
-    r.add_argument("--dt", type=float, help="override the fixed step")
+    r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
     r.add_argument(
         "--no-baselines",
         action="store_true",
         help="skip the frozen-adaptation and failure-free comparison runs",
     )
     r.add_argument("--csv", action="store_true", help="also write CSV tables")
+    r.add_argument("--float32", action="store_true", help="store the data in single precision")
+    r.add_argument(
+        "--decimate",
+        type=_count(1, 1_000_000),
+        default=1,
+        help="keep every K-th recorded sample in the data files (default 1: all)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
-    rep = sub.add_parser("reproduce", help="reproduce every figure of the thesis with a report")
+    rep = sub.add_parser(
+        "reproduce", help="reproduce every figure of the thesis with a report", epilog=_EPILOG
+    )
     rep.add_argument("--out", default="reproduction", help="output folder")
     rep.add_argument("--quick", action="store_true", help="shortened runs (for CI)")
-    rep.add_argument("--jobs", type=int, default=None, help="parallel processes")
+    rep.add_argument("--jobs", type=_count(1, 1024), default=None, help="parallel processes")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
-    from adaptive_ftc.campaigns import cli as campaign_cli
-
-    campaign_cli.add_parser(sub)
+    s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
+    s.add_argument("--out", help="write it to this file instead of printing it")
+    try:
+        from adaptive_ftc.campaigns import cli as campaign_cli
+    except ImportError:  # pragma: no cover - campaigns not installed
+        pass
+    else:
+        campaign_cli.add_parser(sub)
     return p
 
 
@@ -66,87 +157,137 @@ def _cmd_list() -> int:
     print(f"{'scenario':<{w0}}  {'thesis':<7}  {'figures':<{w2}}  title")
     for name, sec, figs, title in rows:
         print(f"{name:<{w0}}  {sec:<7}  {figs:<{w2}}  {title}")
-    return 0
+    return EXIT_OK
+
+
+def _plant_gains(plant) -> tuple[float, ...] | None:
+    """Per-actuator plant gains ``g_j`` when the plant exposes them, else ``None`` (all 1)."""
+    m = plant.n_actuators
+    for attr in ("actuator_gains", "b"):
+        value = getattr(plant, attr, None)
+        try:
+            gains = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            continue
+        if len(gains) == m:
+            return gains
+    return None
 
 
 def _cmd_validate(target: str) -> int:
+    from adaptive_ftc.faults.schedule import check_compensability
     from adaptive_ftc.scenarios.loader import load_scenario
+    from adaptive_ftc.sim.budget import estimate_run_size
 
     sc = load_scenario(target)
     loop = sc.loop
+    size = estimate_run_size(loop, sc.solver)
     print(
         f"{sc.name}: OK ({loop.plant.name} plant, '{loop.controller.design}' design, "
-        f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s))"
+        f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s); {size.describe()})"
     )
     for line in loop.describe_failures():
         print(f"  failure {line}")
-    report = loop.compensability()
-    print("compensability (rank condition (3.6), one effective actuator per output):")
+    design = loop.controller.design
+    known_sign = design in KNOWN_SIGN_DESIGNS and loop.adapt
+    report = check_compensability(
+        loop.failures,
+        loop.R,
+        loop.t_final,
+        state_names=tuple(loop.plant.aliases()),
+        t0=loop.t0,
+        known_sign=known_sign,
+        gains=_plant_gains(loop.plant),
+    )
+    conditions = "rank condition (3.6), one effective actuator per output"
+    if known_sign:
+        conditions += f"; sign conditions (2.16)/(4.6): '{design}' assumes a known direction"
+    print(f"compensability ({conditions}):")
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
     if not report.ok:
         print(
-            f"{sc.name}: WARNING - some intervals are not compensable; the thesis's "
-            "guarantees do not hold there."
+            f"{sc.name}: NOT COMPENSABLE - some intervals break the conditions above; the "
+            "thesis's guarantees do not hold there."
         )
-        return 1
-    return 0
+        return EXIT_NOT_COMPENSABLE
+    return EXIT_OK
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
+    from adaptive_ftc._atomic import check_output_dir, commit_staged, discard_staged, staging_dir
     from adaptive_ftc.scenarios.loader import load_scenario
+    from adaptive_ftc.sim.budget import check_run_size
     from adaptive_ftc.sim.engine import simulate
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
-    from adaptive_ftc import plots
-
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)
     if args.dt:
         solver = replace(solver, dt=args.dt)
-    out = Path(args.out)
-    (out / "data").mkdir(parents=True, exist_ok=True)
-    (out / "figures").mkdir(parents=True, exist_ok=True)
+    check_run_size(sc.loop, solver)
+    out = check_output_dir(args.out)
+    from adaptive_ftc import plots
+
     variants = {"adaptive": sc.loop}
     if not args.no_baselines:
         variants["frozen"] = sc.loop.frozen()
         variants["failure_free"] = sc.loop.without_failures()
-    results = {}
-    with warnings.catch_warnings():
-        # divergence is reported below from each result's status (a frozen baseline is
-        # expected to diverge under some failures)
-        warnings.simplefilter("ignore", DivergenceWarning)
-        for key, loop in tqdm(
-            variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
-        ):
-            results[key] = simulate(loop, solver)
-    if results["adaptive"].message:
-        print(f"warning: {results['adaptive'].message}", file=sys.stderr)
-    summary = {}
-    for key, res in results.items():
-        stem = sc.name if key == "adaptive" else f"{sc.name}_{key}"
-        res.meta["scenario"] = sc.name
-        res.to_netcdf(out / "data" / f"{stem}.nc")
-        if args.csv:
-            res.to_csv(out / "data" / f"{stem}.csv")
-        summary[key] = res.metrics()
-    main = results["adaptive"]
-    baselines = {k.replace("_", " "): v for k, v in results.items() if k != "adaptive"}
-    specs = list(sc.figure_specs) or plots.default_figure_specs(main)
-    figures = []
-    for i, spec in enumerate(specs):
-        path = out / "figures" / f"fig_{spec.get('number', i + 1)}.png"
-        figures.append(str(plots.save_figure(main, spec, path, baselines=baselines or None)))
-    (out / "metrics.json").write_text(
-        json.dumps(
-            {"scenario": sc.name, "runs": summary, "recovery": main.recovery(), "figures": figures},
-            indent=2,
-            default=float,
+    stage = staging_dir(out)
+    try:
+        results = {}
+        with warnings.catch_warnings():
+            # divergence is reported below from each result's status (a frozen baseline is
+            # expected to diverge under some failures)
+            warnings.simplefilter("ignore", DivergenceWarning)
+            for key, loop in tqdm(
+                variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
+            ):
+                results[key] = sc.stamp(simulate(loop, solver))
+        if results["adaptive"].message:
+            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        summary = {}
+        for key, res in results.items():
+            stem = sc.name if key == "adaptive" else f"{sc.name}_{key}"
+            res.meta["variant"] = key
+            res.to_netcdf(
+                stage / "data" / f"{stem}.nc", float32=args.float32, decimate=args.decimate
+            )
+            if args.csv:
+                res.to_csv(stage / "data" / f"{stem}.csv")
+            summary[key] = res.metrics()
+        main = results["adaptive"]
+        baselines = {k.replace("_", " "): v for k, v in results.items() if k != "adaptive"}
+        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
+        figures = []
+        for i, spec in enumerate(specs):
+            name = f"fig_{spec.get('number', i + 1)}.png"
+            plots.save_figure(main, spec, stage / "figures" / name, baselines=baselines or None)
+            figures.append(str(out / "figures" / name))
+        (stage / "metrics.json").write_text(
+            json.dumps(
+                {
+                    "scenario": sc.name,
+                    "runs": summary,
+                    "recovery": main.recovery(),
+                    "figures": figures,
+                },
+                indent=2,
+                default=float,
+            ),
+            encoding="utf-8",
         )
-    )
+    except BaseException:
+        discard_staged(stage)
+        print(
+            f"aftc run: nothing written; the earlier results in {out} (if any) are untouched.",
+            file=sys.stderr,
+        )
+        raise
+    commit_staged(stage, out)
     m = summary["adaptive"]
     print(
         f"{sc.name}: {main.status}; RMS error {m['rms_error']:.3g}, last "
@@ -166,24 +307,68 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 )
             )
     print(f"wrote {len(figures)} figure(s) and {len(results)} dataset(s) to {out}")
-    return 0 if main.status == "completed" else 3
+    return EXIT_OK if main.status == "completed" else EXIT_DIVERGED
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
+    check_output_dir(args.out)
     summary = run_reproduction(args.out, quick=args.quick, jobs=args.jobs, progress=not args.quiet)
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
         f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS; report: "
         f"{summary['report']}"
     )
-    return 0
+    n_fail = int(summary.get("n_fail", 0))
+    n_errors = int(summary.get("n_errors", 0))
+    if n_fail or n_errors:
+        print(
+            f"aftc reproduce: {n_fail} claim(s) failed, {n_errors} run(s) raised errors "
+            "(see the report).",
+            file=sys.stderr,
+        )
+        return EXIT_CLAIMS_FAILED
+    return EXIT_OK
+
+
+def _cmd_schema(args: argparse.Namespace) -> int:
+    from adaptive_ftc._atomic import atomic_write_text
+    from adaptive_ftc.scenarios.loader import scenario_schema
+
+    text = json.dumps(scenario_schema(), indent=2, ensure_ascii=False) + "\n"
+    if args.out:
+        target = Path(args.out)
+        if target.is_dir():
+            raise ConfigurationError(f"--out '{target}' is a folder; give a file name.")
+        try:
+            atomic_write_text(target, text)
+        except OSError as exc:
+            raise ConfigurationError(
+                f"--out '{target}': cannot write there ({exc.strerror or exc})."
+            ) from None
+        print(f"wrote {target}")
+    else:
+        sys.stdout.write(text)
+    return EXIT_OK
+
+
+def _sigterm(signum, frame):  # pragma: no cover - exercised through a subprocess test
+    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``aftc``; returns the exit status."""
-    args = _parser().parse_args(argv)
+    """Entry point of ``aftc``; returns the exit status (see the module docstring)."""
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exc:  # argparse: --help/--version (0) or a bad argument (2)
+        return int(exc.code) if isinstance(exc.code, int) else EXIT_INVALID
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _sigterm)
+    except ValueError:  # not the main thread
+        previous = None
     try:
         if args.command == "list":
             return _cmd_list()
@@ -191,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_validate(args.scenario)
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "schema":
+            return _cmd_schema(args)
         if args.command == "campaign":
             from adaptive_ftc.campaigns import cli as campaign_cli
 
@@ -198,10 +385,26 @@ def main(argv: list[str] | None = None) -> int:
         return _cmd_reproduce(args)
     except (ScenarioError, ConfigurationError, ExpressionError) as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:  # pragma: no cover
-        print("interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INVALID
+    except KeyboardInterrupt:
+        print("interrupted; earlier complete results are kept.", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # pragma: no cover - e.g. `aftc schema | head`
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, not a traceback
+        print(
+            f"internal error: {type(exc).__name__}: {exc}. This is a bug in adaptive-ftc; "
+            "please report it with the command line (set AFTC_DEBUG=1 for the traceback).",
+            file=sys.stderr,
+        )
+        import os
+
+        if os.environ.get("AFTC_DEBUG"):
+            raise
+        return EXIT_INTERNAL
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover
