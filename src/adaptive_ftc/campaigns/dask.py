@@ -17,6 +17,9 @@ from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
 
 __all__ = ["run_chunks_dask"]
 
+#: How long to wait for the scheduler before giving up with a clear error.
+CONNECT_TIMEOUT = "20s"
+
 
 def _chunk_task(spec: CampaignSpec, chunk: int) -> tuple[int, list[dict[str, Any]]]:
     from adaptive_ftc.campaigns.runner import run_chunk
@@ -42,7 +45,7 @@ def _client(scheduler: Any):
     if hasattr(scheduler, "scheduler_address"):  # a LocalCluster or another cluster object
         return Client(scheduler), True
     try:
-        return Client(str(scheduler), timeout="20s"), True
+        return Client(str(scheduler), timeout=CONNECT_TIMEOUT), True
     except (OSError, TimeoutError) as exc:
         raise CampaignError(
             f"Cannot reach the Dask scheduler at '{scheduler}': {exc}. Start one with "
