@@ -318,3 +318,137 @@ def test_evaluate_claims_keeps_order_and_names_the_position_of_a_bad_claim():
     assert [c.text for c in out] == ["a", "b"] and all(isinstance(c, ClaimResult) for c in out)
     with pytest.raises(ClaimError, match=r"#2: .*missing the key 'window'"):
         evaluate_claims([claims[0], {"kind": "sign", "text": "b"}], make_result())
+
+
+# ---------------------------------------------------------------------------- issue 15 kinds
+def with_signals(r: SimResult, **changes) -> SimResult:
+    return dataclasses.replace(r, **changes)
+
+
+def test_rate_tracking_judges_the_rate_error_not_the_position_error():
+    r = make_result()
+    edot = np.zeros((TIME.size, 2))
+    edot[:, 1] = 0.003 * np.sin(7 * TIME)  # RMS 0.003/sqrt(2) = 2.12e-3
+    r = with_signals(r, edot=edot, meta={**r.meta, "plant": "hypersonic"})
+    c = {"kind": "rate_tracking", "text": "rate", "threshold": 3e-3}
+    res = evaluate_claim(c, r)
+    assert res.verdict == "PASS" and res.unit == "rad/s"
+    assert_close(res.measured, 0.003 / math.sqrt(2), atol=2e-5)
+    assert "y2 0.002128 rad/s" in res.detail
+    assert evaluate_claim({**c, "threshold": 2e-3}, r).verdict == "FAIL"
+
+
+def test_parameter_bounded_measures_the_largest_adaptive_state_and_catches_a_blow_up():
+    r = make_result()
+    theta = np.column_stack([0.5 * np.sin(TIME), 2.0 * np.tanh(TIME)])
+    r = with_signals(r, adaptive=theta, adaptive_names=("theta_1", "tau"))
+    c = {"kind": "parameter_bounded", "text": "Theorem 2.1", "bound": 3.0}
+    res = evaluate_claim(c, r)
+    assert res.verdict == "PASS" and "(tau)" in res.detail
+    assert_close(res.measured, 2.0, atol=1e-6)
+    only_theta = evaluate_claim({**c, "parameters": ["theta"]}, r)
+    assert_close(only_theta.measured, 0.5, atol=1e-3)
+    blown = theta.copy()
+    blown[-1, 0] = np.inf
+    assert evaluate_claim(c, with_signals(r, adaptive=blown)).verdict == "FAIL"
+    with pytest.raises(ClaimError, match="selects no adaptive state"):
+        evaluate_claim({**c, "parameters": ["kappa"]}, r)
+
+
+def test_limit_cycle_measures_amplitude_and_period_of_a_known_oscillation():
+    r = make_result()
+    eta = np.column_stack([0.6 * np.sin(2 * np.pi * TIME / 0.5), np.zeros(TIME.size)])
+    r = with_signals(r, states=np.column_stack([r.y, eta]))
+    c = {
+        "kind": "limit_cycle",
+        "text": "Fig. 2.5",
+        "state": "eta1",
+        "window": 10.0,
+        "amplitude": 0.6,
+        "period": 0.5,
+    }
+    res = evaluate_claim(c, r)
+    assert res.verdict == "PASS"
+    assert_close(res.measured, 0.6, atol=2e-3)
+    assert "period 0.5 s" in res.detail
+    assert evaluate_claim({**c, "period": 0.6}, r).verdict == "FAIL"  # 20 % off
+    assert evaluate_claim({**c, "amplitude": 0.7}, r).verdict == "FAIL"
+
+
+def test_transient_measures_how_long_the_direction_estimate_takes_to_settle():
+    gain = np.where(TIME < 0.3, -1.0, 1.0)  # wrong sign for the first 0.3 s
+    r = make_result(gain=gain)
+    c = {"kind": "transient", "text": "short transient", "measure": "sign", "max_duration": 1.0}
+    res = evaluate_claim(c, r)
+    assert res.verdict == "PASS" and res.unit == "s"
+    assert_close(res.measured, 0.3, atol=0.011)
+    assert evaluate_claim({**c, "max_duration": 0.2}, r).verdict == "FAIL"
+    never = evaluate_claim(c, make_result(gain=-np.ones(TIME.size)))
+    assert never.verdict == "FAIL" and math.isinf(never.measured)
+
+
+def test_transient_of_the_tracking_error_after_a_failure():
+    e = np.zeros((TIME.size, 2))
+    e[:, 0] = np.where(TIME >= 40.0, 0.1 * np.exp(-(TIME - 40.0)), 0.0)  # < 1e-3 after 44.6 s
+    r = make_result(e=e)
+    c = {
+        "kind": "transient",
+        "text": "re-established after a transient",
+        "measure": "error",
+        "threshold": 1e-3,
+        "after": 40.0,
+        "until": 70.0,
+        "max_duration": 5.0,
+    }
+    res = evaluate_claim(c, r)
+    assert res.verdict == "PASS"
+    assert_close(res.measured, math.log(100.0), atol=0.011)
+    with pytest.raises(ClaimError, match="needs the key 'threshold'"):
+        evaluate_claim({k: v for k, v in c.items() if k != "threshold"}, r)
+
+
+def test_not_reproduced_claim_reports_the_measured_number_and_reason_apart_from_fail():
+    r = make_result(gain=np.full(TIME.size, 0.54))  # constant: the estimate does not move
+    c = {
+        "kind": "estimate_change",
+        "text": "N(tau) depends on the failure pattern",
+        "start": 35.0,
+        "end": 100.0,
+        "min_change": 0.1,
+        "not_reproduced": "tau freezes with raw firing strengths",
+    }
+    res = evaluate_claim(c, r)
+    assert res.verdict == "NOT REPRODUCED" and not res.passed
+    assert res.measured == 0.0 and "tau freezes" in res.detail
+    moving = make_result(gain=np.where(TIME < 40, 0.5, 1.0))
+    ok = evaluate_claim(c, moving)
+    assert ok.verdict == "PASS" and "stale note" in ok.detail
+    plain = evaluate_claim({k: v for k, v in c.items() if k != "not_reproduced"}, r)
+    assert plain.verdict == "FAIL"
+    with pytest.raises(ClaimError, match="'not_reproduced'"):
+        evaluate_claim({**c, "not_reproduced": ""}, r)
+
+
+def test_a_shortened_run_gives_not_evaluated_instead_of_fail_and_windows_are_never_negative():
+    e = np.full((TIME.size, 2), 1e-4)
+    short = truncated(make_result(e=e), 52.0)
+    short = with_signals(short, status="completed", message="", meta={"t_final": 52.0})
+    c = {"kind": "tracking", "text": "tracking", "window": 20.0, "threshold": 1e-3}
+    res = evaluate_claim(c, short, duration=T_FINAL)
+    assert res.verdict == "NOT EVALUATED" and not res.evaluated and math.isnan(res.measured)
+    assert "ends at t = 52 s" in res.detail
+    # an event-referenced claim inside the shortened run is still judged
+    used = {"kind": "recovered_used", "text": "u", "actuator": 1, "time": 40.0, "window": 5.0}
+    assert evaluate_claim({**used, "min_level": 0.5}, short, duration=T_FINAL).verdict == "PASS"
+    # a window longer than the run starts at the run's start
+    long = evaluate_claim({**c, "window": 80.0}, short)
+    assert long.verdict == "PASS" and "[0, 52] s" in long.detail
+    # a diverged run still FAILs
+    diverged = truncated(make_result(e=e), 52.0)
+    assert evaluate_claim(c, diverged, duration=T_FINAL).verdict == "FAIL"
+
+
+def test_claim_result_status_must_agree_with_passed():
+    with pytest.raises(ClaimError, match="contradicts"):
+        ClaimResult("tracking", "t", True, 1.0, 2.0, "d", status="FAIL")
+    assert ClaimResult("tracking", "t", False, 1.0, 2.0, "d").verdict == "FAIL"

@@ -10,7 +10,15 @@ import pytest
 from matplotlib.figure import Figure
 
 from adaptive_ftc import load_scenario
-from adaptive_ftc.plots import KINDS, default_figure_specs, plot, save_figure
+from adaptive_ftc.plots import (
+    DPI,
+    KINDS,
+    FigurePlot,
+    check_formats,
+    default_figure_specs,
+    plot,
+    save_figure,
+)
 from adaptive_ftc.sim.result import SimResult
 
 
@@ -93,7 +101,7 @@ def test_every_kind_renders_a_real_run_with_failure_lines_at_the_failure_time(
     direct, kind, tmp_path
 ):
     fig = plot(direct, kind, title=f"Fig. test: {kind}")
-    assert isinstance(fig, Figure)
+    assert isinstance(fig, FigurePlot) and isinstance(fig.figure, Figure)
     visible = [ax for ax in fig.axes if ax.get_visible()]
     assert visible
     for xs, ax in zip(_event_lines(fig), fig.axes, strict=True):
@@ -211,4 +219,90 @@ def test_default_figure_specs_follow_the_design_and_states(direct, nussbaum):
     assert [s["kind"] for s in default_figure_specs(nussbaum)][-1] == "direction"
     assert "modal" in [s["kind"] for s in default_figure_specs(_modal_result())]
     for spec in default_figure_specs(nussbaum):
-        assert isinstance(plot(nussbaum, spec["kind"]), Figure)
+        assert isinstance(plot(nussbaum, spec["kind"]).figure, Figure)
+
+
+# ---------------------------------------------------------------------------- issue 15
+@pytest.mark.parametrize("kind", ["tracking", "control", "parameters", "control_parameters"])
+def test_every_axis_carries_a_unit_and_legends_sit_outside_the_data(direct, kind):
+    fp = plot(direct, kind)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fp.figure).get_renderer()
+    fp.figure.draw(renderer)
+    for ax in fp.axes:
+        assert ax.get_ylabel().endswith(")"), f"{kind}: no unit on '{ax.get_ylabel()}'"
+        legend = ax.get_legend()
+        if legend is not None:  # right of the panel, so it never covers a line
+            assert legend.get_window_extent(renderer).x0 >= ax.get_window_extent(renderer).x1
+            assert legend.get_texts()[0].get_fontsize() >= 8
+    assert fp.axes[-1].get_xlabel() == "time (s)"
+
+
+def test_wingrock_aileron_and_modal_axes_have_si_units():
+    r = _modal_result()
+    fp = plot(dataclasses.replace(r, meta={**r.meta, "plant": "spacecraft"}), "modal")
+    assert [ax.get_ylabel() for ax in fp.axes] == [
+        "modal displacement (√kg·m)",
+        "modal rate (√kg·m/s)",
+    ]
+    wing = dataclasses.replace(r, meta={**r.meta, "plant": "wingrock"})
+    labels = [ax.get_ylabel() for ax in plot(wing, "control").axes]
+    assert labels[0] == "$u_{1}$ (rad)" and labels[-1] == "design signal (rad)"
+
+
+def test_figure_plot_holds_axes_and_lines_and_saves_like_a_figure(direct, tmp_path):
+    fp = plot(direct, "tracking")
+    assert len(fp.axes) == len(fp.lines) == 2
+    labels = [ln.get_label() for ln in fp.lines[0]]
+    assert labels == ["reference", r"$\alpha$"]  # data lines only, no failure markers
+    fp.savefig(tmp_path / "a.png")  # delegates to the figure, at DPI
+    assert (tmp_path / "a.png").stat().st_size > 10_000
+    assert fp.get_figwidth() == fp.figure.get_figwidth()  # other attributes: the figure's
+    assert "panels=2" in repr(fp)
+    assert direct.plot("tracking").kind == "tracking"  # SimResult.plot delegates
+
+
+def test_direction_figure_zooms_on_a_sign_switch_shorter_than_one_percent():
+    r = _short_run("hypersonic-sign-s1-rho0neg", 30.0)  # rho(0) = -1 flips within 0.02 s
+    fp = plot(r, "direction")
+    assert len(fp.axes) == 4
+    zoom = fp.axes[3]
+    assert zoom.get_gid() == "zoom"
+    lo, hi = zoom.get_xlim()
+    assert lo == 0.0 and hi < 0.3  # < 1 % of the 30 s axis
+    lines = {ln.get_label(): ln for ln in zoom.get_lines()}
+    est = lines[r"$\rho$"]
+    assert est.get_ydata()[0] == pytest.approx(-1.0)  # the estimate starts at rho(0) = -1
+    assert est.get_ydata()[-1] > 0  # and has switched inside the zoom window
+    assert len(est.get_xdata()) > 10  # at full resolution
+    # a run whose estimate never has the wrong sign gets no zoom panel
+    assert len(plot(_short_run("hypersonic-sign-s1-rho0pos", 30.0), "direction").axes) == 3
+    with pytest.raises(ValueError, match="`zoom` must be"):
+        plot(r, "direction", zoom=[1.0, 0.5])
+
+
+def test_save_figure_writes_vector_formats_beside_png_at_the_chosen_dpi(direct, tmp_path):
+    spec = {"number": "2.1", "kind": "tracking", "caption": "Angle of attack"}
+    path = save_figure(
+        direct, spec, tmp_path / "fig_2.1.png", formats=("png", "pdf", "svg"), dpi=80
+    )
+    assert path == tmp_path / "fig_2.1.png"
+    assert (tmp_path / "fig_2.1.pdf").read_bytes()[:5] == b"%PDF-"
+    assert b"<svg" in (tmp_path / "fig_2.1.svg").read_bytes()[:2000]
+    import matplotlib.image as mpimg
+
+    width_px = mpimg.imread(path).shape[1]
+    assert width_px == pytest.approx(plot(direct, "tracking").get_figwidth() * 80, abs=2)
+    assert DPI >= 150
+    with pytest.raises(ValueError, match="Unknown figure format 'jpeg'"):
+        check_formats(["png", "jpeg"])
+
+
+def test_figures_of_a_user_scenario_are_titled_by_the_scenario_not_fig_1(direct, tmp_path):
+    specs = default_figure_specs(direct, title="My hypersonic test")
+    assert all("number" not in s for s in specs)
+    assert specs[0]["caption"] == "My hypersonic test: outputs and references"
+    save_figure(direct, specs[0], tmp_path / "t.png")
+    fp = plot(direct, "tracking", title=specs[0]["caption"])
+    assert fp.figure._suptitle.get_text() == "My hypersonic test: outputs and references"

@@ -1,4 +1,4 @@
-"""One-command reproduction: files, metrics rows, claims verdicts and a self-contained report."""
+"""One-command reproduction: files, metrics rows, claims verdicts and the HTML report."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 import xarray as xr
 
 from adaptive_ftc import load_scenario
-from adaptive_ftc.claims import ClaimResult
+from adaptive_ftc.claims import VERDICTS, ClaimResult
 from adaptive_ftc.report import FigureEntry, ScenarioEntry, render_report
 from adaptive_ftc.reproduce import quick_duration, run_reproduction
 
@@ -33,14 +33,22 @@ def test_quick_mode_keeps_the_first_failure_inside_the_run():
 def test_reproduction_writes_figures_data_tables_and_report(reproduction):
     out, summary = reproduction
     assert summary["n_scenarios"] == 2 and summary["n_runs"] == 6
-    assert summary["n_claims"] == summary["n_pass"] + summary["n_fail"] > 0
+    assert (
+        summary["n_claims"]
+        == summary["n_pass"]
+        + summary["n_fail"]
+        + summary["n_not_evaluated"]
+        + summary["n_not_reproduced"]
+        > 0
+    )
     assert summary["report"] == out / "report.html"
     for number in ("2.1", "2.2", "2.3", "2.4"):  # the thesis figure numbers of both scenarios
         png = out / "figures" / f"fig_{number}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert (out / "figures" / f"fig_{number}.pdf").read_bytes()[:5] == b"%PDF-"
     for name in NAMES:
         for suffix in ("", "_frozen", "_failure_free"):
-            ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="scipy")
+            ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="h5netcdf")
             assert ds.sizes["time"] > 100
             ds.close()
 
@@ -74,25 +82,76 @@ def test_claims_csv_matches_the_scenario_claims(reproduction):
         rows = list(csv.DictReader(fh))
     expected = [(n, c["kind"]) for n in NAMES for c in load_scenario(n).claims]
     assert [(r["scenario"], r["kind"]) for r in rows] == expected
-    assert {r["verdict"] for r in rows} <= {"PASS", "FAIL"}
+    assert {r["verdict"] for r in rows} <= set(VERDICTS)
     assert sum(r["verdict"] == "PASS" for r in rows) == summary["n_pass"]
+    # quick mode: what the shortened runs cannot show is "not evaluated", never a red FAIL
+    assert summary["n_fail"] == 0 and summary["n_not_evaluated"] > 0
+    assert {r["unit"] for r in rows if r["kind"] == "tracking"} == {"rad"}
+    assert not any("[-" in r["detail"] for r in rows)  # windows never start before t = 0
 
 
-def test_report_is_self_contained_with_embedded_figures_and_verdicts(reproduction):
+def test_report_links_full_size_figures_is_small_and_counts_every_verdict(reproduction):
     out, summary = reproduction
-    page = (out / "report.html").read_text(encoding="utf-8")
-    images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
-    assert len(images) == 4
-    assert base64.b64decode(images[0])[:8] == b"\x89PNG\r\n\x1a\n"
+    report = out / "report.html"
+    page = report.read_text(encoding="utf-8")
+    assert report.stat().st_size < 3_000_000
+    assert '<meta name="viewport" content="width=device-width, initial-scale=1">' in page
+    images = re.findall(r'<a href="figures/([^"]+\.png)"[^>]*><img [^>]*src="figures/\1"', page)
+    assert len(images) == 4 and all((out / "figures" / f).is_file() for f in images)
+    assert 'href="figures/fig_2.1.pdf">PDF<' in page
     # nothing is fetched from elsewhere
     assert not re.search(r'(src|href)="(https?:|//|file:)', page)
     assert "<script" not in page and "<link" not in page
-    assert "PASS" in page
     assert page.count('class="badge pass">PASS<') == summary["n_pass"]
     assert page.count('class="badge fail">FAIL<') == summary["n_fail"]
+    assert page.count('class="badge noteval">NOT EVALUATED<') == summary["n_not_evaluated"]
     assert "Quick mode" in page
+    assert " rad</b>" in page  # measured values carry their unit
     for name in NAMES:
         assert f'id="sc-{name}"' in page
+
+
+def test_report_can_embed_the_figures_for_a_single_file(reproduction):
+    out, _ = reproduction
+    png = out / "figures" / "fig_2.1.png"
+    entry = ScenarioEntry(
+        name="demo", title="Demo", figures=[FigureEntry("2.1", "c", "tracking", png)]
+    )
+    page = render_report([entry], embed=True)
+    (data,) = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+    assert base64.b64decode(data) == png.read_bytes()
+
+
+def test_report_shows_not_reproduced_and_not_evaluated_apart_from_fail():
+    claims = [
+        ClaimResult(
+            "estimate_change",
+            "N depends on the pattern",
+            False,
+            1.6e-5,
+            0.1,
+            "relative change 1.6e-05 [not reproduced: tau freezes]",
+            status="NOT REPRODUCED",
+        ),
+        ClaimResult(
+            "tracking",
+            "t",
+            False,
+            math.nan,
+            8.7e-4,
+            "the run ends at t = 52 s",
+            status="NOT EVALUATED",
+            unit="rad",
+        ),
+        ClaimResult("rate_tracking", "r", True, 2.7e-6, 1.7e-4, "ok", unit="rad/s"),
+    ]
+    page = render_report([ScenarioEntry(name="d", title="D", claims=claims)])
+    assert 'class="badge notrepro">NOT REPRODUCED<' in page and "tau freezes" in page
+    assert 'class="badge noteval">NOT EVALUATED<' in page
+    assert 'badge fail">FAIL<' not in page
+    assert "measured <b>2.7e-06 rad/s</b> vs threshold <b>0.00017 rad/s</b>" in page
+    assert "measured <b>not measured</b> vs threshold <b>0.00087 rad</b>" in page
+    assert 'class="badge pass">1/1<' in page  # passed / judged in the summary table
 
 
 def test_report_shows_a_failed_claim_with_its_number(tmp_path):

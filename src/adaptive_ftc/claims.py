@@ -1,14 +1,28 @@
 """Evaluate the thesis's claims (the ``[[claims]]`` tables of a scenario) on recorded runs.
 
 The claim kinds and their keys are specified in ``docs/claims.md``. Every claim yields a
-:class:`ClaimResult` with a PASS/FAIL verdict, the measured number and the threshold it was held
-to, so that a report can show a failure honestly with its number.
+:class:`ClaimResult` with a verdict, the measured number with its unit and the threshold it was
+held to, so that a report can show a failure honestly with its number.
+
+Verdicts
+--------
+``PASS`` / ``FAIL``
+    The recorded data support / contradict the claim.
+``NOT EVALUATED``
+    The judged window lies beyond the end of a run that completed but was shortened (quick
+    mode): nothing was measured there, which is not a failure.
+``NOT REPRODUCED``
+    The claim carries ``not_reproduced = "<reason>"`` (the catalogue knows that our runs do not
+    show it) and the data indeed contradict it: reported with the measured number and the
+    reason, counted apart from FAIL. If such a claim passes, the verdict is PASS and the detail
+    says that the note is stale.
 
 Conventions
 -----------
-- "The last ``window`` seconds" ends at the scenario's duration ``result.meta["t_final"]`` (or the
-  last sample when the duration is not recorded), so a run that diverged early has no samples
-  there and FAILs.
+- "The last ``window`` seconds" ends at the scenario's duration (``duration=`` of
+  :func:`evaluate_claims`, else ``result.meta["t_final"]``) and starts no earlier than the run's
+  start (windows are never negative).
+- A run that diverged before the end of a judged window FAILs.
 - Tracking errors are judged per output; the measured number is the worst output.
 - A window ``[a, b)`` "before ``time``" excludes ``time`` itself (the recorded sample at a
   failure time already shows the failed actuator).
@@ -19,7 +33,7 @@ Examples
 >>> sc = load_scenario("hypersonic-direct-s1")                             # doctest: +SKIP
 >>> r, frozen = sc.run(), sc.run(adapt=False)                              # doctest: +SKIP
 >>> for c in evaluate_claims(sc.claims, r, frozen=frozen):                 # doctest: +SKIP
-...     print(c.verdict, c.kind, c.measured, c.threshold)
+...     print(c.verdict, c.kind, c.measured, c.unit, c.threshold)
 """
 
 from __future__ import annotations
@@ -31,12 +45,31 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adaptive_ftc._units import actuator_unit, output_unit, rate_unit, state_unit
 from adaptive_ftc.errors import did_you_mean
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ftc.sim.result import SimResult
 
-__all__ = ["CLAIM_KINDS", "ClaimError", "ClaimResult", "evaluate_claim", "evaluate_claims"]
+__all__ = [
+    "CLAIM_KINDS",
+    "FAIL",
+    "NOT_EVALUATED",
+    "NOT_REPRODUCED",
+    "PASS",
+    "VERDICTS",
+    "ClaimError",
+    "ClaimResult",
+    "evaluate_claim",
+    "evaluate_claims",
+]
+
+PASS = "PASS"
+FAIL = "FAIL"
+NOT_EVALUATED = "NOT EVALUATED"
+NOT_REPRODUCED = "NOT REPRODUCED"
+#: Every verdict a :class:`ClaimResult` can carry.
+VERDICTS: tuple[str, ...] = (PASS, FAIL, NOT_EVALUATED, NOT_REPRODUCED)
 
 
 class ClaimError(ValueError):
@@ -58,6 +91,10 @@ class ClaimResult:
         ``docs/claims.md`` for the direction of the comparison of each kind).
     detail
         One line saying what was measured and why the verdict.
+    status
+        One of :data:`VERDICTS`; derived from ``passed`` when left empty.
+    unit
+        SI unit of ``measured`` and ``threshold`` (``""`` for ratios and fractions).
     """
 
     kind: str
@@ -66,24 +103,67 @@ class ClaimResult:
     measured: float
     threshold: float
     detail: str
+    status: str = ""
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        status = self.status or (PASS if self.passed else FAIL)
+        if status not in VERDICTS:
+            raise ClaimError(
+                f"`status` of ClaimResult must be one of {', '.join(VERDICTS)}; got {status!r}."
+            )
+        if (status == PASS) != bool(self.passed):
+            raise ClaimError(
+                f"`status` {status!r} of ClaimResult contradicts passed={self.passed!r}."
+            )
+        object.__setattr__(self, "status", status)
 
     @property
     def verdict(self) -> str:
-        """``"PASS"`` or ``"FAIL"``."""
-        return "PASS" if self.passed else "FAIL"
+        """``"PASS"``, ``"FAIL"``, ``"NOT EVALUATED"`` or ``"NOT REPRODUCED"``."""
+        return self.status
+
+    @property
+    def evaluated(self) -> bool:
+        """Whether the claim was measured (every verdict but ``NOT EVALUATED``)."""
+        return self.status != NOT_EVALUATED
 
 
 # ---------------------------------------------------------------------------- key handling
+_NONE = None
 #: kind -> (required keys, optional keys with defaults)
 _KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
-    "tracking": (("threshold",), {"window": 20.0, "baseline_ratio": None}),
+    "tracking": (("threshold",), {"window": 20.0, "baseline_ratio": _NONE}),
+    "rate_tracking": (("threshold",), {"window": 20.0}),
     "recovery": (("window", "threshold"), {}),
     "bounded": (("bound",), {}),
+    "parameter_bounded": (("bound",), {"parameters": _NONE}),
     "redistribution": (("time", "healthy", "window"), {"settle": 0.0, "factor": 1.1}),
     "recovered_used": (("actuator", "time", "window", "min_level"), {}),
     "fault_indicator": (("time", "window", "threshold"), {}),
     "modal_decay": (("states", "window", "fraction"), {}),
     "sign": (("window",), {}),
+    "limit_cycle": (("state", "window", "amplitude", "period"), {"tolerance": 0.05}),
+    "transient": (
+        ("measure", "max_duration"),
+        {"after": _NONE, "until": _NONE, "threshold": _NONE},
+    ),
+    "estimate_change": (("start", "end", "min_change"), {}),
+}
+#: keys every kind accepts
+_COMMON = {"not_reproduced": _NONE}
+_NON_NUMERIC = {"kind", "text", "healthy", "states", "actuator", "state", "measure", "parameters"}
+_POSITIVE = {
+    "window",
+    "threshold",
+    "bound",
+    "min_level",
+    "fraction",
+    "amplitude",
+    "period",
+    "tolerance",
+    "max_duration",
+    "min_change",
 }
 
 #: The claim kinds of ``docs/claims.md``.
@@ -111,7 +191,7 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
             f" Valid kinds: {', '.join(CLAIM_KINDS)}."
         )
     required, optional = _KEYS[kind]
-    allowed = {"kind", "text", *required, *optional}
+    allowed = {"kind", "text", *required, *optional, *_COMMON}
     for key in claim:
         if key not in allowed:
             raise ClaimError(
@@ -121,9 +201,15 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
     for key in ("text", *required):
         if key not in claim:
             raise ClaimError(f"{_name(claim)} is missing the key '{key}'.")
-    out = {**optional, **dict(claim)}
+    out = {**_COMMON, **optional, **dict(claim)}
+    reason = out["not_reproduced"]
+    if reason is not None and (not isinstance(reason, str) or not reason.strip()):
+        raise ClaimError(
+            f"Key 'not_reproduced' of {_name(claim)} must be a non-empty text giving the reason; "
+            f"got {reason!r}."
+        )
     for key, value in out.items():
-        if key in ("kind", "text", "healthy", "states", "actuator") or value is None:
+        if key in _NON_NUMERIC or key == "not_reproduced" or value is None:
             continue
         if (
             isinstance(value, bool)
@@ -133,7 +219,7 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
             raise ClaimError(
                 f"Key '{key}' of {_name(claim)} must be a finite number; got {value!r}."
             )
-        if key in ("window", "threshold", "bound", "min_level", "fraction") and value <= 0:
+        if key in _POSITIVE and value <= 0:
             if not (key == "min_level" and value == 0):
                 raise ClaimError(f"Key '{key}' of {_name(claim)} must be positive; got {value!r}.")
     return out
@@ -148,8 +234,25 @@ def _actuator_index(claim: Mapping[str, Any], key: str, value: Any, m: int) -> i
     return int(value) - 1
 
 
+def _state_index(claim: Mapping[str, Any], key: str, name: Any, r: SimResult) -> int:
+    if name not in r.state_names:
+        raise ClaimError(
+            f"Key '{key}' of {_name(claim)} names '{name}', which is not a state of this run."
+            f"{did_you_mean(str(name), r.state_names)} States: {', '.join(r.state_names)}."
+        )
+    return r.state_names.index(name)
+
+
 # ---------------------------------------------------------------------------- helpers
-def _t_end(result: SimResult) -> float:
+def _t0(result: SimResult) -> float:
+    t0 = result.meta.get("t0")
+    if t0 is not None:
+        return float(t0)
+    return float(result.time[0]) if result.time.size else 0.0
+
+
+def _run_end(result: SimResult) -> float:
+    """Duration the run was asked for (``meta["t_final"]``), else its last sample."""
     t_final = result.meta.get("t_final")
     if t_final is not None:
         return float(t_final)
@@ -163,14 +266,6 @@ def _mask(result: SimResult, start: float, end: float, *, right_open: bool = Fal
     return lo & hi
 
 
-def _uncovered(result: SimResult) -> str:
-    """Why a window has no samples: the run diverged, or it ends before the window."""
-    if why := _diverged(result):
-        return why
-    end = f"{result.time[-1]:.4g} s" if result.time.size else "its start"
-    return f"the run ends at {end}"
-
-
 def _diverged(result: SimResult) -> str:
     if result.status == "completed":
         return ""
@@ -178,109 +273,213 @@ def _diverged(result: SimResult) -> str:
     return f"run {result.status} at t = {stop}" + (f" ({result.message})" if result.message else "")
 
 
-def _fail(claim: Mapping[str, Any], threshold: float, detail: str) -> ClaimResult:
-    return ClaimResult(
-        kind=str(claim["kind"]),
-        text=str(claim.get("text", "")),
-        passed=False,
-        measured=math.nan,
-        threshold=float(threshold),
-        detail=detail,
-    )
+def _last(result: SimResult) -> float:
+    return float(result.time[-1]) if result.time.size else -math.inf
 
 
-def _verdict(
-    claim: Mapping[str, Any], passed: bool, measured: float, threshold: float, detail: str
+def _uncovered(c: Mapping[str, Any], r: SimResult, end: float) -> str:
+    """Why ``[.., end]`` cannot be judged (``""`` if it can): a divergence FAILs (prefixed
+    ``"fail:"``), a completed run that stops before ``end`` is NOT EVALUATED."""
+    if why := _diverged(r):
+        return "fail:" + why
+    if _last(r) < end - 1e-6:
+        return (
+            f"the run ends at t = {_last(r):.4g} s, before the judged window ends at {end:.4g} s "
+            "(a shortened run, e.g. quick mode): not measured"
+        )
+    return ""
+
+
+def _result(
+    c: Mapping[str, Any],
+    passed: bool,
+    measured: float,
+    threshold: float,
+    detail: str,
+    unit: str = "",
 ) -> ClaimResult:
+    status = PASS if passed else FAIL
+    reason = c.get("not_reproduced")
+    if reason:
+        if passed:
+            detail += f" [the catalogue expected this not to reproduce ({reason}): stale note]"
+        elif math.isfinite(measured) or math.isinf(measured):
+            status = NOT_REPRODUCED
+            detail += f" [not reproduced: {reason}]"
     return ClaimResult(
-        kind=str(claim["kind"]),
-        text=str(claim.get("text", "")),
+        kind=str(c["kind"]),
+        text=str(c.get("text", "")),
         passed=bool(passed),
         measured=float(measured),
         threshold=float(threshold),
         detail=detail,
+        status=status,
+        unit=unit,
     )
 
 
-def _window_rms(result: SimResult, start: float, end: float) -> np.ndarray | None:
+def _skip(c: Mapping[str, Any], threshold: float, why: str, unit: str = "") -> ClaimResult:
+    """FAIL (``why`` starts with ``"fail:"``) or NOT EVALUATED, with nothing measured."""
+    failed = why.startswith("fail:")
+    return ClaimResult(
+        kind=str(c["kind"]),
+        text=str(c.get("text", "")),
+        passed=False,
+        measured=math.nan,
+        threshold=float(threshold),
+        detail=why.removeprefix("fail:"),
+        status=FAIL if failed else NOT_EVALUATED,
+        unit=unit,
+    )
+
+
+def _window_rms(signal: np.ndarray, result: SimResult, start: float, end: float):
     mask = _mask(result, start, end)
     if not mask.any():
         return None
-    return np.sqrt(np.mean(result.e[mask] ** 2, axis=0))
+    return np.sqrt(np.mean(signal[mask] ** 2, axis=0))
 
 
-def _fmt(x: float) -> str:
-    return f"{x:.4g}"
+def _fmt(x: float, unit: str = "") -> str:
+    return f"{x:.4g} {unit}" if unit else f"{x:.4g}"
+
+
+def _last_window(c: Mapping[str, Any], r: SimResult) -> tuple[float, float]:
+    end = float(c["_end"])
+    return max(_t0(r), end - float(c["window"])), end
 
 
 # ---------------------------------------------------------------------------- kinds
-def _tracking(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
-    window, thr, ratio_req = float(c["window"]), float(c["threshold"]), c["baseline_ratio"]
-    if ratio_req is not None and frozen is None:
-        raise ClaimError(
-            f"{_name(c)} has 'baseline_ratio' and needs the frozen-adaptation run: "
-            "pass frozen=scenario.run(adapt=False)."
-        )
-    end = _t_end(r)
-    start = end - window
-    if (why := _diverged(r)) or (rms := _window_rms(r, start, end)) is None:
-        return _fail(c, thr, why or f"no samples in the last {window:g} s")
+def _error_claim(c, r, frozen, signal: np.ndarray, what: str, unit: str) -> ClaimResult:
+    thr = float(c["threshold"])
+    start, end = _last_window(c, r)
+    if why := _uncovered(c, r, end):
+        return _skip(c, thr, why, unit)
+    rms = _window_rms(signal, r, start, end)
+    if rms is None:
+        return _skip(c, thr, f"fail:no samples in [{start:g}, {end:g}] s", unit)
     worst = float(np.max(rms))
     ok = bool(np.all(rms <= thr))
-    names = ", ".join(f"{n} {_fmt(v)}" for n, v in zip(r.output_names, rms, strict=True))
-    detail = f"RMS error over [{start:g}, {end:g}] s: {names} (<= {_fmt(thr)} required)"
+    names = ", ".join(f"{n} {_fmt(v, unit)}" for n, v in zip(r.output_names, rms, strict=True))
+    detail = f"RMS {what} over [{start:g}, {end:g}] s: {names} (<= {_fmt(thr, unit)} required)"
+    ratio_req = c.get("baseline_ratio")
     if ratio_req is not None:
-        if frozen is None or _diverged(frozen) or (frms := _window_rms(frozen, start, end)) is None:
+        if frozen is None or _diverged(frozen):
             ratio = math.inf
             detail += "; frozen-adaptation baseline diverged (infinitely worse)"
+        elif (frms := _window_rms(frozen.e, frozen, start, end)) is None:
+            ratio = math.inf
+            detail += "; frozen-adaptation baseline has no samples there"
         else:
             f_worst = float(np.max(frms))
             ratio = f_worst / worst if worst > 0 else math.inf
             detail += (
-                f"; frozen-adaptation RMS {_fmt(f_worst)} = {_fmt(ratio)} x adaptive "
+                f"; frozen-adaptation RMS {_fmt(f_worst, unit)} = {_fmt(ratio)} x adaptive "
                 f"(>= {_fmt(float(ratio_req))} x required)"
             )
         ok = ok and ratio >= float(ratio_req)
-    return _verdict(c, ok, worst, thr, detail)
+    return _result(c, ok, worst, thr, detail, unit)
 
 
-def _recovery(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
-    window, thr = float(c["window"]), float(c["threshold"])
+def _tracking(c, r, frozen):
+    if c["baseline_ratio"] is not None and frozen is None:
+        raise ClaimError(
+            f"{_name(c)} has 'baseline_ratio' and needs the frozen-adaptation run: "
+            "pass frozen=scenario.run(adapt=False)."
+        )
+    return _error_claim(c, r, frozen, r.e, "tracking error", output_unit(r.meta))
+
+
+def _rate_tracking(c, r, frozen):
+    return _error_claim(c, r, frozen, r.edot, "rate error e'", rate_unit(r.meta))
+
+
+def _recovery(c, r, frozen):
+    window, thr, unit = float(c["window"]), float(c["threshold"]), output_unit(r.meta)
+    end = float(c["_end"])
     if why := _diverged(r):
-        return _fail(c, thr, why)
-    events = list(r.failure_times)
+        return _skip(c, thr, "fail:" + why, unit)
+    events = [t for t in r.failure_times if t < end]
     if not events:
-        return _fail(c, thr, "the run has no failure/recovery events to recover from")
-    ends = events[1:] + [_t_end(r)]
-    worst, parts, ok = 0.0, [], True
+        return _skip(c, thr, "fail:the run has no failure/recovery events to recover from", unit)
+    ends = events[1:] + [end]
+    worst, parts, ok, missing = 0.0, [], True, []
     for t, nxt in zip(events, ends, strict=True):
-        rms = _window_rms(r, max(t, nxt - window), nxt)
+        if _last(r) < nxt - 1e-6:
+            missing.append(f"t={t:g}")
+            continue
+        rms = _window_rms(r.e, r, max(t, nxt - window), nxt)
         if rms is None:
-            return _fail(c, thr, f"no samples before the event after t = {t:g} s")
+            return _skip(c, thr, f"fail:no samples before the event after t = {t:g} s", unit)
         value = float(np.max(rms))
         worst = max(worst, value)
         ok = ok and bool(np.all(rms <= thr))
-        parts.append(f"t={t:g}: {_fmt(value)}")
+        parts.append(f"t={t:g}: {_fmt(value, unit)}")
     detail = (
         f"RMS error over the last {window:g} s before the next event, per event: "
-        f"{'; '.join(parts)} (<= {_fmt(thr)} required)"
+        f"{'; '.join(parts) or 'none measured'} (<= {_fmt(thr, unit)} required)"
     )
-    return _verdict(c, ok, worst, thr, detail)
+    if missing:
+        return _skip(
+            c,
+            thr,
+            f"{detail}; events {', '.join(missing)} not reached: the run ends at "
+            f"t = {_last(r):.4g} s (a shortened run): not measured",
+            unit,
+        )
+    return _result(c, ok, worst, thr, detail, unit)
 
 
-def _bounded(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
+def _bounded(c, r, frozen):
     bound = float(c["bound"])
-    if why := _diverged(r):
-        return _fail(c, bound, why)
+    if why := _uncovered(c, r, float(c["_end"])):
+        return _skip(c, bound, why)
     signals = {"plant state": r.states, "commanded": r.u_cmd, "applied": r.u_applied}
     peaks = {k: float(np.max(np.abs(v))) if v.size else 0.0 for k, v in signals.items()}
     finite = all(np.all(np.isfinite(v)) for v in signals.values())
     worst = max(peaks.values()) if finite else math.inf
-    detail = "largest |.|: " + ", ".join(f"{k} {_fmt(v)}" for k, v in peaks.items())
-    return _verdict(c, finite and worst <= bound, worst, bound, f"{detail} (<= {_fmt(bound)})")
+    detail = "largest |.| (SI units of each signal): " + ", ".join(
+        f"{k} {_fmt(v)}" for k, v in peaks.items()
+    )
+    return _result(c, finite and worst <= bound, worst, bound, f"{detail} (<= {_fmt(bound)})")
 
 
-def _redistribution(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
+def _parameter_bounded(c, r, frozen):
+    bound = float(c["bound"])
+    prefixes = c["parameters"]
+    if isinstance(prefixes, str):
+        prefixes = [prefixes]
+    if prefixes is not None and (not isinstance(prefixes, Sequence) or not prefixes):
+        raise ClaimError(
+            f"Key 'parameters' of {_name(c)} must be a list of adaptive-state name prefixes "
+            f"such as ['theta', 'kappa']; got {prefixes!r}."
+        )
+    idx = [
+        i
+        for i, n in enumerate(r.adaptive_names)
+        if prefixes is None or any(n.startswith(str(p)) for p in prefixes)
+    ]
+    if not idx:
+        raise ClaimError(
+            f"Key 'parameters' of {_name(c)} selects no adaptive state of this run; its "
+            f"adaptive states are {', '.join(r.adaptive_names) or 'none'}."
+        )
+    if why := _uncovered(c, r, float(c["_end"])):
+        return _skip(c, bound, why)
+    values = r.adaptive[:, idx]
+    finite = bool(np.all(np.isfinite(values)))
+    peak = float(np.max(np.abs(values))) if finite else math.inf
+    j = int(np.argmax(np.max(np.abs(values), axis=0))) if finite else 0
+    half = _mask(r, _t0(r) + 0.5 * (float(c["_end"]) - _t0(r)), float(c["_end"]))
+    late = float(np.max(np.abs(values[half]))) if finite and half.any() else math.nan
+    detail = (
+        f"largest |parameter| over the run: {_fmt(peak)} ({r.adaptive_names[idx[j]]}); over the "
+        f"second half: {_fmt(late)}; {len(idx)} adaptive states checked (<= {_fmt(bound)})"
+    )
+    return _result(c, finite and peak <= bound, peak, bound, detail)
+
+
+def _redistribution(c, r, frozen):
     m = len(r.actuator_names)
     healthy = c["healthy"]
     if isinstance(healthy, (int, np.integer)) and not isinstance(healthy, bool):
@@ -289,116 +488,218 @@ def _redistribution(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -
         raise ClaimError(f"Key 'healthy' of {_name(c)} must be a list of actuator numbers.")
     idx = [_actuator_index(c, "healthy", j, m) for j in healthy]
     t, window, settle, factor = (float(c[k]) for k in ("time", "window", "settle", "factor"))
-    before = _mask(r, t - window, t, right_open=True)
-    after = _mask(r, t + settle, t + settle + window)
+    a0, b1 = max(_t0(r), t - window), t + settle + window
+    if why := _uncovered(c, r, b1):
+        return _skip(c, factor, why)
+    before = _mask(r, a0, t, right_open=True)
+    after = _mask(r, t + settle, b1)
     if not before.any() or not after.any():
-        return _fail(c, factor, f"no samples around t = {t:g} s: {_uncovered(r)}")
+        return _skip(c, factor, f"fail:no samples around t = {t:g} s")
     lvl_before = float(np.mean(np.abs(r.u_applied[np.ix_(before, idx)])))
     lvl_after = float(np.mean(np.abs(r.u_applied[np.ix_(after, idx)])))
     ratio = lvl_after / lvl_before if lvl_before > 0 else (math.inf if lvl_after > 0 else 0.0)
     names = ", ".join(r.actuator_names[j] for j in idx)
+    unit = actuator_unit(r.meta)
     detail = (
-        f"mean |applied| of {names}: {_fmt(lvl_before)} over [{t - window:g}, {t:g}) s, "
-        f"{_fmt(lvl_after)} over [{t + settle:g}, {t + settle + window:g}] s: "
+        f"mean |applied| of {names}: {_fmt(lvl_before, unit)} over [{a0:g}, {t:g}) s, "
+        f"{_fmt(lvl_after, unit)} over [{t + settle:g}, {b1:g}] s: "
         f"ratio {_fmt(ratio)} (> {_fmt(factor)} required)"
     )
-    return _verdict(c, ratio > factor, ratio, factor, detail)
+    return _result(c, ratio > factor, ratio, factor, detail)
 
 
-def _recovered_used(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
+def _recovered_used(c, r, frozen):
     j = _actuator_index(c, "actuator", c["actuator"], len(r.actuator_names))
     t, window, level = float(c["time"]), float(c["window"]), float(c["min_level"])
+    unit = actuator_unit(r.meta)
+    if why := _uncovered(c, r, t + window):
+        return _skip(c, level, why, unit)
     mask = _mask(r, t, t + window)
     if not mask.any():
-        return _fail(c, level, f"no samples in [{t:g}, {t + window:g}] s: {_uncovered(r)}")
+        return _skip(c, level, f"fail:no samples in [{t:g}, {t + window:g}] s", unit)
     used = float(np.mean(np.abs(r.u_applied[mask, j])))
     detail = (
         f"mean |applied| of {r.actuator_names[j]} over [{t:g}, {t + window:g}] s: "
-        f"{_fmt(used)} (>= {_fmt(level)} required)"
+        f"{_fmt(used, unit)} (>= {_fmt(level, unit)} required)"
     )
-    return _verdict(c, used >= level, used, level, detail)
+    return _result(c, used >= level, used, level, detail, unit)
 
 
-def _fault_indicator(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
+def _fault_indicator(c, r, frozen):
     t, window, thr = float(c["time"]), float(c["window"]), float(c["threshold"])
+    unit = actuator_unit(r.meta)
+    if why := _uncovered(c, r, t + window):
+        return _skip(c, thr, why, unit)
     before = np.flatnonzero(r.time < t - 1e-9)
     mask = _mask(r, t, t + window)
     if before.size == 0 or not mask.any():
-        return _fail(c, thr, f"no samples around t = {t:g} s: {_uncovered(r)}")
+        return _skip(c, thr, f"fail:no samples around t = {t:g} s", unit)
     ref = float(r.u_f[before[-1]])
     move = float(np.max(np.abs(r.u_f[mask] - ref)))
     detail = (
-        f"compensator u_f moves by {_fmt(move)} within [{t:g}, {t + window:g}] s from "
-        f"{_fmt(ref)} just before (>= {_fmt(thr)} required)"
+        f"compensator u_f moves by {_fmt(move, unit)} within [{t:g}, {t + window:g}] s from "
+        f"{_fmt(ref, unit)} just before (>= {_fmt(thr, unit)} required)"
     )
-    return _verdict(c, move >= thr, move, thr, detail)
+    return _result(c, move >= thr, move, thr, detail, unit)
 
 
-def _modal_decay(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
+def _modal_decay(c, r, frozen):
     states = c["states"]
     if isinstance(states, str):
         states = [states]
     if not isinstance(states, Sequence) or not states:
         raise ClaimError(f"Key 'states' of {_name(c)} must be a list of state names.")
-    idx = []
-    for name in states:
-        if name not in r.state_names:
-            raise ClaimError(
-                f"Key 'states' of {_name(c)} names '{name}', which is not a state of this run."
-                f"{did_you_mean(str(name), r.state_names)} States: {', '.join(r.state_names)}."
-            )
-        idx.append(r.state_names.index(name))
-    window, fraction = float(c["window"]), float(c["fraction"])
-    end = _t_end(r)
-    mask = _mask(r, end - window, end)
-    if (why := _diverged(r)) or not mask.any():
-        return _fail(c, fraction, why or f"no samples in the last {window:g} s")
+    idx = [_state_index(c, "states", name, r) for name in states]
+    fraction = float(c["fraction"])
+    start, end = _last_window(c, r)
+    if why := _uncovered(c, r, end):
+        return _skip(c, fraction, why)
+    mask = _mask(r, start, end)
     disp = np.abs(r.states[:, idx])
     peak = float(np.max(disp))
     last = float(np.max(disp[mask]))
     ratio = last / peak if peak > 0 else 0.0
+    unit = state_unit(r.meta, states[0])
     detail = (
-        f"largest |{', '.join(states)}| over the last {window:g} s: {_fmt(last)}, over the run: "
-        f"{_fmt(peak)}: ratio {_fmt(ratio)} (<= {_fmt(fraction)} required)"
+        f"largest |{', '.join(states)}| over [{start:g}, {end:g}] s: {_fmt(last, unit)}, over "
+        f"the run: {_fmt(peak, unit)}: ratio {_fmt(ratio)} (<= {_fmt(fraction)} required)"
     )
-    return _verdict(c, ratio <= fraction, ratio, fraction, detail)
+    return _result(c, ratio <= fraction, ratio, fraction, detail)
 
 
-def _sign(c: dict[str, Any], r: SimResult, frozen: SimResult | None) -> ClaimResult:
-    window = float(c["window"])
-    end = _t_end(r)
-    mask = _mask(r, end - window, end)
-    if (why := _diverged(r)) or not mask.any():
-        return _fail(c, 1.0, why or f"no samples in the last {window:g} s")
+def _sign(c, r, frozen):
+    start, end = _last_window(c, r)
+    if why := _uncovered(c, r, end):
+        return _skip(c, 1.0, why)
+    mask = _mask(r, start, end)
     est, true = np.sign(r.gain[mask]), np.sign(r.control_gain[mask])
     agree = float(np.mean((est == true) & (true != 0)))
     wrong = np.flatnonzero(est != true)
     detail = (
         f"sign of the direction estimate equals the true control direction at "
-        f"{agree:.2%} of the samples in [{end - window:g}, {end:g}] s (100% required)"
+        f"{agree:.2%} of the samples in [{start:g}, {end:g}] s (100% required)"
     )
     if wrong.size:
         detail += f"; first mismatch at t = {r.time[mask][wrong[0]]:.4g} s"
     else:
         detail += f"; true direction {int(true[-1]):+d}"
-    return _verdict(c, agree == 1.0, agree, 1.0, detail)
+    return _result(c, agree == 1.0, agree, 1.0, detail)
+
+
+def _limit_cycle(c, r, frozen):
+    i = _state_index(c, "state", c["state"], r)
+    amp_req, per_req, tol = float(c["amplitude"]), float(c["period"]), float(c["tolerance"])
+    unit = state_unit(r.meta, str(c["state"]))
+    start, end = _last_window(c, r)
+    if why := _uncovered(c, r, end):
+        return _skip(c, amp_req, why, unit)
+    mask = _mask(r, start, end)
+    x, t = r.states[mask, i], r.time[mask]
+    amp = 0.5 * float(np.max(x) - np.min(x))
+    z = x - 0.5 * (np.max(x) + np.min(x))
+    up = np.flatnonzero((z[:-1] < 0) & (z[1:] >= 0))
+    if up.size >= 2:  # linear interpolation of the upward crossings
+        tc = t[up] - z[up] * (t[up + 1] - t[up]) / (z[up + 1] - z[up])
+        period = float(np.mean(np.diff(tc)))
+    else:
+        period = math.nan
+    amp_ok = abs(amp - amp_req) <= tol * amp_req
+    per_ok = math.isfinite(period) and abs(period - per_req) <= tol * per_req
+    deg = f" ({math.degrees(amp):.4g} deg)" if unit == "rad" else ""
+    detail = (
+        f"over [{start:g}, {end:g}] s: amplitude of {c['state']} {_fmt(amp, unit)}{deg} "
+        f"(expected {_fmt(amp_req, unit)} ± {tol:.0%}), period {_fmt(period, 's')} over "
+        f"{max(up.size - 1, 0)} cycles (expected {_fmt(per_req, 's')} ± {tol:.0%})"
+    )
+    return _result(c, amp_ok and per_ok, amp, amp_req, detail, unit)
+
+
+def _transient(c, r, frozen):
+    measure = c["measure"]
+    if measure not in ("sign", "error"):
+        raise ClaimError(
+            f"Key 'measure' of {_name(c)} must be 'sign' (direction estimate) or 'error' "
+            f"(tracking error below 'threshold'); got {measure!r}."
+        )
+    if measure == "error" and c["threshold"] is None:
+        raise ClaimError(f"{_name(c)} measures 'error' and needs the key 'threshold'.")
+    max_d = float(c["max_duration"])
+    after = _t0(r) if c["after"] is None else float(c["after"])
+    until = float(c["_end"]) if c["until"] is None else float(c["until"])
+    if why := _uncovered(c, r, until):
+        return _skip(c, max_d, why, "s")
+    mask = _mask(r, after, until)
+    if not mask.any():
+        return _skip(c, max_d, f"fail:no samples in [{after:g}, {until:g}] s", "s")
+    t = r.time[mask]
+    if measure == "sign":
+        true = np.sign(r.control_gain[mask])
+        good = (np.sign(r.gain[mask]) == true) & (true != 0)
+        what = "the sign of the direction estimate equals the true control direction"
+    else:
+        thr = float(c["threshold"])
+        good = np.max(np.abs(r.e[mask]), axis=1) <= thr
+        what = f"|e| <= {_fmt(thr, output_unit(r.meta))}"
+    bad = np.flatnonzero(~good)
+    if bad.size == 0:
+        settle = after
+    elif bad[-1] == good.size - 1:
+        detail = f"{what} does not hold at the end of [{after:g}, {until:g}] s"
+        return _result(c, False, math.inf, max_d, detail, "s")
+    else:
+        settle = float(t[bad[-1] + 1])
+    duration = settle - after
+    n_switch = int(np.count_nonzero(np.diff(good.astype(np.int8)) != 0))
+    detail = (
+        f"{what} from t = {settle:.4g} s on, i.e. {_fmt(duration, 's')} after t = {after:g} s "
+        f"({n_switch} changes before settling; <= {_fmt(max_d, 's')} required)"
+    )
+    return _result(c, duration <= max_d, duration, max_d, detail, "s")
+
+
+def _estimate_change(c, r, frozen):
+    start, end, need = float(c["start"]), float(c["end"]), float(c["min_change"])
+    if end <= start:
+        raise ClaimError(f"Key 'end' of {_name(c)} must exceed 'start'; got {start:g}, {end:g}.")
+    if why := _uncovered(c, r, end):
+        return _skip(c, need, why)
+    mask = _mask(r, start, end)
+    g = r.gain[mask]
+    scale = float(np.max(np.abs(g))) if g.size else 0.0
+    change = float(np.max(g) - np.min(g)) / scale if scale > 0 else 0.0
+    events = [f"{t:g}" for t in r.failure_times if start <= t <= end]
+    detail = (
+        f"direction estimate over [{start:g}, {end:g}] s (failure events at "
+        f"{', '.join(events) or 'none'} s): from {_fmt(float(np.min(g)))} to "
+        f"{_fmt(float(np.max(g)))}, relative change {_fmt(change)} (>= {_fmt(need)} required)"
+    )
+    return _result(c, change >= need, change, need, detail)
 
 
 _EVALUATORS: dict[str, Callable[[dict[str, Any], SimResult, SimResult | None], ClaimResult]] = {
     "tracking": _tracking,
+    "rate_tracking": _rate_tracking,
     "recovery": _recovery,
     "bounded": _bounded,
+    "parameter_bounded": _parameter_bounded,
     "redistribution": _redistribution,
     "recovered_used": _recovered_used,
     "fault_indicator": _fault_indicator,
     "modal_decay": _modal_decay,
     "sign": _sign,
+    "limit_cycle": _limit_cycle,
+    "transient": _transient,
+    "estimate_change": _estimate_change,
 }
 
 
 # ---------------------------------------------------------------------------- public API
 def evaluate_claim(
-    claim: Mapping[str, Any], result: SimResult, *, frozen: SimResult | None = None
+    claim: Mapping[str, Any],
+    result: SimResult,
+    *,
+    frozen: SimResult | None = None,
+    duration: float | None = None,
 ) -> ClaimResult:
     """Evaluate one ``[[claims]]`` table on a recorded run.
 
@@ -411,12 +712,16 @@ def evaluate_claim(
     frozen
         The same scenario with adaptation frozen; needed by ``tracking`` claims with
         ``baseline_ratio``.
+    duration
+        End time of the scenario as the thesis ran it (s). Windows "at the end" end there; a
+        completed run that was shortened below it (quick mode) gives ``NOT EVALUATED`` for every
+        window it does not reach. Default: the run's own duration.
 
     Returns
     -------
     ClaimResult
-        Verdict, measured number, threshold and a one-line explanation. A run that diverged
-        before the judged window FAILs (with ``measured = nan`` when nothing could be measured).
+        Verdict, measured number with its unit, threshold and a one-line explanation. A run that
+        diverged before the end of the judged window FAILs with ``measured = nan``.
 
     Raises
     ------
@@ -425,11 +730,16 @@ def evaluate_claim(
         a ``baseline_ratio`` claim evaluated without ``frozen``.
     """
     params = _params(claim)
+    params["_end"] = _run_end(result) if duration is None else float(duration)
     return _EVALUATORS[params["kind"]](params, result, frozen)
 
 
 def evaluate_claims(
-    claims: Sequence[Mapping[str, Any]], result: SimResult, *, frozen: SimResult | None = None
+    claims: Sequence[Mapping[str, Any]],
+    result: SimResult,
+    *,
+    frozen: SimResult | None = None,
+    duration: float | None = None,
 ) -> list[ClaimResult]:
     """Evaluate every claim of a scenario (see :func:`evaluate_claim`); order is kept.
 
@@ -441,7 +751,7 @@ def evaluate_claims(
     out = []
     for i, claim in enumerate(claims):
         try:
-            out.append(evaluate_claim(claim, result, frozen=frozen))
+            out.append(evaluate_claim(claim, result, frozen=frozen, duration=duration))
         except ClaimError as exc:
             raise ClaimError(f"[[claims]] #{i + 1}: {exc}") from None
     return out

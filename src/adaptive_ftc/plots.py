@@ -1,9 +1,11 @@
 """Thesis-style figures of a :class:`~adaptive_ftc.sim.result.SimResult` (matplotlib, Agg).
 
 Every figure is built on a bare :class:`matplotlib.figure.Figure` (no ``pyplot``, no GUI, no
-global state), with labelled axes, a legend, a grid and every failure onset/recovery time marked
-as a dashed vertical line (``gid="failure-event"``). A diverged run is drawn up to where it
-stopped, with a red dotted line (``gid="divergence"``) at the last sample.
+global state), with axes labelled in SI units, a legend outside the data (right of each panel),
+a grid and every failure onset/recovery time marked as a dashed vertical line
+(``gid="failure-event"``). A diverged run is drawn up to where it stopped, with a red dotted line
+(``gid="divergence"``) at the last sample. :func:`plot` returns a :class:`FigurePlot` holding the
+figure, its axes and its lines (like python-control's ``ControlPlot``).
 
 Kinds
 -----
@@ -21,6 +23,9 @@ Kinds
 ``direction``
     Control signals; the sign of the direction estimate ``N(tau)`` or ``rho`` against the true
     control direction ``sign(control gain)``; the estimate itself (Figs 4.3-4.4, 4.11-4.12).
+    When the estimate's sign settles within 1 % of the time axis (Fig. 4.12: 0.02 s of 120 s)
+    or the figure table gives ``zoom = [start, end]``, a fourth panel zooms on it at full
+    resolution (``gid="zoom"``).
 """
 
 from __future__ import annotations
@@ -35,12 +40,24 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from adaptive_ftc._units import actuator_unit, output_unit, rate_unit, state_unit
+
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
+    from matplotlib.lines import Line2D
 
     from adaptive_ftc.sim.result import SimResult
 
-__all__ = ["KINDS", "default_figure_specs", "plot", "save_figure"]
+__all__ = [
+    "DPI",
+    "FORMATS",
+    "KINDS",
+    "FigurePlot",
+    "check_formats",
+    "default_figure_specs",
+    "plot",
+    "save_figure",
+]
 
 #: Figure kinds understood by :func:`plot`.
 KINDS: tuple[str, ...] = (
@@ -52,13 +69,8 @@ KINDS: tuple[str, ...] = (
     "direction",
 )
 
-#: Units per plant: (output position, output velocity, actuator signal).
-_UNITS: dict[str, tuple[str, str, str]] = {
-    "hypersonic": ("rad", "rad/s", "rad"),
-    "wingrock": ("rad", "rad/s", ""),
-    "manipulator": ("rad", "rad/s", "N·m"),
-    "spacecraft": ("rad", "rad/s", "N·m"),
-}
+#: File formats :func:`save_figure` writes.
+FORMATS: tuple[str, ...] = ("png", "pdf", "svg")
 
 _GREEK = {
     "alpha",
@@ -77,10 +89,13 @@ _GREEK = {
     "omega",
 }
 
-_WIDTH = 8.0
+_WIDTH = 10.0
+_LEGEND_W = 2.4  # inches right of the panels for the legends
 _MAX_POINTS = 4000  # samples per line after thinning (rendering cost grows with points)
 _ROW_HEIGHT = 2.3
-_DPI = 120
+#: Default resolution of PNG files (dots per inch).
+DPI = 150
+_ZOOM_FRACTION = 0.01  # events shorter than this fraction of the time axis get a zoom panel
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -103,8 +118,7 @@ def _tex(name: str) -> str:
 
 
 def _unit(result: SimResult, which: int) -> str:
-    units = _UNITS.get(str(result.meta.get("plant", "")), ("", "", ""))
-    return units[which]
+    return (output_unit, rate_unit, actuator_unit)[which](result.meta)
 
 
 def _with_unit(label: str, unit: str) -> str:
@@ -119,7 +133,8 @@ def _t_end(result: SimResult) -> float:
 
 
 def _new_figure(n_rows: int, n_cols: int = 1, *, sharex: bool = True) -> tuple[Figure, list[Axes]]:
-    fig = Figure(figsize=(_WIDTH if n_cols == 1 else 11.0, 1.2 + _ROW_HEIGHT * n_rows), dpi=_DPI)
+    width = _WIDTH if n_cols == 1 else 6.0 * n_cols + _LEGEND_W
+    fig = Figure(figsize=(width, 1.2 + _ROW_HEIGHT * n_rows), dpi=DPI)
     axes = fig.subplots(n_rows, n_cols, sharex=sharex, squeeze=False)
     return fig, list(axes.ravel())
 
@@ -152,9 +167,24 @@ def _decorate(ax: Axes, result: SimResult, *, legend: bool = True, loc: str = "b
     if t1 > t0:
         ax.set_xlim(t0, t1)
     if legend:
-        handles, labels = ax.get_legend_handles_labels()
-        if handles:
-            ax.legend(loc=loc, fontsize=7, ncol=min(len(handles), 4), framealpha=0.8)
+        _legend(ax)
+
+
+def _legend(ax: Axes) -> None:
+    """Legend outside the data, right of the panel, at a readable size."""
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return
+    ncol = 1 if len(handles) <= 7 else 2
+    ax.legend(
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        borderaxespad=0.0,
+        fontsize=8.5,
+        ncol=ncol,
+        frameon=False,
+        handlelength=1.8,
+    )
 
 
 def _finish(fig: Figure, axes: Sequence[Axes], title: str | None) -> Figure:
@@ -168,11 +198,11 @@ def _finish(fig: Figure, axes: Sequence[Axes], title: str | None) -> Figure:
     n_cols = fig.axes[0].get_gridspec().ncols if fig.axes else 1
     fig.subplots_adjust(
         left=0.95 / w,
-        right=1.0 - 0.2 / w,
+        right=1.0 - _LEGEND_W / w,
         bottom=0.55 / h,
         top=1.0 - (0.5 if title else 0.2) / h,
         hspace=0.35 / _ROW_HEIGHT * 1.0,
-        wspace=0.28 if n_cols > 1 else 0.2,
+        wspace=_LEGEND_W / 6.0 + 0.15 if n_cols > 1 else 0.2,
     )
     return fig
 
@@ -341,7 +371,7 @@ def _u0_panel(ax: Axes, result: SimResult) -> None:
             linestyle="-.",
             label="$u_f$ (compensator)",
         )
-    ax.set_ylabel("design signal")
+    ax.set_ylabel(_with_unit("design signal", _unit(result, 2)))
     _decorate(ax, result)
 
 
@@ -375,8 +405,8 @@ def _theta_panel(ax: Axes, result: SimResult) -> None:
         )
     else:
         ax.text(0.5, 0.5, "no adaptive parameters", transform=ax.transAxes, ha="center")
-    ax.set_ylabel(r"$\theta$")
-    _decorate(ax, result, loc="upper left")
+    ax.set_ylabel(r"$\theta$ (mixed units)")
+    _decorate(ax, result)
 
 
 def _other_adaptive_panel(
@@ -384,21 +414,21 @@ def _other_adaptive_panel(
 ) -> None:
     for c, (name, values) in enumerate(series):
         ax.plot(result.time, values, color=f"C{c % 10}", linewidth=1.1, label=_tex(name))
-    ax.set_ylabel(
-        ", ".join(_tex(s) for s in sorted({re.sub(r"[\d_]+$", "", n) for n, _ in series}))
-    )
+    stems = sorted({re.sub(r"[\d_]+$", "", n) for n, _ in series})
+    unit = _unit(result, 2) if stems == ["kappa"] else ("–" if "kappa" not in stems else "mixed")
+    ax.set_ylabel(_with_unit(", ".join(_tex(s) for s in stems), unit))
     _decorate(ax, result)
 
 
 # ---------------------------------------------------------------------------- kinds
-def _plot_tracking(result, outputs, baselines):
+def _plot_tracking(result, outputs, baselines, **_):
     picked = _select_outputs(result, outputs)
     fig, axes = _new_figure(2 * len(picked))
     _tracking_panels(axes, result, picked, baselines)
     return fig, axes
 
 
-def _plot_control(result, outputs, baselines):
+def _plot_control(result, outputs, baselines, **_):
     m = len(result.actuator_names)
     n_cols = 1 if m <= 3 else 2
     n_rows = math.ceil((m + 1) / n_cols)
@@ -414,7 +444,7 @@ def _plot_control(result, outputs, baselines):
     return fig, axes[: m + 1]
 
 
-def _plot_parameters(result, outputs, baselines):
+def _plot_parameters(result, outputs, baselines, **_):
     others = _other_adaptive(result)
     fig, axes = _new_figure(1 + bool(others))
     _theta_panel(axes[0], result)
@@ -423,7 +453,7 @@ def _plot_parameters(result, outputs, baselines):
     return fig, axes
 
 
-def _plot_control_parameters(result, outputs, baselines):
+def _plot_control_parameters(result, outputs, baselines, **_):
     others = _other_adaptive(result)
     fig, axes = _new_figure(2 + bool(others))
     _all_actuators_panel(axes[0], result)
@@ -433,7 +463,7 @@ def _plot_control_parameters(result, outputs, baselines):
     return fig, axes
 
 
-def _plot_modal(result, outputs, baselines):
+def _plot_modal(result, outputs, baselines, **_):
     disp = [
         i
         for i, n in enumerate(result.state_names)
@@ -458,13 +488,79 @@ def _plot_modal(result, outputs, baselines):
                 linewidth=1.0,
                 label=_tex(name),
             )
-        ax.set_ylabel(ylabel)
+        unit = state_unit(result.meta, result.state_names[idx[0]]) if idx else ""
+        ax.set_ylabel(_with_unit(ylabel, unit))
         _decorate(ax, result)
     return fig, axes
 
 
-def _plot_direction(result, outputs, baselines):
-    fig, axes = _new_figure(3)
+def _auto_zoom(result: SimResult) -> tuple[float, float] | None:
+    """Window around the direction estimate's sign mismatches when they all end within
+    1 % of the time axis (too short to see at full scale), else ``None``."""
+    if result.time.size < 2:
+        return None
+    wrong = np.flatnonzero(np.sign(result.gain) != np.sign(result.control_gain))
+    if wrong.size == 0:
+        return None
+    t0, t1 = float(result.time[0]), _t_end(result)
+    a = float(result.time[wrong[0]])
+    b = float(result.time[min(wrong[-1] + 1, result.time.size - 1)])
+    if b - a > _ZOOM_FRACTION * (t1 - t0):
+        return None
+    dt = float(np.min(np.diff(result.time)))
+    pad = max(2.0 * (b - a), 10.0 * dt)
+    return max(t0, a - pad), min(t1, b + pad)
+
+
+def _zoom_panel(ax: Axes, full: SimResult, window: tuple[float, float], est: str) -> None:
+    a, b = window
+    m = (full.time >= a - 1e-12) & (full.time <= b + 1e-12)
+    t = full.time[m]
+    ax.step(
+        t,
+        np.sign(full.control_gain[m]),
+        where="post",
+        color="k",
+        linewidth=1.6,
+        label="true direction",
+    )
+    ax.step(
+        t,
+        np.sign(full.gain[m]),
+        where="post",
+        color="tab:orange",
+        linewidth=1.1,
+        linestyle="--",
+        label=f"sign(${est}$)",
+    )
+    ax.plot(
+        t,
+        full.gain[m],
+        color="tab:orange",
+        linewidth=0.9,
+        alpha=0.6,
+        marker=".",
+        markersize=2.5,
+        label=f"${est}$",
+    )
+    ax.axhline(0.0, color="0.5", linewidth=0.6)
+    ax.set_xlim(a, b)
+    ax.set_gid("zoom")
+    ax.set_ylabel("zoom (–)")
+    ax.set_title(f"zoom on t = {a:.3g} to {b:.3g} s (full resolution)", fontsize=9, loc="left")
+    ax.grid(True, linewidth=0.4, alpha=0.6)
+    ax.set_xlabel("time (s)")
+    _legend(ax)
+
+
+def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, **_):
+    full = result if full is None else full
+    window = tuple(float(v) for v in zoom) if zoom is not None else _auto_zoom(full)
+    fig, axes = _new_figure(3 + (window is not None), sharex=False)
+    for ax in axes[1:3]:
+        ax.sharex(axes[0])
+    for ax in axes[:2]:
+        ax.tick_params(labelbottom=False)
     _all_actuators_panel(axes[0], result)
     design = str(result.meta.get("design", ""))
     est = r"N(\tau)" if design == "nussbaum" else (r"\rho" if design == "sign" else "gain")
@@ -488,7 +584,7 @@ def _plot_direction(result, outputs, baselines):
     )
     ax.set_ylim(-1.4, 1.4)
     ax.set_yticks([-1, 0, 1])
-    ax.set_ylabel("control direction")
+    ax.set_ylabel("control direction (–)")
     _decorate(ax, result)
     ax = axes[2]
     ax.plot(result.time, result.gain, color="tab:orange", linewidth=1.1, label=f"${est}$")
@@ -496,8 +592,14 @@ def _plot_direction(result, outputs, baselines):
         if name == "tau":
             ax.plot(result.time, values, color="tab:green", linewidth=0.9, label=r"$\tau$")
     ax.axhline(0.0, color="0.5", linewidth=0.6)
-    ax.set_ylabel("direction estimate")
+    ax.set_ylabel("direction estimate (–)")
     _decorate(ax, result)
+    if window is not None:
+        for ax in axes[1:3]:
+            ax.axvspan(*window, color="tab:orange", alpha=0.25, gid="zoom-region")
+        axes[2].set_xlabel("time (s)")
+        axes[2].tick_params(labelbottom=True)
+        _zoom_panel(axes[3], full, window, est)
     return fig, axes
 
 
@@ -512,6 +614,86 @@ _BUILDERS = {
 
 
 # ---------------------------------------------------------------------------- public API
+@dataclasses.dataclass(frozen=True, eq=False)
+class FigurePlot:
+    """A drawn figure with its panels and lines (what :func:`plot` returns).
+
+    Attributes
+    ----------
+    figure
+        The :class:`matplotlib.figure.Figure` (Agg-renderable, no ``pyplot`` state).
+    axes
+        The data panels, top to bottom (then left to right).
+    lines
+        Per panel, the data lines drawn on it (failure markers excluded).
+    kind, title
+        The figure kind and title.
+
+    Any other attribute is the figure's (``fp.savefig(...)``, ``fp.suptitle``), so code that
+    used the bare ``Figure`` returned by earlier versions keeps working.
+    """
+
+    figure: Figure
+    axes: tuple[Axes, ...]
+    lines: tuple[tuple[Line2D, ...], ...]
+    kind: str
+    title: str | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.figure, name)
+
+    def savefig(self, fname: Any, **kwargs: Any) -> None:
+        """Save the figure (``Figure.savefig``; PNG at :data:`DPI` unless ``dpi`` is given)."""
+        kwargs.setdefault("dpi", DPI)
+        self.figure.savefig(fname, **kwargs)
+
+    def _repr_png_(self) -> bytes:  # Jupyter
+        import io
+
+        buf = io.BytesIO()
+        self.figure.savefig(buf, format="png", dpi=100)
+        return buf.getvalue()
+
+    def __repr__(self) -> str:
+        return (
+            f"FigurePlot(kind={self.kind!r}, title={self.title!r}, panels={len(self.axes)}, "
+            f"lines={sum(len(x) for x in self.lines)})"
+        )
+
+
+def _data_lines(ax: Axes) -> tuple[Line2D, ...]:
+    return tuple(ln for ln in ax.get_lines() if ln.get_gid() not in ("failure-event", "divergence"))
+
+
+def check_formats(formats: str | Sequence[str]) -> tuple[str, ...]:
+    """Validated figure formats (lower case, without dots), e.g. ``("png", "pdf")``.
+
+    Raises
+    ------
+    ValueError
+        For a format outside :data:`FORMATS`, naming it and the valid ones.
+    """
+    if isinstance(formats, str):
+        formats = [f for f in formats.replace(",", " ").split() if f]
+    out = []
+    for f in formats:
+        f = str(f).lower().lstrip(".")
+        if f not in FORMATS:
+            from adaptive_ftc.errors import did_you_mean
+
+            raise ValueError(
+                f"Unknown figure format '{f}'.{did_you_mean(f, FORMATS)} "
+                f"Valid formats: {', '.join(FORMATS)}."
+            )
+        if f not in out:
+            out.append(f)
+    if not out:
+        raise ValueError(f"Give at least one figure format ({', '.join(FORMATS)}); got none.")
+    return tuple(out)
+
+
 def plot(
     result: SimResult,
     kind: str = "tracking",
@@ -519,7 +701,8 @@ def plot(
     outputs: Sequence[int] | None = None,
     title: str | None = None,
     baselines: Mapping[str, SimResult] | None = None,
-) -> Figure:
+    zoom: Sequence[float] | None = None,
+) -> FigurePlot:
     """Draw a thesis-style figure of a recorded run.
 
     Parameters
@@ -535,24 +718,29 @@ def plot(
     baselines
         Label -> other run (e.g. ``{"frozen adaptation": r_frozen}``), drawn dashed on the
         tracking panels; a diverged baseline is drawn up to where it stopped.
+    zoom
+        ``(start, end)`` in s of the zoom panel of a ``direction`` figure (default: automatic
+        when the direction estimate settles within 1 % of the time axis).
 
     Returns
     -------
-    matplotlib.figure.Figure
-        An Agg-renderable figure (no ``pyplot`` state is touched).
+    FigurePlot
+        The figure, its panels and their lines; ``.savefig(path)`` writes it.
 
     Raises
     ------
     ValueError
         For an unknown ``kind`` (the message lists the valid kinds), an output number out of
-        range, or a ``modal`` figure of a run without ``eta`` states.
+        range, a malformed ``zoom`` or a ``modal`` figure of a run without ``eta`` states.
 
     Examples
     --------
     >>> from adaptive_ftc import load_scenario
     >>> r = load_scenario("hypersonic-direct-s1").run()          # doctest: +SKIP
-    >>> fig = plot(r, "tracking", title="Fig. 2.1")               # doctest: +SKIP
-    >>> fig.savefig("fig_2.1.png")                                # doctest: +SKIP
+    >>> fp = plot(r, "tracking", title="Fig. 2.1")                # doctest: +SKIP
+    >>> fp.axes[0].get_ylabel()                                   # doctest: +SKIP
+    '$\\alpha$ (rad)'
+    >>> fp.savefig("fig_2.1.pdf")                                 # doctest: +SKIP
     """
     if kind not in _BUILDERS:
         from adaptive_ftc.errors import did_you_mean
@@ -563,9 +751,25 @@ def plot(
         )
     if result.time.size == 0:
         raise ValueError("Cannot plot a run with no recorded samples.")
+    if zoom is not None:
+        ok = (
+            isinstance(zoom, Sequence)
+            and len(zoom) == 2
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in zoom)
+            and zoom[0] < zoom[1]
+        )
+        if not ok:
+            raise ValueError(f"`zoom` must be [start, end] in s with start < end; got {zoom!r}.")
     thin_baselines = {k: _thin(v) for k, v in (baselines or {}).items()}
-    fig, axes = _BUILDERS[kind](_thin(result), outputs, thin_baselines)
-    return _finish(fig, axes, title)
+    fig, axes = _BUILDERS[kind](_thin(result), outputs, thin_baselines, full=result, zoom=zoom)
+    _finish(fig, axes, title)
+    return FigurePlot(
+        figure=fig,
+        axes=tuple(axes),
+        lines=tuple(_data_lines(ax) for ax in axes),
+        kind=kind,
+        title=title,
+    )
 
 
 def save_figure(
@@ -574,47 +778,82 @@ def save_figure(
     path: str | Path,
     *,
     baselines: Mapping[str, SimResult] | None = None,
+    formats: str | Sequence[str] | None = None,
+    dpi: int | None = None,
 ) -> Path:
-    """Render one ``[[figure]]`` table of a scenario to a PNG file (dpi 120).
+    """Render one ``[[figure]]`` table of a scenario to image files.
 
     Parameters
     ----------
     result
         The run to draw.
     spec
-        A figure table: ``number``, ``kind``, ``caption`` and optionally ``outputs``
-        (1-based output numbers). The title reads ``"Fig. <number>: <caption>"``.
+        A figure table: ``kind``, ``caption`` and optionally ``number`` (the thesis figure
+        number), ``outputs`` (1-based output numbers) and ``zoom`` (``[start, end]`` s). The
+        title reads ``"Fig. <number>: <caption>"``, or the caption alone without a number.
     path
-        Destination file (parent folders are created).
+        Destination file; its suffix is the first format unless ``formats`` is given (parent
+        folders are created).
     baselines
         See :func:`plot`; only tracking panels draw them.
+    formats
+        Formats to write beside each other with the same stem (e.g. ``("png", "pdf")``); one of
+        :data:`FORMATS` each. Default: the suffix of ``path``.
+    dpi
+        Resolution of raster files (default :data:`DPI`).
 
     Returns
     -------
     pathlib.Path
-        The written file.
+        The file written for the first format.
     """
-    for key in ("kind",):
-        if key not in spec:
-            raise ValueError(f"Figure table {dict(spec)!r} is missing the key '{key}'.")
+    if "kind" not in spec:
+        raise ValueError(
+            f"Figure table {dict(spec)!r} is missing the key 'kind' (one of {', '.join(KINDS)})."
+        )
+    path = Path(path)
+    fmts = check_formats(formats if formats is not None else (path.suffix or ".png"))
+    if dpi is not None and (isinstance(dpi, bool) or not isinstance(dpi, int) or dpi < 10):
+        raise ValueError(f"`dpi` must be an integer >= 10; got {dpi!r}.")
     number = spec.get("number")
     caption = str(spec.get("caption", "")).strip()
-    title = f"Fig. {number}: {caption}" if number is not None else caption or None
-    outputs = spec.get("outputs")
-    fig = plot(result, str(spec["kind"]), outputs=outputs, title=title, baselines=baselines)
-    path = Path(path)
+    title = f"Fig. {number}: {caption}" if number not in (None, "") else caption or None
+    fp = plot(
+        result,
+        str(spec["kind"]),
+        outputs=spec.get("outputs"),
+        title=title,
+        baselines=baselines,
+        zoom=spec.get("zoom"),
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=_DPI, format="png")
-    return path
+    first = None
+    for fmt in fmts:
+        target = path.with_suffix(f".{fmt}")
+        fp.figure.savefig(target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title))
+        first = first or target
+    return first
 
 
-def default_figure_specs(result: SimResult) -> list[dict[str, Any]]:
+def _metadata(fmt: str, title: str | None) -> dict[str, Any]:
+    from adaptive_ftc._version import __version__
+
+    creator = f"adaptive-ftc {__version__}"
+    if fmt == "png":
+        return {"Title": title or "", "Software": creator}
+    if fmt == "pdf":
+        return {"Title": title or "", "Creator": creator, "CreationDate": None}
+    return {"Title": title or "", "Creator": creator, "Date": None}
+
+
+def default_figure_specs(result: SimResult, title: str | None = None) -> list[dict[str, Any]]:
     """Figure tables for a run without its own: tracking, control, parameters (+ modal, direction).
 
     ``modal`` is added when the run has ``eta`` states, ``direction`` for the ``nussbaum`` and
-    ``sign`` designs. Numbers are ``"1"``, ``"2"``, ... and captions name the run.
+    ``sign`` designs. The tables carry no thesis ``number``: the figure title is the caption,
+    which starts with ``title`` (default: the scenario's name from ``result.meta``).
     """
-    name = str(result.meta.get("scenario", result.meta.get("name", "run")))
+    name = title or str(result.meta.get("scenario", result.meta.get("name", "run")))
     kinds = ["tracking", "control", "parameters"]
     if any(n.startswith("eta") for n in result.state_names):
         kinds.append("modal")
@@ -627,7 +866,4 @@ def default_figure_specs(result: SimResult) -> list[dict[str, Any]]:
         "modal": "modal displacements and rates",
         "direction": "control direction estimate",
     }
-    return [
-        {"number": str(i + 1), "kind": k, "caption": f"{name}: {captions[k]}"}
-        for i, k in enumerate(kinds)
-    ]
+    return [{"kind": k, "caption": f"{name}: {captions[k]}"} for k in kinds]

@@ -1,11 +1,16 @@
-"""Self-contained HTML report of a reproduction (figures embedded as base64 PNG, inline CSS).
+"""HTML report of a reproduction (inline CSS, no script; figures linked or embedded).
 
-The page has no external resource (no script, font, stylesheet or image link), so it can be
-mailed or archived and viewed offline. It opens with a summary table (scenario, thesis section,
-figures, claims passed, frozen/adaptive error ratio), then one section per scenario: its
-description, failure list and run status, and its figures beside the thesis's claims with the
-PASS/FAIL verdict and the measured number against the threshold. A FAIL is shown as such, with
-its number.
+The page loads nothing from the network (no script, font or stylesheet). By default it links the
+figure files in ``figures/`` beside it (each image opens at full size, with links to its PDF/SVG
+versions), which keeps the page small (well under 3 MB); ``embed=True`` embeds the PNG files as
+base64 instead, for a single file that can be mailed. It is readable from phone to desktop
+(viewport tag; cards stack and the summary table scrolls on narrow screens).
+
+It opens with the verdict totals and a summary table (scenario, thesis section, figures, claims
+passed, frozen/adaptive error ratio), then one section per scenario: its description, failure
+list and run status, and its figures beside the thesis's claims with the verdict (PASS, FAIL,
+NOT EVALUATED, NOT REPRODUCED) and the measured number with its unit against the threshold. A
+FAIL is shown as such, with its number.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from adaptive_ftc._version import __version__
+from adaptive_ftc.claims import FAIL, NOT_EVALUATED, NOT_REPRODUCED, PASS
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ftc.claims import ClaimResult
@@ -30,13 +36,15 @@ __all__ = ["FigureEntry", "ScenarioEntry", "render_report", "write_report"]
 
 @dataclass
 class FigureEntry:
-    """One rendered figure: thesis number, caption, kind, PNG path, and an error if it failed."""
+    """One rendered figure: thesis number, caption, kind, PNG path, the same figure in other
+    formats (``extra``, e.g. its PDF), and an error if it failed."""
 
     number: str
     caption: str
     kind: str
     path: Path
     error: str = ""
+    extra: tuple[Path, ...] = ()
 
 
 @dataclass
@@ -60,21 +68,27 @@ class ScenarioEntry:
     @property
     def n_pass(self) -> int:
         """Number of claims that passed."""
-        return sum(c.passed for c in self.claims)
+        return sum(c.status == PASS for c in self.claims)
+
+    def count(self, verdict: str) -> int:
+        """Number of claims with this verdict."""
+        return sum(c.status == verdict for c in self.claims)
 
 
 _CSS = """
+*{box-sizing:border-box}
 body{font-family:-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:0;color:#1d2329;
-background:#f4f6f8;line-height:1.45}
+background:#f4f6f8;line-height:1.45;overflow-wrap:anywhere}
 header{background:#1f3a5f;color:#fff;padding:18px 32px}
 header h1{margin:0 0 4px 0;font-size:24px}
 header p{margin:2px 0;opacity:.9;font-size:14px}
 main{padding:16px 32px 48px 32px;max-width:1500px}
 .banner{background:#fff3cd;border:1px solid #e0c36a;padding:8px 12px;border-radius:6px;
 margin:12px 0}
-.totals{display:flex;gap:14px;margin:14px 0}
+.totals{display:flex;gap:14px;margin:14px 0;flex-wrap:wrap}
 .tot{background:#fff;border-radius:8px;padding:10px 18px;box-shadow:0 1px 2px rgba(0,0,0,.12)}
 .tot b{font-size:22px;display:block}
+.scroll{overflow-x:auto;max-width:100%}
 table{border-collapse:collapse;background:#fff;font-size:14px}
 th,td{border:1px solid #d5dbe1;padding:5px 9px;text-align:left;vertical-align:top}
 th{background:#e8edf2}
@@ -86,25 +100,32 @@ section.sc h2{margin:4px 0 6px 0;font-size:20px}
 .desc{margin:6px 0;max-width:1100px}
 .notes{color:#52606d;font-size:13px;max-width:1100px}
 .cols{display:flex;gap:20px;align-items:flex-start;flex-wrap:wrap}
-.figs{flex:3 1 640px;min-width:0}
-.claims{flex:2 1 380px;min-width:0}
+.figs{flex:3 1 560px;min-width:0}
+.claims{flex:2 1 320px;min-width:0}
 figure{margin:0 0 14px 0}
 figure img{width:100%;height:auto;border:1px solid #d5dbe1;border-radius:4px}
 figcaption{font-size:13px;color:#33404d;margin-top:3px}
+figcaption a{margin-left:4px}
 .claim{border:1px solid #d5dbe1;border-left:6px solid #999;border-radius:6px;padding:8px 10px;
 margin:0 0 10px 0;font-size:14px}
 .claim.pass{border-left-color:#2e7d32}
 .claim.fail{border-left-color:#c62828;background:#fff5f5}
+.claim.noteval{border-left-color:#78909c;background:#f7f9fa}
+.claim.notrepro{border-left-color:#b26a00;background:#fffaf0}
 .badge{display:inline-block;font-weight:700;font-size:12px;padding:1px 8px;border-radius:10px;
 color:#fff;margin-right:6px}
 .badge.pass{background:#2e7d32}.badge.fail{background:#c62828}
-.badge.warn{background:#b26a00}
+.badge.warn,.badge.notrepro{background:#b26a00}
+.badge.noteval{background:#78909c}
 .kind{font-family:monospace;color:#52606d}
 .quote{font-style:italic;margin:4px 0}
 .measure{font-variant-numeric:tabular-nums}
 .detail{color:#52606d;font-size:12.5px}
 .error{color:#c62828;font-family:monospace;font-size:12.5px;white-space:pre-wrap}
 a{color:#1f5fa8}
+@media (max-width:700px){header{padding:14px 16px}header h1{font-size:20px}
+main{padding:10px 12px 32px 12px}section.sc{padding:10px 12px}.figs,.claims{flex-basis:100%}
+table{font-size:13px}th,td{padding:4px 6px}}
 """
 
 
@@ -134,9 +155,18 @@ def _anchor(name: str) -> str:
     return "sc-" + re.sub(r"[^A-Za-z0-9_-]", "-", name)
 
 
-def _img(path: Path) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return f'<img alt="{_e(path.name)}" src="data:image/png;base64,{data}">'
+_CLASS = {PASS: "pass", FAIL: "fail", NOT_EVALUATED: "noteval", NOT_REPRODUCED: "notrepro"}
+
+
+def _img(path: Path, embed: bool, alt: str) -> str:
+    if embed:
+        data = base64.b64encode(path.read_bytes()).decode("ascii")
+        return f'<img alt="{_e(alt)}" src="data:image/png;base64,{data}">'
+    href = f"figures/{_e(path.name)}"
+    return (
+        f'<a href="{href}" title="open at full size"><img alt="{_e(alt)}" src="{href}" '
+        'loading="lazy"></a>'
+    )
 
 
 def _claims_cell(entry: ScenarioEntry) -> str:
@@ -144,9 +174,14 @@ def _claims_cell(entry: ScenarioEntry) -> str:
         return '<span class="badge warn">ERROR</span>'
     if not entry.claims:
         return "—"
-    n, k = len(entry.claims), entry.n_pass
-    cls = "pass" if k == n else "fail"
-    return f'<span class="badge {cls}">{k}/{n}</span>'
+    k = entry.n_pass
+    judged = k + entry.count(FAIL)
+    cls = "pass" if entry.count(FAIL) == 0 else "fail"
+    out = f'<span class="badge {cls}">{k}/{judged}</span>'
+    for verdict in (NOT_REPRODUCED, NOT_EVALUATED):
+        if n := entry.count(verdict):
+            out += f' <span class="badge {_CLASS[verdict]}">{n} {verdict.lower()}</span>'
+    return out
 
 
 def _status_text(statuses: dict[str, str]) -> str:
@@ -167,28 +202,34 @@ def _summary(entries: Sequence[ScenarioEntry]) -> str:
             "</tr>"
         )
     return (
-        "<table><thead><tr><th>scenario</th><th>thesis section</th><th>figures</th>"
-        "<th>claims passed</th><th>frozen / adaptive error</th><th>runs</th></tr></thead>"
-        f"<tbody>{''.join(rows)}</tbody></table>"
+        '<div class="scroll"><table><thead><tr><th>scenario</th><th>thesis section</th>'
+        "<th>figures</th><th>claims passed / judged</th><th>frozen / adaptive error</th>"
+        f"<th>runs</th></tr></thead><tbody>{''.join(rows)}</tbody></table></div>"
         '<p class="meta">frozen / adaptive error: RMS tracking error of the run with adaptation '
         "frozen divided by that of the adaptive run, over the last 10 % of the run (what "
         "adaptation buys; ∞ = the frozen run diverged).</p>"
     )
 
 
+def _with_unit(x: float, unit: str) -> str:
+    text = _num(x)
+    return f"{text} {_e(unit)}" if unit and text != "not measured" else text
+
+
 def _claim_html(c: ClaimResult) -> str:
-    cls = "pass" if c.passed else "fail"
+    cls = _CLASS.get(c.status, "fail")
+    unit = getattr(c, "unit", "")
     return (
         f'<div class="claim {cls}"><span class="badge {cls}">{c.verdict}</span>'
         f'<span class="kind">{_e(c.kind)}</span>'
         f'<div class="quote">“{_e(" ".join(c.text.split()))}”</div>'
-        f'<div class="measure">measured <b>{_num(c.measured)}</b> vs threshold '
-        f"<b>{_num(c.threshold)}</b></div>"
+        f'<div class="measure">measured <b>{_with_unit(c.measured, unit)}</b> vs threshold '
+        f"<b>{_with_unit(c.threshold, unit)}</b></div>"
         f'<div class="detail">{_e(c.detail)}</div></div>'
     )
 
 
-def _figure_html(f: FigureEntry) -> str:
+def _figure_html(f: FigureEntry, embed: bool = False) -> str:
     cap = f"Fig. {_e(f.number)}: {_e(f.caption)}" if f.number else _e(f.caption)
     if f.error or not f.path.is_file():
         why = f.error or "file not written"
@@ -196,11 +237,18 @@ def _figure_html(f: FigureEntry) -> str:
             f'<figure><div class="error">figure failed: {_e(why)}</div>'
             f"<figcaption>{cap}</figcaption></figure>"
         )
-    where = f"figures/{_e(f.path.name)}"
-    return f"<figure>{_img(f.path)}<figcaption>{cap} · <code>{where}</code></figcaption></figure>"
+    links = " ".join(
+        f'<a href="figures/{_e(p.name)}">{_e(p.suffix.lstrip(".").upper())}</a>'
+        for p in (f.path, *f.extra)
+        if p.is_file()
+    )
+    return (
+        f"<figure>{_img(f.path, embed, cap)}<figcaption>{cap} · files: {links}"
+        "</figcaption></figure>"
+    )
 
 
-def _scenario(s: ScenarioEntry) -> str:
+def _scenario(s: ScenarioEntry, embed: bool = False) -> str:
     failures = (
         "<ul>" + "".join(f"<li>{_e(x)}</li>" for x in s.failures) + "</ul>"
         if s.failures
@@ -213,7 +261,7 @@ def _scenario(s: ScenarioEntry) -> str:
         )
     if not claims:
         claims = '<p class="meta">No claims are recorded for this scenario.</p>'
-    figs = "".join(_figure_html(f) for f in s.figures) or '<p class="meta">No figures.</p>'
+    figs = "".join(_figure_html(f, embed) for f in s.figures) or '<p class="meta">No figures.</p>'
     notes = _paragraphs(s.notes, "notes", "<b>Notes.</b> ") if s.notes else ""
     meta = (
         f"<code>{_e(s.name)}</code> · thesis §{_e(s.section)} · figures "
@@ -226,9 +274,18 @@ def _scenario(s: ScenarioEntry) -> str:
         f"{_paragraphs(s.description, 'desc')}{notes}"
         f"<h3>Failures</h3>{failures}"
         f'<div class="cols"><div class="figs">{figs}</div>'
-        f'<div class="claims"><h3>Thesis claims ({s.n_pass}/{len(s.claims)} passed)</h3>'
+        f'<div class="claims"><h3>Thesis claims ({_claim_counts(s)})</h3>'
         f"{claims}</div></div></section>"
     )
+
+
+def _claim_counts(s: ScenarioEntry) -> str:
+    parts = [f"{s.n_pass}/{s.n_pass + s.count(FAIL)} passed"]
+    parts += [f"{s.count(v)} {v.lower()}" for v in (NOT_REPRODUCED, NOT_EVALUATED) if s.count(v)]
+    return ", ".join(parts)
+
+
+_VERDICT_COLOURS = {PASS: "#2e7d32", FAIL: "#c62828", NOT_REPRODUCED: "#b26a00"}
 
 
 def render_report(
@@ -237,31 +294,51 @@ def render_report(
     quick: bool = False,
     wall_time_s: float = math.nan,
     jobs: int = 1,
+    embed: bool = False,
 ) -> str:
-    """The report as one HTML string (see the module docstring)."""
+    """The report as one HTML string (see the module docstring).
+
+    Parameters
+    ----------
+    entries
+        One entry per scenario, in report order.
+    quick
+        The runs were shortened: say so in a banner.
+    wall_time_s, jobs
+        Shown in the totals.
+    embed
+        Embed the PNG figures as base64 (a single self-contained file) instead of linking the
+        files in ``figures/`` beside the report.
+    """
     n = sum(len(s.claims) for s in entries)
-    k = sum(s.n_pass for s in entries)
+    counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED)}
+    n_noteval = sum(s.count(NOT_EVALUATED) for s in entries)
     stamp = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     banner = (
         '<div class="banner"><b>Quick mode.</b> Every run was shortened (see '
-        "<code>adaptive_ftc.reproduce</code>); the verdicts below are a smoke test, not the "
-        "thesis check. Run <code>aftc reproduce</code> without <code>--quick</code> for that."
-        "</div>"
+        "<code>adaptive_ftc.reproduce</code>): claims whose window the shortened run does not "
+        "reach are <b>not evaluated</b> (grey), which is not a failure; the others are a smoke "
+        "test, not the thesis check. Run <code>aftc reproduce</code> without "
+        "<code>--quick</code> for that.</div>"
         if quick
         else ""
+    )
+    tots = "".join(
+        f'<div class="tot"><b style="color:{_VERDICT_COLOURS[v]}">{counts[v]}</b>{v}</div>'
+        for v in (PASS, FAIL, NOT_REPRODUCED)
     )
     totals = (
         '<div class="totals">'
         f'<div class="tot"><b>{len(entries)}</b>scenarios</div>'
-        f'<div class="tot"><b>{n}</b>claims</div>'
-        f'<div class="tot"><b style="color:#2e7d32">{k}</b>PASS</div>'
-        f'<div class="tot"><b style="color:#c62828">{n - k}</b>FAIL</div>'
+        f'<div class="tot"><b>{n}</b>claims</div>{tots}'
+        f'<div class="tot"><b style="color:#78909c">{n_noteval}</b>NOT EVALUATED</div>'
         f'<div class="tot"><b>{_num(wall_time_s)} s</b>wall time ({jobs} process'
         f"{'es' if jobs != 1 else ''})</div></div>"
     )
-    body = "".join(_scenario(s) for s in entries)
+    body = "".join(_scenario(s, embed) for s in entries)
     return (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
         "<title>adaptive-ftc: reproduction of the thesis simulations</title>"
         f"<style>{_CSS}</style></head><body>"
         "<header><h1>adaptive-ftc: reproduction of the thesis simulations</h1>"
@@ -278,11 +355,15 @@ def write_report(
     quick: bool = False,
     wall_time_s: float = math.nan,
     jobs: int = 1,
+    embed: bool = False,
 ) -> Path:
-    """Write :func:`render_report` to ``path`` (UTF-8) and return the path."""
+    """Write :func:`render_report` to ``path`` (UTF-8) and return the path.
+
+    Without ``embed`` the page links ``figures/<file>`` relative to itself: keep it in the
+    folder that holds ``figures/``.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(
-        render_report(entries, quick=quick, wall_time_s=wall_time_s, jobs=jobs), encoding="utf-8"
-    )
+    page = render_report(entries, quick=quick, wall_time_s=wall_time_s, jobs=jobs, embed=embed)
+    path.write_text(page, encoding="utf-8")
     return path

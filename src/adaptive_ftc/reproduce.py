@@ -14,11 +14,12 @@ adaptation (open-loop runs), ``failure_free`` when it has no failures.
 
 Everything is written into ``out_dir``::
 
-    figures/fig_<number>.png    every [[figure]] table, baselines overlaid on tracking figures
+    figures/fig_<number>.png    every [[figure]] table (+ .pdf/.svg beside it, see ``formats``);
+                                with ``baselines=True`` the frozen/failure-free runs are overlaid
     data/<scenario>[_frozen|_failure_free].nc
     metrics.csv                 one row per run (+ frozen/adaptive error ratio per scenario)
-    claims.csv                  one row per [[claims]] table, PASS/FAIL with the measured number
-    report.html                 self-contained report (figures embedded)
+    claims.csv                  one row per [[claims]] table: verdict, measured number and unit
+    report.html                 the report (links the figure files; keep it beside figures/)
 
 A figure number used by several scenarios (e.g. the ``+``/``-`` variants of one thesis figure) is
 written ``fig_<number>_<scenario>.png``; a scenario without [[figure]] tables gets the default
@@ -28,15 +29,17 @@ figures of :func:`adaptive_ftc.plots.default_figure_specs`, written
 Quick mode (``quick=True``, for CI) shortens every run to
 ``min(T, max(T/4, t_first + T/10))`` where ``T`` is the scenario's duration and ``t_first`` its
 first failure event, so at least the first failure happens inside the shortened run (failures
-later than that are simply not reached). Claims are still evaluated, but on shortened runs:
-the report says so and its verdicts are not the thesis check.
+later than that are simply not reached). Claims are evaluated against the full duration ``T``:
+a claim whose window the shortened run does not reach is ``NOT EVALUATED`` (not a FAIL).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import csv
 import dataclasses
+import functools
 import math
 import multiprocessing
 import os
@@ -48,7 +51,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from adaptive_ftc.claims import ClaimError, ClaimResult, evaluate_claims
+from adaptive_ftc.claims import (
+    FAIL,
+    NOT_EVALUATED,
+    NOT_REPRODUCED,
+    PASS,
+    ClaimError,
+    ClaimResult,
+    evaluate_claims,
+)
 from adaptive_ftc.report import FigureEntry, ScenarioEntry, write_report
 from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.sim.result import SimResult
@@ -107,21 +118,30 @@ def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[s
             warnings.simplefilter("ignore")  # divergence is recorded in the result's status
             result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
         result.meta["variant"] = variant
-        result.to_netcdf(_data_path(Path(out_dir), name, variant))
+        result.to_netcdf(
+            _data_path(Path(out_dir), name, variant),
+            float32=True,
+            decimate=max(1, math.ceil(result.time.size / DATA_MAX_SAMPLES)),
+        )
         return {"result": result, "error": "", "wall": time.perf_counter() - start}
     except Exception:  # noqa: BLE001 - reported in the report and metrics, the others go on
         return {"result": None, "error": traceback.format_exc(limit=3), "wall": 0.0}
 
 
 def _figure_task(
-    result: SimResult, spec: dict[str, Any], path: str, baselines: dict[str, SimResult]
+    result: SimResult,
+    spec: dict[str, Any],
+    path: str,
+    baselines: dict[str, SimResult],
+    formats: Sequence[str] = ("png",),
+    dpi: int | None = None,
 ) -> str:
     """Render one figure in a worker process; returns an error text or ``""``."""
     from adaptive_ftc.plots import save_figure
 
     try:
-        base = baselines if spec.get("kind") == "tracking" else None
-        save_figure(result, spec, path, baselines=base)
+        base = baselines if spec.get("kind") == "tracking" and baselines else None
+        save_figure(result, spec, path, baselines=base, formats=formats, dpi=dpi)
         return ""
     except Exception as exc:  # noqa: BLE001 - a broken figure must not stop the reproduction
         return f"{type(exc).__name__}: {exc}"
@@ -147,10 +167,9 @@ def _default_specs(sc: Scenario, result: SimResult) -> list[tuple[dict[str, Any]
 
     figs = ", ".join(sc.figures)
     items = []
-    for spec in default_figure_specs(result):
+    for spec in default_figure_specs(result, title=sc.title or sc.name):
         spec = dict(spec)
         spec["caption"] = spec["caption"] + (f" (cf. thesis Fig. {figs})" if figs else "")
-        spec["number"] = sc.name
         items.append((spec, f"fig_{sc.name}_{spec['kind']}.png"))
     return items
 
@@ -220,6 +239,82 @@ def _write_csv(path: Path, fields: Sequence[str], rows: Sequence[dict[str, Any]]
 
 
 # ---------------------------------------------------------------------------- main entry
+def _worker_init() -> None:
+    """Worker processes end with their parent: Linux delivers SIGTERM to a worker when the
+    parent dies (even by SIGKILL); Ctrl-C is handled by the parent, which stops the workers."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the parent's handler below still applies
+        pass
+
+
+@contextlib.contextmanager
+def _workers_end_with_parent():
+    """On SIGTERM/SIGINT stop this process's worker processes, then raise KeyboardInterrupt."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):
+        for child in multiprocessing.active_children():
+            child.terminate()
+        raise KeyboardInterrupt
+
+    old = {sig: signal.signal(sig, stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def _staged(fn):
+    """Write everything into a staging folder inside ``out_dir`` and move it into place only
+    when the reproduction has finished (each file with an atomic rename): a failed or
+    interrupted reproduction leaves the earlier complete results untouched."""
+
+    @functools.wraps(fn)
+    def wrapper(out_dir: str | Path, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        from adaptive_ftc._atomic import (
+            check_output_dir,
+            commit_staged,
+            discard_staged,
+            staging_dir,
+        )
+
+        final = check_output_dir(out_dir)
+        stage = staging_dir(final)
+        try:
+            with _workers_end_with_parent():
+                summary = fn(stage, *args, **kwargs)
+        except BaseException:
+            for child in multiprocessing.active_children():
+                child.terminate()
+            discard_staged(stage)
+            raise
+        commit_staged(stage, final)
+        summary["report"] = final / Path(summary["report"]).relative_to(stage)
+        summary["out_dir"] = final
+        return summary
+
+    return wrapper
+
+
+#: Most samples kept per data file of the reproduction (longer runs are decimated, and the
+#: data are stored in single precision: the full reproduction stays well under 40 MB).
+DATA_MAX_SAMPLES = 6000
+
+
+@_staged
 def run_reproduction(
     out_dir: str | Path,
     *,
@@ -227,6 +322,9 @@ def run_reproduction(
     jobs: int | None = None,
     progress: bool = True,
     names: Sequence[str] | None = None,
+    baselines: bool = False,
+    formats: Sequence[str] = ("png", "pdf"),
+    dpi: int | None = None,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -242,12 +340,21 @@ def run_reproduction(
         Show a tqdm progress bar.
     names
         Scenario names (default: the whole catalogue).
+    baselines
+        Overlay the frozen-adaptation and failure-free runs on the tracking figures (they are
+        always run, for the metrics and the claims).
+    formats
+        File formats of every figure (``png``, ``pdf``, ``svg``); the report shows the PNG and
+        links the others.
+    dpi
+        Resolution of the PNG files (default :data:`adaptive_ftc.plots.DPI`).
 
     Returns
     -------
     dict
-        ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``, ``n_errors``,
-        ``wall_time_s``, ``report`` (path of report.html) and ``out_dir``.
+        ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``,
+        ``n_not_evaluated``, ``n_not_reproduced``, ``n_errors``, ``wall_time_s``, ``report``
+        (path of report.html) and ``out_dir``.
 
     Examples
     --------
@@ -263,6 +370,10 @@ def run_reproduction(
     (out / "data").mkdir(parents=True, exist_ok=True)
     scenario_names = list(names) if names is not None else list_scenarios()
     scenarios = [_prepare(n, quick) for n in scenario_names]  # validates every name first
+    durations = {n: float(load_scenario(n).loop.t_final) for n in scenario_names}
+    from adaptive_ftc.plots import check_formats
+
+    formats = check_formats(formats)
     plan = _figure_plan(scenarios)
     jobs = max(1, int(jobs or os.cpu_count() or 1))
 
@@ -277,7 +388,9 @@ def run_reproduction(
         executor = _InlineExecutor()
     else:
         ctx = multiprocessing.get_context("fork" if os.name == "posix" else None)
-        executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+        executor = cf.ProcessPoolExecutor(
+            max_workers=jobs, mp_context=ctx, initializer=_worker_init
+        )
     bar = tqdm(total=len(sim_tasks), disable=not progress, desc="reproduce", unit="task")
     with executor:
         pending: dict[cf.Future, tuple] = {
@@ -294,7 +407,9 @@ def run_reproduction(
                     results[(name, variant)] = fut.result()
                     needed = [(name, v) for v in _variants(by_name[name])]
                     if all(k in results for k in needed):
-                        new = _submit_figures(executor, by_name[name], plan, results, out)
+                        new = _submit_figures(
+                            executor, by_name[name], plan, results, out, baselines, formats, dpi
+                        )
                         for f, ftag, entry in new:
                             pending[f] = ftag
                             figures[name].append(entry)
@@ -307,7 +422,7 @@ def run_reproduction(
 
     # claims, metrics, report
     metric_rows, claim_rows, entries = [], [], []
-    n_pass = n_fail = n_errors = 0
+    n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = 0
     for sc in scenarios:
         adaptive = results[(sc.name, "adaptive")]["result"]
         frozen = results.get((sc.name, "frozen"), {}).get("result")
@@ -323,7 +438,9 @@ def run_reproduction(
         claim_error = ""
         if adaptive is not None:
             try:
-                verdicts = evaluate_claims(sc.claims, adaptive, frozen=frozen)
+                verdicts = evaluate_claims(
+                    sc.claims, adaptive, frozen=frozen, duration=durations[sc.name]
+                )
             except ClaimError as exc:
                 claim_error = f"{sc.name}: {exc}"
         elif sc.claims:
@@ -339,12 +456,15 @@ def run_reproduction(
                     measured=math.nan,
                     threshold=math.nan,
                     detail="not evaluated: the run raised an error",
+                    status=FAIL,
                 )
                 for c in sc.claims
             ]
         for c in verdicts:
-            n_pass += c.passed
-            n_fail += not c.passed
+            n_pass += c.status == PASS
+            n_fail += c.status == FAIL
+            n_not_evaluated += c.status == NOT_EVALUATED
+            n_not_reproduced += c.status == NOT_REPRODUCED
             claim_rows.append(
                 {
                     "scenario": sc.name,
@@ -353,6 +473,7 @@ def run_reproduction(
                     "verdict": c.verdict,
                     "measured": c.measured,
                     "threshold": c.threshold,
+                    "unit": c.unit,
                     "text": " ".join(c.text.split()),
                     "detail": c.detail,
                 }
@@ -389,7 +510,17 @@ def run_reproduction(
     _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
     _write_csv(
         out / "claims.csv",
-        ["scenario", "section", "kind", "verdict", "measured", "threshold", "text", "detail"],
+        [
+            "scenario",
+            "section",
+            "kind",
+            "verdict",
+            "measured",
+            "threshold",
+            "unit",
+            "text",
+            "detail",
+        ],
         claim_rows,
     )
     wall = time.perf_counter() - t_start
@@ -397,9 +528,11 @@ def run_reproduction(
     return {
         "n_scenarios": len(scenarios),
         "n_runs": len(sim_tasks),
-        "n_claims": n_pass + n_fail,
+        "n_claims": n_pass + n_fail + n_not_evaluated + n_not_reproduced,
         "n_pass": n_pass,
         "n_fail": n_fail,
+        "n_not_evaluated": n_not_evaluated,
+        "n_not_reproduced": n_not_reproduced,
         "n_errors": n_errors,
         "wall_time_s": time.perf_counter() - t_start,
         "report": report,
@@ -407,7 +540,7 @@ def run_reproduction(
     }
 
 
-def _submit_figures(executor, sc, plan, results, out):
+def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
     """Submit the figure tasks of a scenario whose runs are all done."""
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
@@ -416,17 +549,20 @@ def _submit_figures(executor, sc, plan, results, out):
     baselines = {
         _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
         for v in ("frozen", "failure_free")
-        if (sc.name, v) in results and results[(sc.name, v)]["result"] is not None
+        if overlay and (sc.name, v) in results and results[(sc.name, v)]["result"] is not None
     }
     new = []
     for spec, fname in items:
         path = out / "figures" / fname
-        fut = executor.submit(_figure_task, adaptive, spec, str(path), baselines)
+        fut = executor.submit(
+            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi
+        )
         entry = FigureEntry(
             number=str(spec.get("number", "")),
             caption=str(spec.get("caption", "")),
             kind=str(spec.get("kind", "")),
             path=path,
+            extra=tuple(path.with_suffix(f".{f}") for f in formats if f != "png"),
         )
         new.append((fut, ("fig", sc.name, fname), entry))
     return new
