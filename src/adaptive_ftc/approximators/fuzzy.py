@@ -29,7 +29,8 @@ class FuzzyBasis:
     centers
         Centers per input (one tuple per input), or one tuple used for every input.
     width
-        Gaussian width ``w`` (one number for all memberships).
+        Gaussian width ``w``: one number for all inputs, or one per input (inputs of different
+        scales).
     normalised
         Normalise the firing strengths (default) or use raw products.
 
@@ -44,7 +45,7 @@ class FuzzyBasis:
 
     inputs: tuple[str, ...]
     centers: tuple[tuple[float, ...], ...] | tuple[float, ...]
-    width: float = 2**-0.5
+    width: float | tuple[float, ...] = 2**-0.5
     normalised: bool = True
 
     def __post_init__(self) -> None:
@@ -64,8 +65,25 @@ class FuzzyBasis:
         if not np.all(np.isfinite(np.concatenate([np.asarray(c) for c in cen]))):
             raise ConfigurationError("`centers` of FuzzyBasis must be finite numbers.")
         object.__setattr__(self, "centers", cen)
-        if not (np.isfinite(self.width) and self.width > 0):
-            raise ConfigurationError(f"`width` of FuzzyBasis must be positive; got {self.width}.")
+        w = self.width
+        if isinstance(w, bool) or not isinstance(w, (int, float)):
+            try:
+                w = tuple(float(v) for v in w)
+            except (TypeError, ValueError):
+                raise ConfigurationError(
+                    f"`width` of FuzzyBasis must be a number or one number per input; got {w!r}."
+                ) from None
+            if len(w) != len(self.inputs):
+                raise ConfigurationError(
+                    f"`width` of FuzzyBasis gives {len(w)} widths for {len(self.inputs)} inputs; "
+                    "give one number, or one per input."
+                )
+            object.__setattr__(self, "width", w)
+        if not all(np.isfinite(v) and 1e-150 < v < 1e150 for v in self.widths):
+            raise ConfigurationError(
+                f"`width` of FuzzyBasis must be positive and finite (1e-150 to 1e150); got "
+                f"{self.width}."
+            )
         if self.size > 100_000:
             raise ConfigurationError(
                 f"FuzzyBasis would have {self.size} rules; use fewer inputs or memberships."
@@ -75,6 +93,61 @@ class FuzzyBasis:
     def size(self) -> int:
         """Number of rules (= parameters)."""
         return int(np.prod([len(c) for c in self.centers]))
+
+    def emit(self, g, inputs: list[int], off: int, r: int) -> list[str]:
+        """Generated code writing the firing strengths (2.40) into ``W.phi[off:off+size]``.
+
+        ``inputs`` are the indices of the input signals in ``W.sig``; the centres and spreads
+        ``1/(2 w^2)`` go into the loop's numbers, the grid sizes into the code.
+        """
+        counts = [len(c) for c in self.centers]
+        widths = self.widths
+        kind = "normalised" if self.normalised else "raw"
+        lines = [f"    # fuzzy basis {r + 1}: {' x '.join(map(str, counts))} rules, {kind} (2.40)"]
+        mus = []
+        for i, (n, c, w) in enumerate(zip(counts, self.centers, widths, strict=True)):
+            k0 = len(g.centers)
+            g.centers.extend(c)
+            g.spread.extend([1.0 / (2.0 * w**2)] * n)
+            m0 = g.n_mu
+            g.n_mu += n
+            mus.append(m0)
+            lines += [
+                f"    z = W.sig[{inputs[i]}]",
+                f"    for l in range({n}):",
+                f"        d = z - D.centers[{k0} + l]",
+                f"        W.mu[{m0} + l] = math.exp(-D.spread[{k0} + l] * d * d)",
+            ]
+        lines.append(f"    i = {off}")
+        indent = "    "
+        prev = None
+        for i, n in enumerate(counts):
+            lines.append(f"{indent}for l{i} in range({n}):")
+            indent += "    "
+            cur = f"W.mu[{mus[i]} + l{i}]"
+            if i == len(counts) - 1:
+                val = cur if prev is None else f"{prev} * {cur}"
+                lines += [f"{indent}W.phi[i] = {val}", f"{indent}i += 1"]
+            else:
+                lines.append(f"{indent}p{i} = {cur if prev is None else f'{prev} * {cur}'}")
+                prev = f"p{i}"
+        if self.normalised:
+            lines += [
+                "    total = 0.0",
+                f"    for l in range({self.size}):",
+                f"        total += W.phi[{off} + l]",
+                f"    for l in range({self.size}):",
+                f"        W.phi[{off} + l] = W.phi[{off} + l] / total if total > 1e-300 "
+                f"else {1.0 / self.size!r}",
+            ]
+        return lines
+
+    @property
+    def widths(self) -> tuple[float, ...]:
+        """Gaussian width of each input's memberships."""
+        if isinstance(self.width, (int, float)):
+            return (float(self.width),) * len(self.inputs)
+        return tuple(float(w) for w in self.width)
 
     def __call__(self, z) -> np.ndarray:
         """Firing strengths for inputs ``z`` of shape ``(..., n_inputs)``; rules last.
@@ -88,8 +161,8 @@ class FuzzyBasis:
                 f"{z.shape}."
             )
         mus = [
-            np.exp(-((z[..., i, None] - np.asarray(c)) ** 2) / (2 * self.width**2))
-            for i, c in enumerate(self.centers)
+            np.exp(-((z[..., i, None] - np.asarray(c)) ** 2) / (2 * w**2))
+            for i, (c, w) in enumerate(zip(self.centers, self.widths, strict=True))
         ]
         rules = []
         for combo in itertools.product(*(range(len(c)) for c in self.centers)):

@@ -36,6 +36,21 @@ class LinearRegressor:
         """Number of parameters."""
         return len(self.inputs) + int(self.bias)
 
+    def emit(self, g, inputs: list[int], off: int, r: int) -> list[str]:
+        """Generated code writing ``[1, z_1, ..., z_k]`` into ``W.phi[off:off+size]``."""
+        lines = [
+            f"    # linear regressor {r + 1}: "
+            f"[{'1, ' if self.bias else ''}{', '.join(self.inputs)}]"
+        ]
+        j = off
+        if self.bias:
+            lines.append(f"    W.phi[{j}] = 1.0")
+            j += 1
+        for i in inputs:
+            lines.append(f"    W.phi[{j}] = W.sig[{i}]")
+            j += 1
+        return lines
+
     def __call__(self, z) -> np.ndarray:
         """Regressor for inputs ``z`` of shape ``(..., n_inputs)``."""
         z = np.asarray(z, dtype=float)

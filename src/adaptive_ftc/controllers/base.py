@@ -57,7 +57,6 @@ class AdaptiveController(ABC):
     ``k s + k0 tanh(s/eps0)`` (2.20). ``lam``, ``k`` and ``k0`` may be given per output."""
 
     design: ClassVar[str]
-    kind: ClassVar[int]
     equation: ClassVar[str]
 
     lam: float | tuple[float, ...] = 1.0
@@ -88,6 +87,36 @@ class AdaptiveController(ABC):
     def regressors(self) -> tuple[Regressor, ...]:
         """The regressor of each output's control channel."""
         return (self.regressor,)  # type: ignore[attr-defined]
+
+    def regressors_for(self, p: int) -> tuple[Regressor, ...]:
+        """The regressors for a plant with ``p`` outputs (one common channel by default)."""
+        return self.regressors()
+
+    # ------------------------------------------------------------------ code generation
+    def gains(self) -> tuple:
+        """The design's adaptation gains as a NamedTuple (numbers of the compiled loop)."""
+        raise NotImplementedError
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        """Generated lines run after ``u0 = Pi^T theta`` (a compensator, if the design has one).
+
+        ``blocks`` lists ``(phi offset, state index, size)`` of each theta block; the design's
+        own states start at ``extra_at`` (declare them with ``g.adaptive_names`` and
+        ``g.y0_extra``).
+        """
+        return []
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        """Generated lines of the adaptive laws (write ``dY`` of every adaptive state)."""
+        raise NotImplementedError
+
+    @staticmethod
+    def theta_laws(blocks, gamma: str, sigma: str, gain: str) -> list[str]:
+        """Calls of :func:`~adaptive_ftc.controllers.laws.theta_law`, one per theta block."""
+        return [
+            f"    theta_law(dY, Y, W.phi, W.q[{r}], {gamma}, {sigma}, {gain}, {o}, {at}, {size})"
+            for r, (o, at, size) in enumerate(blocks)
+        ]
 
     @property
     def single_output(self) -> bool:

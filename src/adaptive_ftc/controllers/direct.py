@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.laws import theta_law
 
 __all__ = ["DirectAdaptive"]
+
+
+class DirectGains(NamedTuple):
+    """Adaptation gains of (2.29)."""
+
+    gamma: float
+    sigma: float
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -22,7 +29,6 @@ class DirectAdaptive(AdaptiveController):
     """
 
     design: ClassVar[str] = "direct"
-    kind: ClassVar[int] = kernel.CTRL_DIRECT
     equation: ClassVar[str] = "(2.22), (2.29)"
 
     regressor: FuzzyBasis | LinearRegressor
@@ -33,3 +39,14 @@ class DirectAdaptive(AdaptiveController):
         super().__post_init__()
         _positive(type(self).__name__, gamma=self.gamma)
         _nonnegative(type(self).__name__, sigma=self.sigma)
+
+    def gains(self) -> DirectGains:
+        return DirectGains(float(self.gamma), float(self.sigma))
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        g.use("theta_law", theta_law)
+        return [
+            "    # adaptive law (2.29)",
+            "    W.misc[1] = 1.0",
+            *self.theta_laws(blocks, "D.gains.gamma", "D.gains.sigma", "1.0"),
+        ]

@@ -3,14 +3,23 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.laws import kappa_law, theta_law
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.scenarios.expressions import Expression
 
 __all__ = ["FailureEstimation"]
+
+
+class EstimationGains(NamedTuple):
+    """Adaptation gains of (2.72)-(2.73)."""
+
+    eta1: float
+    eta2: float
+    sigma: float
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -29,7 +38,6 @@ class FailureEstimation(AdaptiveController):
     """
 
     design: ClassVar[str] = "estimation"
-    kind: ClassVar[int] = kernel.CTRL_ESTIMATION
     equation: ClassVar[str] = "(2.62), (2.72), (2.73)"
 
     regressor: FuzzyBasis | LinearRegressor
@@ -60,3 +68,44 @@ class FailureEstimation(AdaptiveController):
         if any(not bj for bj in out):
             raise ConfigurationError("Each actuator's `basis` needs at least one function.")
         return out
+
+    def gains(self) -> EstimationGains:
+        return EstimationGains(float(self.eta1), float(self.eta2), float(self.sigma))
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        basis = self.basis_for(g.m)
+        lines = [
+            "@jit",
+            "def basis(t, c, w):",
+            '    """Known failure basis varpi_j(t) of every actuator, flattened (2.62)."""',
+        ]
+        i = 0
+        for j, bj in enumerate(basis):
+            for l, text in enumerate(bj):
+                e = Expression(text, ("t",), context=f"basis function {l + 1} of actuator {j + 1}")
+                lines.append(f"    w[{i}] = {g.constant_block(e.node, {'t': 't'})}  # {e}")
+                g.adaptive_names.append(f"kappa{j + 1}_{l + 1}")
+                g.y0_extra.append(float(self.kappa0))
+                i += 1
+        g.defs.append("\n".join(lines))
+        g.n_w = i
+        return [
+            "    # compensator u_f = -sum_j kappa_j^T varpi_j(t) (2.62)",
+            "    basis(t, D.c, W.w)",
+            "    comp = 0.0",
+            f"    for l in range({i}):",
+            f"        comp -= Y[{extra_at} + l] * W.w[l]",
+            "    W.misc[0] = comp",
+            "    W.u0[0] += comp",
+        ]
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        g.use("theta_law", theta_law)
+        g.use("kappa_law", kappa_law)
+        return [
+            "    # adaptive laws (2.72)-(2.73)",
+            "    W.misc[1] = 1.0",
+            *self.theta_laws(blocks, "D.gains.eta1", "D.gains.sigma", "1.0"),
+            f"    kappa_law(dY, Y, W.w, W.q[0], D.gains.eta2, D.gains.sigma, 0, {extra_at}, "
+            f"{g.n_w})",
+        ]

@@ -3,14 +3,21 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
 
 __all__ = ["MimoDirectAdaptive"]
+
+
+class MimoGains(NamedTuple):
+    """Adaptation gains of (3.37)."""
+
+    eta: float
+    sigma: float
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -23,7 +30,6 @@ class MimoDirectAdaptive(AdaptiveController):
     """
 
     design: ClassVar[str] = "mimo"
-    kind: ClassVar[int] = kernel.CTRL_DIRECT
     equation: ClassVar[str] = "(3.26)-(3.29), (3.37)"
 
     regressor: FuzzyBasis | LinearRegressor | tuple
@@ -57,3 +63,14 @@ class MimoDirectAdaptive(AdaptiveController):
                 "all."
             )
         return regs
+
+    def gains(self) -> MimoGains:
+        return MimoGains(float(self.eta), float(self.sigma))
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        g.use("theta_law", theta_law)
+        return [
+            "    # adaptive laws (3.37), one per output",
+            "    W.misc[1] = 1.0",
+            *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
+        ]

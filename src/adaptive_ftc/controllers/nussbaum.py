@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.scenarios.expressions import Expression
 
 __all__ = ["NussbaumAdaptive", "NUSSBAUM_FUNCTIONS"]
@@ -20,6 +20,19 @@ NUSSBAUM_FUNCTIONS = {
 }
 
 
+class NussbaumGains(NamedTuple):
+    """Adaptation gains of (4.25)-(4.26)."""
+
+    alpha0: float
+    alpha1: float
+    sigma: float
+
+
+def tau_law(q, alpha1):
+    """Eq. (4.26): ``tau' = alpha1 q^2``."""
+    return alpha1 * q * q
+
+
 @dataclass(frozen=True, kw_only=True)
 class NussbaumAdaptive(AdaptiveController):
     """``u0 = Pi^T theta`` (4.17) with (4.25)-(4.27):
@@ -30,7 +43,6 @@ class NussbaumAdaptive(AdaptiveController):
     """
 
     design: ClassVar[str] = "nussbaum"
-    kind: ClassVar[int] = kernel.CTRL_NUSSBAUM
     equation: ClassVar[str] = "(4.17), (4.25)-(4.27)"
 
     regressor: FuzzyBasis | LinearRegressor
@@ -50,3 +62,25 @@ class NussbaumAdaptive(AdaptiveController):
         """The Nussbaum function as an expression of ``tau``."""
         text = NUSSBAUM_FUNCTIONS.get(self.nussbaum, self.nussbaum)
         return Expression(text, ("tau",), context="`nussbaum` of NussbaumAdaptive")
+
+    def gains(self) -> NussbaumGains:
+        return NussbaumGains(float(self.alpha0), float(self.alpha1), float(self.sigma))
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        g.adaptive_names.append("tau")
+        g.y0_extra.append(float(self.tau0))
+        text = g.constant_block(self.nussbaum_expression().node, {"tau": "tau"})
+        g.defs.append(
+            "@jit\ndef nussbaum(tau, c):\n"
+            f'    """Nussbaum function N(tau) = {self.nussbaum_expression()} (4.15)."""\n'
+            f"    return {text}"
+        )
+        g.use("theta_law", theta_law)
+        g.use("tau_law", tau_law)
+        return [
+            "    # adaptive laws (4.25)-(4.27)",
+            f"    gain = nussbaum(Y[{extra_at}], D.c)",
+            "    W.misc[1] = gain",
+            f"    dY[{extra_at}] = tau_law(W.q[0], D.gains.alpha1)",
+            *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain"),
+        ]

@@ -3,13 +3,27 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.laws import theta_law
 
 __all__ = ["SignEstimation"]
+
+
+class SignGains(NamedTuple):
+    """Adaptation gains of (4.54)-(4.55)."""
+
+    alpha0: float
+    sigma0: float
+    alpha1: float
+    sigma1: float
+
+
+def rho_law(u0, q, rho, alpha1, sigma1):
+    """Eq. (4.55): ``rho' = -alpha1 u0 q - alpha1 sigma1 rho``."""
+    return -alpha1 * u0 * q - alpha1 * sigma1 * rho
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -21,7 +35,6 @@ class SignEstimation(AdaptiveController):
     """
 
     design: ClassVar[str] = "sign"
-    kind: ClassVar[int] = kernel.CTRL_SIGN
     equation: ClassVar[str] = "(4.47), (4.54), (4.55)"
 
     regressor: FuzzyBasis | LinearRegressor
@@ -35,3 +48,21 @@ class SignEstimation(AdaptiveController):
         super().__post_init__()
         _positive(type(self).__name__, alpha0=self.alpha0, alpha1=self.alpha1)
         _nonnegative(type(self).__name__, sigma0=self.sigma0, sigma1=self.sigma1)
+
+    def gains(self) -> SignGains:
+        return SignGains(
+            float(self.alpha0), float(self.sigma0), float(self.alpha1), float(self.sigma1)
+        )
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        g.adaptive_names.append("rho")
+        g.y0_extra.append(float(self.rho0))
+        g.use("theta_law", theta_law)
+        g.use("rho_law", rho_law)
+        return [
+            "    # adaptive laws (4.54)-(4.55)",
+            f"    rho = Y[{extra_at}]",
+            "    W.misc[1] = rho",
+            f"    dY[{extra_at}] = rho_law(W.u0[0], W.q[0], rho, D.gains.alpha1, D.gains.sigma1)",
+            *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma0", "rho"),
+        ]

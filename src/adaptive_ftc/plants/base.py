@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -23,7 +24,6 @@ class Plant(ABC):
     """
 
     name: ClassVar[str]
-    kind: ClassVar[int]
     state_names: ClassVar[tuple[str, ...]]
     output_names: ClassVar[tuple[str, ...]]
     position_index: ClassVar[tuple[int, ...]]
@@ -50,8 +50,25 @@ class Plant(ABC):
         return tuple(f"u{j + 1}" for j in range(self.n_actuators))
 
     @abstractmethod
-    def parameter_vector(self) -> np.ndarray:
-        """Numeric parameters in the order the compiled kernel expects."""
+    def parameters(self) -> tuple:
+        """The plant's numbers as a NamedTuple (passed to :attr:`equations` as ``p``)."""
+
+    #: The dynamics ``equations(t, x, u, p, xdot)``: plain Python in the subset numba compiles,
+    #: writing ``dx/dt`` into ``xdot`` for applied actuator outputs ``u`` and parameters ``p``.
+    equations: ClassVar[Callable]
+    #: Units of the states (CF style), for labelled results.
+    units: ClassVar[tuple[str, ...]] = ()
+    #: Unit of the actuator outputs.
+    actuator_units: ClassVar[str] = "1"
+
+    def dynamics_source(self, g) -> str:
+        """Code generation hook: make ``plant_dynamics`` available in the generated loop.
+
+        The default imports :attr:`equations`; a plant written as expressions returns the text
+        of its generated function instead.
+        """
+        g.use("plant_dynamics", self.equations)
+        return ""
 
     def derivative(self, t: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """State derivative for applied actuator outputs ``u``.
@@ -59,8 +76,6 @@ class Plant(ABC):
         ``x`` has shape ``(..., n_states)`` and ``u`` shape ``(..., n_actuators)``; leading batch
         axes broadcast. Returns an array of shape ``(..., n_states)``.
         """
-        from adaptive_ftc.sim.kernel import plant_derivative_alloc
-
         x = np.asarray(x, dtype=float)
         u = np.asarray(u, dtype=float)
         if x.shape[-1:] != (self.n_states,):
@@ -76,12 +91,11 @@ class Plant(ABC):
         shape = np.broadcast_shapes(x.shape[:-1], u.shape[:-1])
         xb = np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1]))
         ub = np.ascontiguousarray(np.broadcast_to(u, shape + u.shape[-1:]).reshape(-1, u.shape[-1]))
-        params = self.parameter_vector()
-        out = np.empty_like(xb)
+        params = self.parameters()
+        f = _compiled(self.equations)
+        out = np.zeros_like(xb)
         for i in range(xb.shape[0]):
-            out[i] = plant_derivative_alloc(
-                self.kind, params, self.n_states, float(t), xb[i], ub[i]
-            )
+            f(float(t), xb[i], ub[i], params, out[i])
         return out.reshape(shape + (self.n_states,))
 
     def aliases(self) -> dict[str, int]:
@@ -90,6 +104,18 @@ class Plant(ABC):
         for i, name in enumerate(self.state_names):
             names.setdefault(name, i)
         return names
+
+
+_COMPILED: dict[Callable, Callable] = {}
+
+
+def _compiled(func: Callable) -> Callable:
+    """``func`` jitted once per process (in memory; loops have their own cached copies)."""
+    if func not in _COMPILED:
+        import numba
+
+        _COMPILED[func] = numba.njit(error_model="numpy")(getattr(func, "py_func", func))
+    return _COMPILED[func]
 
 
 def require_finite(owner: str, **values: object) -> None:

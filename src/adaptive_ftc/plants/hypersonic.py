@@ -3,15 +3,43 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-import numpy as np
-
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
 
-__all__ = ["HypersonicAngleOfAttack"]
+__all__ = ["HypersonicAngleOfAttack", "HypersonicParams", "dynamics"]
+
+
+class HypersonicParams(NamedTuple):
+    """Numbers of eq. (2.50)."""
+
+    scale: float
+    k_alpha: float
+    a2: float
+    a1: float
+    a0: float
+    k_q: float
+    q2: float
+    q1: float
+    q0: float
+    k_elevator: float
+
+
+def dynamics(t, x, uf, p, xdot):
+    """Eq. (2.50): ``alpha' = q``, ``q' = c [k_a(a2 a^2 + a1 a + a0) + k_q q (q2 a^2 + q1 a + q0)
+    + k_e (sum_j u^f_j - a)]``; every elevator segment acts with unit gain."""
+    a = x[0]
+    q = x[1]
+    usum = 0.0
+    for j in range(uf.size):
+        usum += uf[j]
+    xdot[0] = q
+    xdot[1] = p.scale * (
+        p.k_alpha * (p.a2 * a * a + p.a1 * a + p.a0)
+        + p.k_q * q * (p.q2 * a * a + p.q1 * a + p.q0)
+        + p.k_elevator * (usum - a)
+    )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -32,7 +60,9 @@ class HypersonicAngleOfAttack(Plant):
     """
 
     name: ClassVar[str] = "hypersonic"
-    kind: ClassVar[int] = kernel.PLANT_HYPERSONIC
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
+    actuator_units: ClassVar[str] = "rad"
+    equations = staticmethod(dynamics)
     state_names: ClassVar[tuple[str, ...]] = ("alpha", "q")
     output_names: ClassVar[tuple[str, ...]] = ("alpha",)
     position_index: ClassVar[tuple[int, ...]] = (0,)
@@ -70,8 +100,7 @@ class HypersonicAngleOfAttack(Plant):
     def actuator_names(self) -> tuple[str, ...]:
         return tuple(f"delta_e{j + 1}" for j in range(self.elevators))
 
-    def parameter_vector(self) -> np.ndarray:
-        return np.array(
-            [self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly, self.k_elevator],
-            dtype=float,
+    def parameters(self) -> HypersonicParams:
+        return HypersonicParams(
+            self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly, self.k_elevator
         )

@@ -4,15 +4,44 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-import numpy as np
-
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
 
-__all__ = ["TwoLinkManipulator"]
+__all__ = ["ManipulatorParams", "TwoLinkManipulator", "dynamics"]
+
+
+class ManipulatorParams(NamedTuple):
+    """Inertia constants ``(a1, a2, a3, a4)`` of eq. (3.64)."""
+
+    a1: float
+    a2: float
+    a3: float
+    a4: float
+
+
+def dynamics(t, x, uf, p, xdot):
+    """Eqs. (3.60)-(3.65): ``M(q) q'' + C(q, q') q' = R u^f`` with ``R = [[1,1,0,0],[0,0,1,1]]``,
+    solved for ``q''`` by Cramer's rule."""
+    q2 = x[2]
+    qd1 = x[1]
+    qd2 = x[3]
+    c = math.cos(q2)
+    s = math.sin(q2)
+    m11 = p.a1 + 2.0 * p.a3 * c + 2.0 * p.a4 * s
+    m12 = p.a2 + p.a3 * c + p.a4 * s
+    m22 = p.a2
+    h = p.a3 * s - p.a4 * c
+    tau1 = uf[0] + uf[1]
+    tau2 = uf[2] + uf[3]
+    r1 = tau1 - (-h * qd2 * qd1 - h * (qd1 + qd2) * qd2)
+    r2 = tau2 - (h * qd1 * qd1)
+    det = m11 * m22 - m12 * m12
+    xdot[0] = qd1
+    xdot[1] = (m22 * r1 - m12 * r2) / det
+    xdot[2] = qd2
+    xdot[3] = (-m12 * r1 + m11 * r2) / det
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -26,7 +55,9 @@ class TwoLinkManipulator(Plant):
     """
 
     name: ClassVar[str] = "manipulator"
-    kind: ClassVar[int] = kernel.PLANT_MANIPULATOR
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s", "rad", "rad/s")
+    actuator_units: ClassVar[str] = "N m"
+    equations = staticmethod(dynamics)
     state_names: ClassVar[tuple[str, ...]] = ("q1", "q1_dot", "q2", "q2_dot")
     output_names: ClassVar[tuple[str, ...]] = ("q1", "q2")
     position_index: ClassVar[tuple[int, ...]] = (0, 2)
@@ -78,5 +109,5 @@ class TwoLinkManipulator(Plant):
         a4 = self.me * self.l1 * self.lce * math.sin(de)
         return a1, a2, a3, a4
 
-    def parameter_vector(self) -> np.ndarray:
-        return np.array(self.inertia_constants(), dtype=float)
+    def parameters(self) -> ManipulatorParams:
+        return ManipulatorParams(*self.inertia_constants())

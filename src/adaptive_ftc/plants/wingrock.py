@@ -3,15 +3,35 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
-import numpy as np
-
-from adaptive_ftc import _codes as kernel
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
 
-__all__ = ["WingRock"]
+__all__ = ["WingRock", "WingRockParams", "dynamics"]
+
+
+class WingRockParams(NamedTuple):
+    """Numbers of eq. (2.101); ``b`` holds one gain per aileron."""
+
+    a0: float
+    a1: float
+    a2: float
+    a3: float
+    a4: float
+    b: tuple
+
+
+def dynamics(t, x, uf, p, xdot):
+    """Eq. (2.101): ``phi'' = -a0 phi - a1 phi' - a2|phi'|phi' - a3 phi^3 - a4 phi^2 phi'
+    + sum_j b_j u^f_j``."""
+    ph = x[0]
+    pd = x[1]
+    acc = -p.a0 * ph - p.a1 * pd - p.a2 * abs(pd) * pd - p.a3 * ph * ph * ph - p.a4 * ph * ph * pd
+    for j in range(uf.size):
+        acc += p.b[j] * uf[j]
+    xdot[0] = pd
+    xdot[1] = acc
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -27,7 +47,9 @@ class WingRock(Plant):
     """
 
     name: ClassVar[str] = "wingrock"
-    kind: ClassVar[int] = kernel.PLANT_WINGROCK
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
+    actuator_units: ClassVar[str] = "rad"
+    equations = staticmethod(dynamics)
     state_names: ClassVar[tuple[str, ...]] = ("phi", "phi_dot")
     output_names: ClassVar[tuple[str, ...]] = ("phi",)
     position_index: ClassVar[tuple[int, ...]] = (0,)
@@ -55,5 +77,7 @@ class WingRock(Plant):
     def actuator_names(self) -> tuple[str, ...]:
         return tuple(f"delta_a{j + 1}" for j in range(len(self.b)))
 
-    def parameter_vector(self) -> np.ndarray:
-        return np.array([self.a0, self.a1, self.a2, self.a3, self.a4, *self.b], dtype=float)
+    def parameters(self) -> WingRockParams:
+        return WingRockParams(
+            self.a0, self.a1, self.a2, self.a3, self.a4, tuple(float(v) for v in self.b)
+        )

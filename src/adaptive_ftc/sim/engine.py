@@ -4,20 +4,19 @@ or an accurate variable-step scipy path."""
 from __future__ import annotations
 
 import math
+import threading
 import time
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
-from adaptive_ftc.sim import kernel as K
-from adaptive_ftc.sim.assemble import Assembled, assemble
+from adaptive_ftc.sim.compose import Assembled, assemble
 from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["SolverOptions", "simulate"]
+__all__ = ["SolverOptions", "integrate_only", "simulate"]
 
 _SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 
@@ -129,35 +128,107 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     'completed'
     """
     solver = solver or SolverOptions()
-    if not isinstance(loop, ClosedLoop):
-        raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
-    asm = assemble(
-        loop, sdot=solver.sdot, filter_tau=solver.filter_tau, bound=solver.divergence_bound
-    )
-    t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
-    bps = np.array(asm.breakpoints)
-    start = time.perf_counter()
-    if solver.method == "rk4":
-        Y = np.zeros((t_rec.size, asm.y0.size))
-        phases = np.zeros(t_rec.size, dtype=np.int64)
-        nrec, status, t_stop, bad = K.integrate_rk4(
-            asm.model, asm.y0, bps, float(solver.dt), t_rec, Y, phases
-        )
-        nrec = int(nrec)
-        message = (
-            "" if status == 0 else _diverged_message(loop, asm, float(t_stop), int(bad), solver)
-        )
-    else:
-        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
-    wall = time.perf_counter() - start
+    asm, t_rec, Y, phases, nrec, message, wall, stats = _integrate(loop, solver)
     T = t_rec[:nrec]
     Y = Y[:nrec]
     phases = phases[:nrec]
     if message:
         warnings.warn(message, DivergenceWarning, stacklevel=2)
-    return SimResult.from_run(
+    result = SimResult.from_run(
         loop, asm, T, Y, phases, solver=solver, message=message, wall_time=wall
     )
+    if message.startswith("Interrupted"):
+        result.status = "interrupted"
+    result.meta["steps"] = int(stats[0])
+    result.meta["rejected_steps"] = int(stats[1])
+    result.meta["rhs_evaluations"] = int(stats[2])
+    return result
+
+
+def integrate_only(loop: ClosedLoop, solver: SolverOptions | None = None):
+    """Integrate ``loop`` and return ``(times, states, phases)`` without the recorded signals.
+
+    The cheapest way to get a trajectory (used by benchmarks and campaigns that only need the
+    states); :func:`simulate` adds the signals and the labelled :class:`SimResult`.
+    """
+    solver = solver or SolverOptions()
+    _, t_rec, Y, phases, nrec, _, _, _ = _integrate(loop, solver)
+    return t_rec[:nrec], Y[:nrec], phases[:nrec]
+
+
+def _integrate(loop: ClosedLoop, solver: SolverOptions):
+    if not isinstance(loop, ClosedLoop):
+        raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
+    asm = assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+    t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
+    bps = np.array(asm.breakpoints)
+    stats = np.zeros(5, dtype=np.int64)
+    start = time.perf_counter()
+    if solver.method == "rk4":
+        Y = np.zeros((t_rec.size, asm.y0.size))
+        phases = np.zeros(t_rec.size, dtype=np.int64)
+        W = asm.work()
+
+        def run(stop):
+            return asm.module.integrate_rk4(
+                asm.y0,
+                bps,
+                float(solver.dt),
+                t_rec,
+                asm.data,
+                W,
+                float(solver.divergence_bound),
+                stop,
+                Y,
+                phases,
+                stats,
+            )
+
+        nrec, status, t_stop, bad = _interruptible(run)
+        nrec = int(nrec)
+        if status == 0:
+            message = ""
+        elif status == 3:
+            message = (
+                f"Interrupted at t = {float(t_stop):.6g} s; the result keeps the samples before "
+                "that time."
+            )
+        else:
+            message = _diverged_message(loop, asm, float(t_stop), int(bad), solver)
+    else:
+        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
+    wall = time.perf_counter() - start
+    return asm, t_rec, Y, phases, nrec, message, wall, stats
+
+
+def _interruptible(run):
+    """Run compiled ``run(stop)``; Ctrl-C in the main thread sets ``stop`` and waits for it.
+
+    The compiled loop releases the GIL and polls ``stop`` every step, so an interrupt returns
+    within a step with the partial result instead of being ignored until the run ends.
+    """
+    stop = np.zeros(1, dtype=np.int64)
+    if threading.current_thread() is not threading.main_thread():
+        return run(stop)
+    box: dict[str, object] = {}
+
+    def target():
+        try:
+            box["value"] = run(stop)
+        except BaseException as exc:  # pragma: no cover - re-raised below
+            box["error"] = exc
+
+    worker = threading.Thread(target=target, name="adaptive-ftc-integrate", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.05)
+    except KeyboardInterrupt:
+        stop[0] = 1
+        worker.join()
+    if "error" in box:
+        raise box["error"]  # type: ignore[misc]
+    return box["value"]
 
 
 def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
@@ -181,8 +252,10 @@ def _diverged_message(
 def _integrate_scipy(
     asm: Assembled, bps: np.ndarray, t_rec: np.ndarray, solver: SolverOptions, loop: ClosedLoop
 ):
-    model = asm.model
+    from scipy.integrate import solve_ivp
+
     bound = solver.divergence_bound
+    W = asm.work()
     Y = np.zeros((t_rec.size, asm.y0.size))
     phases = np.zeros(t_rec.size, dtype=np.int64)
     y = asm.y0.copy()
@@ -203,7 +276,9 @@ def _integrate_scipy(
         t_eval = np.append(t_want, b) if (t_want.size == 0 or t_want[-1] < b) else t_want
 
         def fun(t, y, ph=ph):
-            return K.derivative(t, y, ph, model)
+            dy = np.zeros(y.size)
+            asm.module.rhs(t, y, ph, asm.data, W, dy)
+            return dy
 
         with np.errstate(all="ignore"):
             sol = solve_ivp(

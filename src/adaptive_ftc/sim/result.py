@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+import json
 import math
+import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -10,13 +13,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.sim import kernel as K
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import xarray as xr
 
-    from adaptive_ftc.sim.assemble import Assembled
+    from adaptive_ftc.sim.compose import Assembled
     from adaptive_ftc.sim.engine import SolverOptions
     from adaptive_ftc.sim.system import ClosedLoop
 
@@ -50,6 +52,10 @@ class SimResult:
         its sign is the true control direction (4.6).
     status, message
         ``"completed"`` or ``"diverged"`` and the divergence message.
+    state_units, output_units, actuator_units
+        UDUNITS strings declared by the plant class (``state_units``, ``output_units``,
+        ``actuator_units`` class attributes); empty when the plant declares none, and the
+        exported file then says ``"1"`` with a comment.
     """
 
     time: np.ndarray
@@ -78,6 +84,9 @@ class SimResult:
     status: str = "completed"
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+    state_units: tuple[str, ...] = ()
+    output_units: tuple[str, ...] = ()
+    actuator_units: tuple[str, ...] = ()
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -98,8 +107,7 @@ class SimResult:
         ncol = 9 * p + 2 * m + 4
         out = np.zeros((T.size, ncol))
         if T.size:
-            K.signals(
-                asm.model,
+            asm.signals(
                 np.ascontiguousarray(T),
                 np.ascontiguousarray(Y),
                 np.ascontiguousarray(phases),
@@ -122,7 +130,10 @@ class SimResult:
             "sdot": solver.sdot,
             "t_final": loop.t_final,
             "wall_time_s": wall_time,
+            "solver_settings": _solver_settings(solver),
+            "controller": repr(ctrl),
         }
+        plant = loop.plant
         return cls(
             time=T.copy(),
             states=Y[:, :n].copy(),
@@ -150,6 +161,10 @@ class SimResult:
             status="diverged" if message else "completed",
             message=message,
             meta=meta,
+            state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
+            output_units=_declared_units(plant, ("output_units",), p)
+            or _output_units(loop.plant.state_names, loop.plant.output_names, su),
+            actuator_units=_declared_units(plant, ("actuator_units",), m),
         )
 
     # ------------------------------------------------------------------ access
@@ -196,9 +211,16 @@ class SimResult:
 
     def recovery(self, window: float = 5.0) -> list[dict[str, Any]]:
         """Per failure time: RMS error just after it (``window`` s) and just before the next."""
-        rows = []
-        times = list(self.failure_times)
-        ends = times[1:] + [float(self.meta.get("t_final", self.time[-1]))]
+        rows: list[dict[str, Any]] = []
+        if self.time.size == 0:
+            return rows
+        t_last = float(self.time[-1])
+        # only failures that happened inside the recorded run (none: no rows, no crash)
+        times = [float(t) for t in self.failure_times if float(t) <= t_last]
+        if not times:
+            return rows
+        t_end = min(float(self.meta.get("t_final", t_last)), t_last)
+        ends = times[1:] + [t_end]
         for t, nxt in zip(times, ends, strict=True):
             after = self.window(t, min(t + window, nxt))
             settle = self.window(max(t, nxt - window), nxt)
@@ -234,50 +256,240 @@ class SimResult:
         return out
 
     # ------------------------------------------------------------------ export
-    def to_xarray(self) -> xr.Dataset:
-        """All recorded signals as an :class:`xarray.Dataset` with labelled dimensions."""
+    def to_xarray(self, *, timing: bool = False, decimate: int = 1) -> xr.Dataset:
+        """All recorded signals as a self-describing :class:`xarray.Dataset`.
+
+        Every variable carries CF attributes (``long_name``, ``units``); plant states are one
+        variable each (``state_<name>``) because their units differ. The global attributes
+        hold the provenance: ``Conventions = "CF-1.10"``, the package version, the git commit
+        when the package runs from a checkout, the scenario name and file text, the solver
+        settings and the controller (its gains).
+
+        Parameters
+        ----------
+        timing
+            Also store the wall time of the run (``wall_time_s``); off by default so that
+            identical inputs give identical files.
+        decimate
+            Keep every ``decimate``-th sample (the last sample is always kept), for long runs.
+        """
         import xarray as xr
 
-        t = ("time",)
-        ds = xr.Dataset(
+        if isinstance(decimate, bool) or not isinstance(decimate, int) or decimate < 1:
+            raise ConfigurationError(
+                f"`decimate` must be a whole number >= 1 (keep every k-th sample); got "
+                f"{decimate!r}."
+            )
+        idx = _decimation_index(self.time.size, decimate)
+        out_u = [_unit(self.output_units, i) for i in range(len(self.output_names))]
+        y_units = _common(out_u)
+        rate = _per_second(y_units)
+        act_units = _common(
+            [_unit(self.actuator_units, j) for j in range(len(self.actuator_names))]
+        )
+        data: dict[str, Any] = {}
+        for i, name in enumerate(self.state_names):
+            unit = _unit(self.state_units, i)
+            data[f"state_{name}"] = (
+                ("time",),
+                self.states[idx, i],
+                _attrs(f"plant state {name}", unit, declared=bool(self.state_units)),
+            )
+        declared_y = bool(self.output_units)
+        declared_u = bool(self.actuator_units)
+        for key, long_name, unit, declared in (
+            ("y", "plant output y", y_units, declared_y),
+            ("yd", "reference y_d", y_units, declared_y),
+            ("yd_dot", "reference rate dy_d/dt", rate, declared_y),
+            ("e", "tracking error e = y_d - y", y_units, declared_y),
+            ("edot", "tracking error rate de/dt", rate, declared_y),
+            ("s", "filtered error s = de/dt + lambda e", rate, declared_y),
+            ("sdot", "filtered error rate ds/dt", _per_second(rate), declared_y),
+            ("u0", "design control signal u0", act_units, declared_u),
+        ):
+            data[key] = (
+                ("time", "output"),
+                getattr(self, key)[idx],
+                _attrs(long_name, unit, declared=declared),
+            )
+        data["u_cmd"] = (
+            ("time", "actuator"),
+            self.u_cmd[idx],
+            _attrs("actuator command u = R^T u0", act_units, declared=declared_u),
+        )
+        data["u_applied"] = (
+            ("time", "actuator"),
+            self.u_applied[idx],
+            _attrs("actuator output after failures u^f", act_units, declared=declared_u),
+        )
+        data["u_f"] = (
+            ("time",),
+            self.u_f[idx],
+            _attrs(
+                "failure compensation term -sum_j kappa_j^T varpi_j (2.4)",
+                act_units,
+                declared=declared_u,
+            ),
+        )
+        data["adaptive_gain"] = (
+            ("time",),
+            self.gain[idx],
+            _attrs(
+                "adaptive gain: Nussbaum gain N(tau) (4.3), sign estimate rho (4.4), else 1",
+                "1",
+            ),
+        )
+        data["true_control_gain"] = (
+            ("time",),
+            self.control_gain[idx],
+            _attrs(
+                "true control gain of output 1 along the allocation, sum_j g_j R_1j du^f_j/du_j;"
+                " its sign is the control direction (4.6)",
+                "1",
+            ),
+        )
+        data["adaptive"] = (
+            ("time", "param"),
+            self.adaptive[idx],
             {
-                "states": (("time", "state"), self.states),
-                "adaptive": (("time", "param"), self.adaptive),
-                "y": (("time", "output"), self.y),
-                "yd": (("time", "output"), self.yd),
-                "yd_dot": (("time", "output"), self.yd_dot),
-                "e": (("time", "output"), self.e),
-                "edot": (("time", "output"), self.edot),
-                "s": (("time", "output"), self.s),
-                "sdot": (("time", "output"), self.sdot),
-                "u0": (("time", "output"), self.u0),
-                "u_cmd": (("time", "actuator"), self.u_cmd),
-                "u_applied": (("time", "actuator"), self.u_applied),
-                "u_f": (t, self.u_f),
-                "gain": (t, self.gain),
-                "control_gain": (t, self.control_gain),
-            },
-            coords={
-                "time": self.time,
-                "state": list(self.state_names),
-                "output": list(self.output_names),
-                "actuator": list(self.actuator_names),
-                "param": list(self.adaptive_names),
+                "long_name": "adaptive parameters (theta, kappa, tau, rho, filter states)",
+                "units": "1",
+                "comment": "units differ per parameter and are not declared",
             },
         )
-        ds["time"].attrs["units"] = "s"
-        attrs = {
-            k: (v if isinstance(v, (int, float, str)) and not isinstance(v, bool) else str(v))
-            for k, v in self.meta.items()
+        ds = xr.Dataset(
+            data,
+            coords={
+                "time": (
+                    "time",
+                    self.time[idx],
+                    {"standard_name": "time", "long_name": "time", "units": "s", "axis": "T"},
+                ),
+                "state": ("state", list(self.state_names), {"long_name": "plant state name"}),
+                "output": (
+                    "output",
+                    list(self.output_names),
+                    {"long_name": "controlled output name"},
+                ),
+                "actuator": ("actuator", list(self.actuator_names), {"long_name": "actuator name"}),
+                "param": (
+                    "param",
+                    list(self.adaptive_names),
+                    {"long_name": "adaptive parameter name"},
+                ),
+            },
+        )
+        ds.attrs.update(self._global_attrs(timing=timing, decimate=decimate))
+        return ds
+
+    def _global_attrs(self, *, timing: bool, decimate: int) -> dict[str, Any]:
+        from adaptive_ftc._version import __version__
+
+        meta = {k: v for k, v in self.meta.items() if timing or k != "wall_time_s"}
+        attrs: dict[str, Any] = {
+            "Conventions": "CF-1.10",
+            "title": f"adaptive-ftc run of {meta.get('scenario', meta.get('name', ''))}".strip(),
+            "source": f"adaptive-ftc {__version__}",
+            "package_version": __version__,
         }
+        commit = _git_commit()
+        if commit:
+            attrs["git_commit"] = commit
+        for k, v in meta.items():
+            if isinstance(v, bool):
+                attrs[k] = int(v)
+            elif isinstance(v, (int, float, str)):
+                attrs[k] = v
+            else:
+                attrs[k] = str(v)
         attrs.update(
             status=self.status,
             message=self.message,
             failure_times=np.asarray(self.failure_times, dtype=float),
             failures="; ".join(self.failures),
+            decimation=int(decimate),
+            # what from_netcdf needs to rebuild the result exactly
+            aftc_result_json=json.dumps(
+                {
+                    "failures": list(self.failures),
+                    "theta_slices": [[sl.start, sl.stop] for sl in self.theta_slices],
+                    "meta": _jsonable(meta),
+                    "state_units": list(self.state_units),
+                    "output_units": list(self.output_units),
+                    "actuator_units": list(self.actuator_units),
+                },
+                sort_keys=True,
+            ),
         )
-        ds.attrs.update(attrs)
-        return ds
+        return attrs
+
+    @classmethod
+    def from_netcdf(cls, path: str | Path) -> SimResult:
+        """Read a file written by :meth:`to_netcdf` back into a :class:`SimResult`.
+
+        Raises
+        ------
+        ConfigurationError
+            When the file does not exist or was not written by ``SimResult.to_netcdf``.
+        """
+        import xarray as xr
+
+        path = Path(path)
+        if not path.is_file():
+            raise ConfigurationError(f"No netCDF file at '{path}'; give the path of a .nc file.")
+        try:
+            with xr.open_dataset(path, engine="h5netcdf") as handle:
+                ds = handle.load()
+        except Exception as exc:  # noqa: BLE001 - any reader failure is the same user error
+            raise ConfigurationError(
+                f"'{path}' is not a readable netCDF4 file ({type(exc).__name__}: {exc}); "
+                "write it with SimResult.to_netcdf."
+            ) from None
+        if "aftc_result_json" not in ds.attrs:
+            raise ConfigurationError(
+                f"'{path}' was not written by SimResult.to_netcdf (no 'aftc_result_json' "
+                "attribute); open it with xarray.open_dataset instead."
+            )
+        info = json.loads(ds.attrs["aftc_result_json"])
+        states = [str(s) for s in ds["state"].values]
+        n_t = ds.sizes["time"]
+
+        def arr(name: str) -> np.ndarray:
+            return np.asarray(ds[name].values, dtype=float)
+
+        return cls(
+            time=arr("time"),
+            states=np.stack([arr(f"state_{s}") for s in states], axis=1)
+            if states
+            else np.zeros((n_t, 0)),
+            adaptive=arr("adaptive"),
+            y=arr("y"),
+            yd=arr("yd"),
+            yd_dot=arr("yd_dot"),
+            e=arr("e"),
+            edot=arr("edot"),
+            s=arr("s"),
+            sdot=arr("sdot"),
+            u0=arr("u0"),
+            u_cmd=arr("u_cmd"),
+            u_applied=arr("u_applied"),
+            u_f=arr("u_f"),
+            gain=arr("adaptive_gain"),
+            control_gain=arr("true_control_gain"),
+            state_names=tuple(states),
+            output_names=tuple(str(v) for v in ds["output"].values),
+            actuator_names=tuple(str(v) for v in ds["actuator"].values),
+            adaptive_names=tuple(str(v) for v in ds["param"].values),
+            theta_slices=tuple(slice(a, b) for a, b in info["theta_slices"]),
+            failure_times=tuple(float(t) for t in np.atleast_1d(ds.attrs.get("failure_times", []))),
+            failures=tuple(info["failures"]),
+            status=str(ds.attrs.get("status", "completed")),
+            message=str(ds.attrs.get("message", "")),
+            meta=dict(info["meta"]),
+            state_units=tuple(info.get("state_units", ())),
+            output_units=tuple(info.get("output_units", ())),
+            actuator_units=tuple(info.get("actuator_units", ())),
+        )
 
     def to_pandas(self) -> pd.DataFrame:
         """A wide table, one column per signal component, indexed by time."""
@@ -299,18 +511,61 @@ class SimResult:
             cols[name] = self.adaptive[:, i]
         return pd.DataFrame(cols, index=pd.Index(self.time, name="time"))
 
-    def to_netcdf(self, path: str | Path) -> Path:
-        """Write the dataset to netCDF (scipy engine, no extra dependency)."""
+    def to_netcdf(
+        self,
+        path: str | Path,
+        *,
+        float32: bool = False,
+        decimate: int = 1,
+        complevel: int = 4,
+        timing: bool = False,
+    ) -> Path:
+        """Write a compressed, self-describing netCDF4 file (h5netcdf), atomically.
+
+        The file is written to a temporary name in the same folder and renamed, so an
+        interrupted write never leaves a truncated file where a good one was. Identical
+        results give byte-identical files (the wall time is left out unless ``timing``).
+
+        Parameters
+        ----------
+        path
+            Target file (``.nc``).
+        float32
+            Store the signals in single precision (half the size; about 7 digits).
+        decimate
+            Keep every ``decimate``-th sample, for long runs.
+        complevel
+            zlib level 0-9 (0: no compression).
+        timing
+            Also store the wall time of the run.
+        """
+        from adaptive_ftc._atomic import atomic_path
+
+        if isinstance(complevel, bool) or not isinstance(complevel, int) or not 0 <= complevel <= 9:
+            raise ConfigurationError(f"`complevel` must be a whole number 0..9; got {complevel!r}.")
+        ds = self.to_xarray(timing=timing, decimate=decimate)
+        encoding: dict[str, dict[str, Any]] = {}
+        for name, var in ds.variables.items():
+            if var.dtype.kind != "f":
+                continue
+            enc: dict[str, Any] = {"_FillValue": None}
+            if complevel and var.ndim and var.size:
+                enc.update(zlib=True, complevel=complevel, shuffle=True)
+            if float32 and name != "time":
+                enc["dtype"] = "float32"
+            encoding[str(name)] = enc
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_xarray().to_netcdf(path, engine="scipy")
+        with atomic_path(path) as tmp:
+            ds.to_netcdf(tmp, engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
         return path
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the wide table to CSV."""
+        from adaptive_ftc._atomic import atomic_path
+
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_pandas().to_csv(path)
+        with atomic_path(path) as tmp:
+            self.to_pandas().to_csv(tmp)
         return path
 
     def plot(self, kind: str = "tracking", **kwargs):
@@ -318,3 +573,95 @@ class SimResult:
         from adaptive_ftc import plots
 
         return plots.plot(self, kind, **kwargs)
+
+
+# ---------------------------------------------------------------------- export helpers
+def _solver_settings(solver: Any) -> str:
+    """The solver options as sorted JSON (stable text for provenance attributes)."""
+    import dataclasses
+
+    try:
+        fields = dataclasses.asdict(solver)
+    except TypeError:
+        return repr(solver)
+    return json.dumps(_jsonable(fields), sort_keys=True)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return repr(value)
+    if isinstance(value, (str, int, float, bool)) or value is None:
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)
+
+
+def _declared_units(plant: Any, attrs: tuple[str, ...], size: int) -> tuple[str, ...]:
+    """Units from the first plant class attribute of ``attrs`` that exists (a string or one
+    string per item), else ``()``."""
+    units = next((getattr(plant, a) for a in attrs if getattr(plant, a, None) is not None), None)
+    if units is None:
+        return ()
+    if isinstance(units, str):
+        return (units,) * size
+    units = tuple(str(u) for u in units)
+    return units if len(units) == size else ()
+
+
+def _output_units(
+    state_names: tuple[str, ...], output_names: tuple[str, ...], state_units: tuple[str, ...]
+) -> tuple[str, ...]:
+    """Output units taken from the states of the same name, when every output is a state."""
+    if not state_units or not all(o in state_names for o in output_names):
+        return ()
+    return tuple(state_units[state_names.index(o)] for o in output_names)
+
+
+def _unit(units: tuple[str, ...], i: int) -> str:
+    return units[i] if i < len(units) and units[i] else "1"
+
+
+def _common(units: list[str]) -> str:
+    return units[0] if units and all(u == units[0] for u in units) else "1"
+
+
+def _per_second(unit: str) -> str:
+    return "s-1" if unit == "1" else f"{unit} s-1"
+
+
+def _attrs(long_name: str, unit: str, *, declared: bool = True) -> dict[str, str]:
+    out = {"long_name": long_name, "units": unit}
+    if not declared:
+        out["comment"] = "units not declared by the plant class; '1' is a placeholder"
+    return out
+
+
+def _decimation_index(n: int, k: int) -> np.ndarray:
+    idx = np.arange(0, n, k)
+    if n and idx[-1] != n - 1:
+        idx = np.append(idx, n - 1)
+    return idx
+
+
+@functools.lru_cache(maxsize=1)
+def _git_commit() -> str:
+    """The git commit of the package's checkout, or ``""`` (installed from a wheel, no git)."""
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=False,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    commit = out.stdout.strip()
+    return commit if out.returncode == 0 and len(commit) == 40 else ""

@@ -1,0 +1,221 @@
+"""Generate, cache and load one compiled module per closed-loop *structure*.
+
+A closed loop is split into its structure (which plant and design functions, regressor kinds
+and sizes, the shapes of its expressions, the solver) and its numbers (gains, plant parameters,
+failure values and times, initial state). The structure becomes the text of a Python module that
+reads like hand-written code; the numbers travel as data. Two loops that differ only in numbers
+share one module, compiled once and cached on disk.
+
+Cache layout: ``<cache dir>/loops/loop_<key>.py`` with numba's cache files in ``__pycache__``
+beside it. The key hashes the generated text, the source of every module it imports, and the
+numba and package versions, so an edited part never runs stale code. The cache directory is
+``$ADAPTIVE_FTC_CACHE_DIR``, else ``$XDG_CACHE_HOME/adaptive-ftc`` (``~/.cache/adaptive-ftc``);
+when no directory is writable, loops are compiled in memory (slower first runs, same results).
+Modules whose parts are not importable (functions defined in ``__main__`` or a notebook) are
+compiled in memory too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import math
+import os
+import sys
+import tempfile
+import threading
+import types
+from collections.abc import Mapping
+from pathlib import Path
+
+from adaptive_ftc._version import __version__
+from adaptive_ftc.errors import ConfigurationError
+
+__all__ = ["cache_dir", "compile_expression", "emit", "load_module", "stats", "template"]
+
+_BEGIN = "# --- template: begin ---"
+_lock = threading.RLock()
+_modules: dict[str, types.ModuleType] = {}
+_stats = {"generated": 0, "loaded": 0, "in_memory": 0}
+
+
+# ----------------------------------------------------------------------------- expressions
+def emit(node, names: Mapping[str, str], consts: list[float], base: str = "o") -> str:
+    """Python text of expression tree ``node`` with its numbers lifted into ``consts``.
+
+    Every literal becomes ``c[<base> + k]`` (appended to ``consts``), so expressions that differ
+    only in their numbers generate the same text. Small integer powers stay structural
+    (``a**2`` -> ``a * a``), as the interpreter they replace evaluated them.
+    """
+    kind = node[0]
+    if kind == "const":
+        consts.append(float(node[1]))
+        return f"c[{base} + {len(consts) - 1}]"
+    if kind == "var":
+        return names[node[1]]
+    if kind == "neg":
+        return f"(-{emit(node[1], names, consts, base)})"
+    if kind == "bin":
+        op, a, b = node[1], node[2], node[3]
+        if op == "**" and b[0] == "const" and b[1] in (2.0, 3.0):
+            x = emit(a, names, consts, base)
+            return f"({x} * {x})" if b[1] == 2.0 else f"({x} * {x} * {x})"
+        ta = emit(a, names, consts, base)
+        tb = emit(b, names, consts, base)
+        if op == "**":
+            return f"g_pow({ta}, {tb})"
+        return f"({ta} {op} {tb})"
+    from adaptive_ftc.sim.mathlib import FUNCTIONS
+
+    args = ", ".join(emit(a, names, consts, base) for a in node[2])
+    return f"{FUNCTIONS[node[1]]}({args})"
+
+
+def template(name: str) -> str:
+    """The pasted part of ``templates/<name>.py``."""
+    text = (Path(__file__).parent / "templates" / f"{name}.py").read_text()
+    return text.split(_BEGIN, 1)[1].lstrip("\n")
+
+
+# ----------------------------------------------------------------------------- cache
+def cache_dir() -> Path | None:
+    """The writable cache directory for generated loops, or ``None`` (compile in memory)."""
+    candidates = []
+    if os.environ.get("ADAPTIVE_FTC_CACHE_DIR"):
+        candidates.append(Path(os.environ["ADAPTIVE_FTC_CACHE_DIR"]))
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    candidates.append(
+        Path(xdg) / "adaptive-ftc" if xdg else Path.home() / ".cache" / "adaptive-ftc"
+    )
+    candidates.append(Path(tempfile.gettempdir()) / f"adaptive-ftc-{_user()}")
+    for c in candidates:
+        try:
+            d = c / "loops"
+            d.mkdir(parents=True, exist_ok=True)
+            probe = d / f".probe-{os.getpid()}-{threading.get_ident()}"
+            probe.write_text("")
+            probe.unlink()
+            return d
+        except OSError:
+            continue
+    return None
+
+
+def _user() -> str:
+    try:
+        return str(os.getuid())
+    except AttributeError:  # pragma: no cover - Windows
+        return os.environ.get("USERNAME", "user")
+
+
+def _source_hash(modules: list[str]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(set(modules)):
+        mod = sys.modules.get(name) or importlib.import_module(name)
+        path = getattr(mod, "__file__", None)
+        h.update(name.encode())
+        if path and os.path.exists(path):
+            h.update(Path(path).read_bytes())
+    return h.hexdigest()
+
+
+def load_module(
+    source: str,
+    *,
+    imports: list[str],
+    inject: Mapping[str, object] | None = None,
+) -> types.ModuleType:
+    """Compile (or load from the cache) the generated module ``source``.
+
+    Parameters
+    ----------
+    source
+        Module text. It reads the global ``CACHE`` to decide numba's ``cache=``.
+    imports
+        Names of the modules whose code it imports (their source is part of the cache key).
+    inject
+        Objects to place in the module before it runs (parts that cannot be imported, such as
+        functions defined in ``__main__``); such modules are compiled in memory only.
+    """
+    import numba
+
+    key_src = "\n".join(
+        [source, _source_hash(imports), numba.__version__, __version__, sys.version]
+    )
+    key = hashlib.sha256(key_src.encode()).hexdigest()[:24]
+    with _lock:
+        if key in _modules and not inject:
+            return _modules[key]
+        name = f"adaptive_ftc_loop_{key}"
+        folder = None if inject else cache_dir()
+        if folder is None:
+            module = types.ModuleType(name)
+            module.__dict__.update(inject or {})
+            module.CACHE = False
+            sys.modules[name] = module
+            try:
+                exec(compile(source, f"<generated loop {key}>", "exec"), module.__dict__)
+            except Exception:
+                sys.modules.pop(name, None)
+                raise
+            _stats["in_memory"] += 1
+        else:
+            path = folder / f"loop_{key}.py"
+            if not path.exists() or path.read_text() != source:
+                tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+                tmp.write_text(source)
+                os.replace(tmp, path)
+                _stats["generated"] += 1
+            spec = importlib.util.spec_from_file_location(name, path)
+            if spec is None or spec.loader is None:  # pragma: no cover
+                raise ConfigurationError(f"Cannot load the generated loop module {path}.")
+            module = importlib.util.module_from_spec(spec)
+            module.CACHE = True
+            # must be importable by name before it runs, or numba's cache cannot find it
+            sys.modules[name] = module
+            try:
+                spec.loader.exec_module(module)
+            except Exception:
+                sys.modules.pop(name, None)
+                raise
+        _stats["loaded"] += 1
+        if not inject:
+            _modules[key] = module
+        return module
+
+
+def stats() -> dict[str, int]:
+    """Counters of this process: modules generated (written), loaded, compiled in memory, and
+    numba compilations of loop entry points (``compiled``; 0 when every loop hit the cache)."""
+    compiled = 0
+    for mod in list(_modules.values()):
+        for fn in ("rhs", "integrate_rk4", "signals"):
+            disp = getattr(mod, fn, None)
+            if disp is not None and hasattr(disp, "stats"):
+                compiled += sum(disp.stats.cache_misses.values())
+    return {**_stats, "modules": len(_modules), "compiled": compiled}
+
+
+def compile_expression(expr, variables: Mapping[str, str] | None = None):
+    """A compiled scalar function ``f(t, x, u)`` of an :class:`Expression` (in memory).
+
+    ``variables`` maps the expression's names to ``t``, ``u`` or ``x[i]`` text; by default
+    ``t`` and ``u`` map to themselves and ``x1..xn`` to ``x[0..n-1]``.
+    """
+    import numba
+    import numpy as np
+
+    from adaptive_ftc.sim import mathlib
+
+    if variables is None:
+        variables = {
+            v: (f"x[{int(v[1:]) - 1}]" if v[:1] == "x" and v[1:].isdigit() else v)
+            for v in expr.variables
+        }
+    consts: list[float] = []
+    text = emit(expr.node, variables, consts)
+    ns: dict[str, object] = {"math": math, "c": np.array(consts, dtype=float)}
+    for name in mathlib.GUARDED:
+        ns[name] = numba.njit(getattr(mathlib, name))
+    exec(f"def f(t, x, u):\n    o = 0\n    return {text}\n", ns)
+    return numba.njit(ns["f"])

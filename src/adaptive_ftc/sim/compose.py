@@ -1,0 +1,508 @@
+"""Compose a :class:`ClosedLoop` from its parts into one generated, compiled module.
+
+The generated right-hand side reads like the thesis: reference and tracking errors (2.18),
+regressors (each emitted by its own class), the design's control law and compensator, the
+allocation ``u = R^T u0`` (3.14) with the actuator failures, the plant's own ``dynamics``, the
+signal ``q`` and the design's adaptive laws. The simulation core names no plant and no design:
+every part contributes its code through a small interface (:meth:`Plant.dynamics_source`,
+``Regressor.emit``, ``AdaptiveController.emit_control`` / ``emit_adapt``).
+
+What a loop *is* decides the text; its numbers go into :class:`LoopData`. Set
+``NUMBA_DISABLE_JIT=1`` to step through a generated module (printed by :func:`source_of`).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError, did_you_mean
+from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.sim import codegen
+from adaptive_ftc.sim.system import ClosedLoop
+
+__all__ = ["Assembled", "Generator", "LoopData", "Work", "assemble", "source_of"]
+
+
+class LoopData(NamedTuple):
+    """The numbers of a closed loop (everything a campaign may vary without recompiling)."""
+
+    c: np.ndarray  # constants lifted out of every expression
+    fphase: np.ndarray  # failure instance per (phase, actuator); -1 = healthy
+    fshape: np.ndarray  # shape (generated branch) of each failure instance
+    foff: np.ndarray  # offset of each failure instance's constants in ``c``
+    R: np.ndarray  # allocation matrix (p x m), u = R^T u0 (3.14)
+    lam: np.ndarray  # per output
+    k: np.ndarray
+    k0: np.ndarray
+    eps0: float
+    filter_tau: float
+    adapt: float  # 0: adaptation frozen
+    centers: np.ndarray  # fuzzy membership centres, all regressors, flat
+    spread: np.ndarray  # 1 / (2 w^2) per membership
+    pos: np.ndarray  # state index of each output
+    vel: np.ndarray  # state index of each output's rate
+    plant: Any  # the plant's parameters (a NamedTuple, or an array for expression plants)
+    gains: Any  # the design's gains (a NamedTuple)
+
+
+class Work(NamedTuple):
+    """Scratch buffers of one run (never shared between threads)."""
+
+    sig: np.ndarray  # controller signals [x, e, edot, s]
+    phi: np.ndarray  # regressor values, all regressors
+    mu: np.ndarray  # membership values
+    u0: np.ndarray
+    u: np.ndarray
+    uf: np.ndarray
+    xdot: np.ndarray
+    ref: np.ndarray  # y_d, y_d', y_d'' per output
+    q: np.ndarray
+    misc: np.ndarray  # [u_f compensation, adaptive gain, s' used, reference valid, reference t]
+    w: np.ndarray  # design basis values (failure estimation)
+
+
+@dataclass
+class Generator:
+    """Collects the text and the numbers of one closed loop while its parts emit their code."""
+
+    loop: ClosedLoop
+    sdot: str
+    consts: list[float] = field(default_factory=list)
+    imports: dict[str, str] = field(default_factory=dict)  # alias -> "module:function"
+    inject: dict[str, object] = field(default_factory=dict)
+    defs: list[str] = field(default_factory=list)  # generated functions
+    centers: list[float] = field(default_factory=list)
+    spread: list[float] = field(default_factory=list)
+    n_mu: int = 0
+    n_w: int = 0
+    y0_extra: list[float] = field(default_factory=list)
+    adaptive_names: list[str] = field(default_factory=list)
+
+    # sizes fixed by the plant
+    @property
+    def nx(self) -> int:
+        return self.loop.plant.n_states
+
+    @property
+    def p(self) -> int:
+        return self.loop.plant.n_outputs
+
+    @property
+    def m(self) -> int:
+        return self.loop.plant.n_actuators
+
+    def use(self, alias: str, func) -> str:
+        """Make the plain-Python part function ``func`` available, jitted, as ``alias``."""
+        func = getattr(func, "py_func", func)  # accept numba dispatchers too
+        modname = getattr(func, "__module__", None)
+        qual = getattr(func, "__qualname__", "")
+        importable = (
+            modname not in (None, "__main__")
+            and "<" not in qual
+            and "." not in qual
+            and getattr(__import__(modname, fromlist=["_"]), func.__name__, None) is func
+        )
+        if importable:
+            self.imports[alias] = f"{modname}:{func.__name__}"
+        else:
+            self.inject[f"_py_{alias}"] = func
+            self.imports[alias] = ""
+        return alias
+
+    def constant_block(self, node, names: dict[str, str]) -> str:
+        """Text of an expression whose numbers sit at a fixed place of ``c``."""
+        start = len(self.consts)
+        local: list[float] = []
+        text = codegen.emit(node, names, local, base="_")
+        self.consts.extend(local)
+        return re.sub(r"c\[_ \+ (\d+)\]", lambda mt: f"c[{start + int(mt.group(1))}]", text)
+
+    def signal(self, name: str, where: str) -> int:
+        names = self.loop.signal_names()
+        if name not in names:
+            raise ConfigurationError(
+                f"Unknown regressor input '{name}' in {where}.{did_you_mean(name, names)} "
+                f"Available signals: {', '.join(names)}."
+            )
+        return names[name]
+
+
+@dataclass(frozen=True)
+class Assembled:
+    """A closed loop ready to run: its compiled module, its numbers and its state layout."""
+
+    module: Any
+    data: LoopData
+    y0: np.ndarray
+    breakpoints: tuple[float, ...]
+    adaptive_names: tuple[str, ...]
+    theta_slices: tuple[slice, ...]
+    n_x: int
+    sizes: tuple[int, int, int, int, int]  # (n_sig, n_phi, n_mu, n_w, n_states)
+    source: str = field(repr=False, default="")
+
+    def work(self) -> Work:
+        """Fresh scratch buffers for one run."""
+        n_sig, n_phi, n_mu, n_w, _ = self.sizes
+        p = self.data.lam.size
+        m = self.data.R.shape[1]
+        return Work(
+            np.zeros(n_sig),
+            np.zeros(max(n_phi, 1)),
+            np.zeros(max(n_mu, 1)),
+            np.zeros(p),
+            np.zeros(m),
+            np.zeros(m),
+            np.zeros(self.n_x),
+            np.zeros(3 * p),
+            np.zeros(p),
+            np.zeros(8),
+            np.zeros(max(n_w, 1)),
+        )
+
+    def derivative(self, t: float, y: np.ndarray, phase: int) -> np.ndarray:
+        """Closed-loop derivative at ``(t, y)`` in failure phase ``phase`` (allocating)."""
+        dY = np.zeros(self.y0.size)
+        self.module.rhs(
+            float(t), np.ascontiguousarray(y, dtype=float), int(phase), self.data, self.work(), dY
+        )
+        return dY
+
+    def regressor_values(self, t: float, y: np.ndarray, phase: int = 0) -> np.ndarray:
+        """All regressor values ``Pi`` at ``(t, y)`` (a copy), e.g. to check a regressor."""
+        W = self.work()
+        self.module.rhs(
+            float(t),
+            np.ascontiguousarray(y, dtype=float),
+            int(phase),
+            self.data,
+            W,
+            np.zeros(self.y0.size),
+        )
+        return W.phi[: self.sizes[1]].copy()
+
+    def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
+        """Recompute the recorded signals (see ``templates/record.py``) into ``out``."""
+        self.module.signals(T, Y, phases, self.data, self.work(), out)
+
+
+# ----------------------------------------------------------------------------- generation
+def _reference(g: Generator) -> str:
+    lines = [
+        "@jit",
+        "def reference(t, c, out):",
+        '    """Desired outputs and their first two derivatives (taken symbolically)."""',
+    ]
+    for i, text in enumerate(g.loop.reference):
+        name = g.loop.plant.output_names[i]
+        e = Expression(text, ("t",), context=f"reference of output '{name}'")
+        lines.append(f"    # {name}: y_d = {e}")
+        for d in range(3):
+            lines.append(f"    out[{3 * i + d}] = {g.constant_block(e.node, {'t': 't'})}")
+            e = e.derivative("t")
+    return "\n".join(lines)
+
+
+def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
+    """Failure dispatch functions and the per-phase instance table."""
+    loop = g.loop
+    bps = loop.failures.breakpoints(loop.t0, loop.t_final)
+    nph = len(bps) - 1
+    fphase = -np.ones((nph, g.m), dtype=np.int64)
+    shapes: dict[tuple[str, str], int] = {}
+    inst_shape: list[int] = []
+    inst_off: list[int] = []
+    consts: list[float] = []
+    seen: dict[int, int] = {}
+    for k in range(nph):
+        mid = 0.5 * (bps[k] + bps[k + 1])
+        for j, f in enumerate(loop.failures.active(mid)):
+            if f is None:
+                continue
+            if id(f) not in seen:
+                ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
+                e = f.expression(variables, context=ctx)
+                local: list[float] = []
+                text = codegen.emit(e.node, names, local)
+                dlocal: list[float] = []
+                dtext = codegen.emit(e.derivative("u").node, names, dlocal)
+                # the derivative's numbers follow the pattern's
+                dtext = _shift(dtext, len(local))
+                key = (text, dtext)
+                if key not in shapes:
+                    shapes[key] = len(shapes)
+                seen[id(f)] = len(inst_shape)
+                inst_shape.append(shapes[key])
+                inst_off.append(len(consts))
+                consts.extend(local + dlocal)
+            fphase[k, j] = seen[id(f)]
+    fn, dfn = (
+        [
+            "@jit",
+            "def failure(k, t, x, u, D):",
+            '    """Applied output of a failed actuator (pattern of failure instance k)."""',
+            "    c = D.c",
+            "    o = D.foff[k]",
+            "    s = D.fshape[k]",
+        ],
+        [
+            "@jit",
+            "def dfailure(k, t, x, u, D):",
+            '    """d(applied output)/du of failure instance k."""',
+            "    c = D.c",
+            "    o = D.foff[k]",
+            "    s = D.fshape[k]",
+        ],
+    )
+    for (text, dtext), s in shapes.items():
+        fn.append(f"    if s == {s}:\n        return {text}")
+        dfn.append(f"    if s == {s}:\n        return {dtext}")
+    fn.append("    return u")
+    dfn.append("    return 1.0")
+    return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn)
+
+
+def _shift(text: str, by: int) -> str:
+    return re.sub(r"c\[o \+ (\d+)\]", lambda mt: f"c[o + {int(mt.group(1)) + by}]", text)
+
+
+def generate(loop: ClosedLoop, *, sdot: str = "exact"):
+    """Generate the module text and the numbers of ``loop`` (see :func:`assemble`)."""
+    plant, ctrl = loop.plant, loop.controller
+    g = Generator(loop=loop, sdot=sdot)
+    nx, p, m = g.nx, g.p, g.m
+    # expression variables: t, u and the plant states by every alias
+    aliases = plant.aliases()
+    variables = ("t", "u", *aliases)
+    names = {"t": "t", "u": "u", **{a: f"x[{i}]" for a, i in aliases.items()}}
+    ref_src = _reference(g)
+    plant_src = plant.dynamics_source(g)
+    # regressors and their parameter blocks
+    regs = ctrl.regressors_for(p)
+    theta_slices, blocks = [], []
+    off = 0
+    reg_src = []
+    for r, reg in enumerate(regs):
+        where = f"the regressor of design '{ctrl.design}'"
+        idx = [g.signal(name, where) for name in reg.inputs]
+        reg_src.append(reg.emit(g, idx, off, r))
+        blocks.append((off, nx + off, reg.size))
+        theta_slices.append(slice(off, off + reg.size))
+        off += reg.size
+    n_phi = off
+    if len(regs) == 1:
+        g.adaptive_names += [f"theta_{l + 1}" for l in range(n_phi)]
+    else:
+        for r, reg in enumerate(regs):
+            g.adaptive_names += [f"theta{r + 1}_{l + 1}" for l in range(reg.size)]
+    extra_at = nx + n_phi
+    control_src = ctrl.emit_control(g, blocks, extra_at)
+    adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    filt = extra_at + len(g.y0_extra)
+    if sdot == "filtered":
+        g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
+    ny = filt + (p if sdot == "filtered" else 0)
+    const_static = len(g.consts)
+    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src = _failures(g, variables, names)
+    # ------------------------------------------------------------ the right-hand side
+    pos, vel = plant.position_index, plant.velocity_index
+    body = [
+        "@jit",
+        "def rhs(t, Y, ph, D, W, dY):",
+        f'    """Closed-loop derivative of {plant.name} + {ctrl.design} (in place)."""',
+        f"    x = Y[0:{nx}]",
+        "    sig = W.sig",
+        "    ref = W.ref",
+        f"    for i in range({nx}):",
+        "        sig[i] = x[i]",
+        "    if not (W.misc[3] == 1.0 and W.misc[4] == t):",
+        "        reference(t, D.c, ref)",
+        "        W.misc[4] = t",
+        "        W.misc[3] = 1.0",
+        "    # tracking errors e = y_d - y and filtered errors s (2.18)",
+    ]
+    for i in range(p):
+        body += [
+            f"    e = ref[{3 * i}] - x[{pos[i]}]",
+            f"    ed = ref[{3 * i + 1}] - x[{vel[i]}]",
+            f"    sig[{nx + i}] = e",
+            f"    sig[{nx + p + i}] = ed",
+            f"    sig[{nx + 2 * p + i}] = filtered_error(e, ed, D.lam[{i}])",
+        ]
+    body.append("    # regressors and u0 = Pi^T theta (2.22), per output (3.26)")
+    for r, src in enumerate(reg_src):
+        o, at, size = blocks[r]
+        body += src
+        body.append(f"    W.u0[{r}] = weighted_sum(W.phi, Y, {o}, {at}, {size})")
+    body += control_src
+    body += [
+        "    # allocation u = R^T u0 (3.14) and actuator failures",
+        f"    for j in range({m}):",
+        "        acc = 0.0",
+        f"        for i in range({p}):",
+        "            acc += D.R[i, j] * W.u0[i]",
+        "        W.u[j] = acc",
+        "        k = D.fphase[ph, j]",
+        "        W.uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
+        "    plant_dynamics(t, x, W.uf, D.plant, W.xdot)",
+        f"    for i in range({nx}):",
+        "        dY[i] = W.xdot[i]",
+        "    # q = s' + k s + k0 tanh(s/eps0)",
+    ]
+    for i in range(p):
+        s_at = nx + 2 * p + i
+        if sdot == "exact":  # s' from the plant derivative (SPEC §1)
+            body.append(
+                f"    sd = ref[{3 * i + 2}] - W.xdot[{vel[i]}] + D.lam[{i}] * sig[{nx + p + i}]"
+            )
+        else:  # dirty-derivative filter of s
+            body += [
+                f"    sd = (sig[{s_at}] - Y[{filt + i}]) / D.filter_tau",
+                f"    dY[{filt + i}] = sd",
+            ]
+        body.append(f"    W.q[{i}] = robust_q(sd, sig[{s_at}], D.k[{i}], D.k0[{i}], D.eps0)")
+        if i == 0:
+            body.append("    W.misc[2] = sd")
+    body += [
+        "    if D.adapt == 0.0:  # adaptation frozen",
+        f"        for i in range({nx}, {filt}):",
+        "            dY[i] = 0.0",
+        "        return",
+    ]
+    body += adapt_src
+    # ------------------------------------------------------------ imports and module
+    imports = [
+        "import math",
+        "",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        "from adaptive_ftc.controllers.laws import filtered_error, robust_q, weighted_sum",
+        "from adaptive_ftc.sim.mathlib import " + ", ".join(_guarded()),
+    ]
+    jits = ["filtered_error", "robust_q", "weighted_sum", *_guarded()]
+    mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib"]
+    for alias, target in sorted(g.imports.items()):
+        if target:
+            mod, fn = target.split(":")
+            imports.append(f"from {mod} import {fn} as _py_{alias}")
+            mods.append(mod)
+        jits.append(alias)
+    header = [
+        f'"""Generated closed loop: plant {plant.name!r}, design {ctrl.design!r} '
+        f"{ctrl.equation}, {p} output(s), {m} actuator(s), s' {sdot}.",
+        "",
+        "Written by adaptive_ftc.sim.compose; numbers live in LoopData, not here.",
+        '"""',
+        "# ruff: noqa",
+        *imports,
+        "",
+        'jit = njit(cache=CACHE, nogil=True, error_model="numpy")',
+        '_part = njit(nogil=True, error_model="numpy")',
+    ]
+    for name in jits:
+        src = f"_py_{name}" if name in g.imports else name
+        header.append(f"{name} = _part({src})")
+    text = (
+        "\n\n".join(
+            [
+                "\n".join(header),
+                ref_src,
+                *([plant_src] if plant_src else []),
+                *g.defs,
+                fail_src,
+                dfail_src,
+                "\n".join(body),
+                codegen.template("rk4"),
+                codegen.template("record"),
+            ]
+        )
+        + "\n"
+    )
+    consts = np.array(g.consts + fconsts, dtype=float)
+    data = LoopData(
+        c=consts,
+        fphase=fphase,
+        fshape=np.array(fshape, dtype=np.int64),
+        foff=np.array(foff, dtype=np.int64) + const_static,
+        R=np.ascontiguousarray(loop.R),
+        lam=np.array(_per_output(ctrl.lam, p, "lam")),
+        k=np.array(_per_output(ctrl.k, p, "k")),
+        k0=np.array(_per_output(ctrl.k0, p, "k0")),
+        eps0=float(ctrl.eps0),
+        filter_tau=0.01,
+        adapt=1.0 if loop.adapt else 0.0,
+        centers=np.array(g.centers, dtype=float),
+        spread=np.array(g.spread, dtype=float),
+        pos=np.array(pos, dtype=np.int64),
+        vel=np.array(vel, dtype=np.int64),
+        plant=plant.parameters(),
+        gains=ctrl.gains(),
+    )
+    sizes = (nx + 3 * p, n_phi, g.n_mu, g.n_w, ny)
+    layout = dict(
+        bps=bps, ny=ny, filt=filt, n_phi=n_phi, theta_slices=tuple(theta_slices), mods=mods
+    )
+    return text, data, g, sizes, layout
+
+
+def _guarded() -> list[str]:
+    from adaptive_ftc.sim.mathlib import GUARDED
+
+    return list(GUARDED)
+
+
+def source_of(loop: ClosedLoop, *, sdot: str = "exact") -> str:
+    """The generated module text of ``loop`` (to read, or to step through without JIT)."""
+    return generate(loop, sdot=sdot)[0]
+
+
+def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01) -> Assembled:
+    """Generate and compile (or load from the cache) the module of ``loop``'s structure."""
+    if sdot not in ("exact", "filtered"):
+        raise ConfigurationError(f"`sdot` must be 'exact' or 'filtered'; got {sdot!r}.")
+    if not filter_tau > 0:
+        raise ConfigurationError(f"`filter_tau` must be positive; got {filter_tau}.")
+    text, data, g, sizes, layout = generate(loop, sdot=sdot)
+    data = data._replace(filter_tau=float(filter_tau))
+    module = codegen.load_module(text, imports=layout["mods"], inject=g.inject)
+    nx, p = g.nx, g.p
+    y0 = np.zeros(layout["ny"])
+    y0[:nx] = loop.initial_state
+    y0[nx : nx + layout["n_phi"]] = loop.controller.theta0
+    y0[nx + layout["n_phi"] : layout["filt"]] = g.y0_extra
+    asm = Assembled(
+        module=module,
+        data=data,
+        y0=y0,
+        breakpoints=layout["bps"],
+        adaptive_names=tuple(g.adaptive_names),
+        theta_slices=layout["theta_slices"],
+        n_x=nx,
+        sizes=sizes,
+        source=text,
+    )
+    if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
+        ref = np.zeros(3 * p)
+        module.reference(float(loop.t0), data.c, ref)
+        x0 = y0[:nx]
+        for i in range(p):
+            e = ref[3 * i] - x0[loop.plant.position_index[i]]
+            ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
+            y0[layout["filt"] + i] = ed + data.lam[i] * e
+    return asm
+
+
+def _per_output(value, p: int, name: str) -> tuple[float, ...]:
+    if isinstance(value, (int, float)):
+        return (float(value),) * p
+    vals = tuple(float(v) for v in value)
+    if len(vals) == 1:
+        return vals * p
+    if len(vals) != p:
+        raise ConfigurationError(f"`{name}` needs one value per output ({p}); got {len(vals)}.")
+    return vals
