@@ -547,10 +547,12 @@ def _zoom_panel(ax: Axes, full: SimResult, window: tuple[float, float], est: str
     ax.set_xlim(a, b)
     ax.set_gid("zoom")
     ax.set_ylabel("zoom (–)")
-    ax.set_title(f"zoom on t = {a:.3g} to {b:.3g} s (full resolution)", fontsize=9, loc="left")
     ax.grid(True, linewidth=0.4, alpha=0.6)
     ax.set_xlabel("time (s)")
     _legend(ax)
+    ax.get_legend().set_title(
+        f"zoom on {a:.3g} to {b:.3g} s\n(full resolution)", prop={"size": 8.5}
+    )
 
 
 def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, **_):
@@ -597,7 +599,6 @@ def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, **_):
     if window is not None:
         for ax in axes[1:3]:
             ax.axvspan(*window, color="tab:orange", alpha=0.25, gid="zoom-region")
-        axes[2].set_xlabel("time (s)")
         axes[2].tick_params(labelbottom=True)
         _zoom_panel(axes[3], full, window, est)
     return fig, axes

@@ -89,6 +89,7 @@ margin:12px 0}
 .tot{background:#fff;border-radius:8px;padding:10px 18px;box-shadow:0 1px 2px rgba(0,0,0,.12)}
 .tot b{font-size:22px;display:block}
 .scroll{overflow-x:auto;max-width:100%}
+.scroll table{min-width:680px}.scroll td,.scroll th{overflow-wrap:normal}
 table{border-collapse:collapse;background:#fff;font-size:14px}
 th,td{border:1px solid #d5dbe1;padding:5px 9px;text-align:left;vertical-align:top}
 th{background:#e8edf2}
