@@ -247,6 +247,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
                 results[key] = sc.stamp(simulate(loop, solver))
+                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
+                    raise KeyboardInterrupt
         if results["adaptive"].message:
             print(f"warning: {results['adaptive'].message}", file=sys.stderr)
         summary = {}

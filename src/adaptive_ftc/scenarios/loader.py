@@ -194,7 +194,9 @@ def _check_value(value: Any, schema: dict[str, Any], *, allow_inf: bool = False)
             return f"expected a number, got {_show(value)}"
         if kind == "integer" and not isinstance(value, int):
             return f"expected a whole number, got {_show(value)}"
-        v = float(value) if abs(value) < 10**400 else math.inf
+        if isinstance(value, int) and value.bit_length() > 400:  # > 1e120: float() may overflow
+            return f"expected a number of magnitude <= {MAX_NUMBER:g}, got {_show(value)}"
+        v = float(value)
         if math.isnan(v):
             return "expected a number, got nan"
         if math.isinf(v) and not allow_inf:
@@ -820,7 +822,7 @@ def scenario_schema() -> dict[str, Any]:
 
     Examples
     --------
-    >>> sorted(scenario_schema()["properties"])[:3]
+    >>> sorted(scenario_schema()["propertyNames"]["enum"])[:3]
     ['claims', 'controller', 'description']
     """
     from adaptive_ftc._version import __version__
