@@ -1,0 +1,156 @@
+"""Campaign throughput (issue 13): a seeded campaign of hypersonic-direct-s1 (120 s runs).
+
+Run: ``python benchmarks/bench_campaign.py [--runs 1000] [--jobs 2] [--no-dask] [--no-c]``.
+
+Times, in the same process:
+
+1. ``run_campaign`` on ``--jobs`` threads, including drawing the members, the compensability
+   verdicts, the metrics rows and writing the Parquet parts and ``results.parquet`` (the summary
+   page is timed apart);
+2. the plain C reference (``benchmarks/_cref.py``, ``c/hypersonic_loop.c``) on the same drawn
+   runs on ``--jobs`` pthreads; prints the ratio campaign / C against the target >= 0.9;
+3. the same campaign on a Dask ``LocalCluster`` (``--jobs`` worker processes, 1 thread each);
+   prints the overhead against local threads (target <= 15 %), cluster start-up excluded.
+
+Failures are drawn from the models the C reference implements (loss of effectiveness, bias,
+stuck, affine; numeric, abrupt).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from adaptive_ftc.campaigns import draw_member, load_campaign, run_campaign, run_chunk
+from adaptive_ftc.campaigns.summary import write_summary
+
+TARGET_C = 0.9
+TARGET_DASK = 0.15
+
+
+def spec_data(runs: int) -> dict:
+    return {
+        "name": "bench-hypersonic",
+        "base": "hypersonic-direct-s1",
+        "designs": ["adaptive"],
+        "runs": runs,
+        "seed": 12345,
+        "chunk_size": 50,
+        "success": {"rms_error_final": 8.7e-4, "final_window": 20.0},
+        "failures": {
+            "count": {"integers": [1, 2]},
+            "onset": {"uniform": [10.0, 100.0]},
+            "recovery_probability": 0.2,
+            "duration": {"uniform": [5.0, 30.0]},
+            "models": {
+                "loss_of_effectiveness": {"effectiveness": {"uniform": [0.1, 0.9]}},
+                "bias": {"bias": {"uniform": [-0.3, 0.3]}},
+                "stuck": {"value": {"uniform": [-0.2, 0.2]}},
+                "affine": {
+                    "effectiveness": {"uniform": [0.5, 1.0]},
+                    "bias": {"uniform": [-0.2, 0.2]},
+                },
+            },
+        },
+        "ranges": {"initial_state": [{"uniform": [0.0, 0.05]}]},
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--runs", type=int, default=1000)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument("--no-c", action="store_true")
+    args = ap.parse_args()
+    spec = load_campaign(spec_data(args.runs))
+    small = load_campaign({**spec_data(2), "chunk_size": 2})
+    run_chunk(small, 0, jobs=1)  # compile or load the cached kernel
+    print(f"campaign of hypersonic-direct-s1, {args.runs} runs x 120 s, {args.jobs} threads")
+    with tempfile.TemporaryDirectory(prefix="aftc-bench-campaign-") as tmp:
+        t = time.perf_counter()
+        run = run_campaign(spec, Path(tmp) / "local", jobs=args.jobs, progress=False, summary=False)
+        t_local = time.perf_counter() - t
+        t = time.perf_counter()
+        write_summary(spec, run.out)
+        t_summary = time.perf_counter() - t
+        rate = args.runs / t_local
+        print(f"  campaign (threads, incl. Parquet table): {t_local:8.2f} s  {rate:8.2f} runs/s")
+        print(f"  summary page and figures:                {t_summary:8.2f} s")
+        if not args.no_c:
+            _compare_c(spec, args, rate)
+        if not args.no_dask:
+            _compare_dask(spec, args, Path(tmp), t_local)
+    return 0
+
+
+def _compare_c(spec, args, rate: float) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    try:
+        from _cref import CReferenceError, build, failure_records, run_batch
+    except ImportError:
+        print("  C reference: benchmarks/_cref.py not found; absolute throughput only")
+        return
+    try:
+        exe = build()
+        runs = []
+        for i in range(spec.runs):
+            m = draw_member(spec, i)
+            runs.append((m.loop.initial_state[:2], failure_records(m.failures)))
+        t_c, _ = run_batch(
+            exe,
+            runs,
+            threads=args.jobs,
+            t_final=spec.t_final,
+            dt=spec.base.solver.dt,
+            record_dt=spec.base.solver.record_dt,
+        )
+    except CReferenceError as exc:
+        print(f"  C reference unavailable ({exc}); absolute throughput only")
+        return
+    c_rate = spec.runs / t_c
+    ratio = rate / c_rate
+    verdict = "MET" if ratio >= TARGET_C else "NOT MET"
+    print(f"  plain C loop, same runs, {args.jobs} pthreads:  {t_c:8.2f} s  {c_rate:8.2f} runs/s")
+    print(
+        f"  ratio campaign / C:                      {ratio:8.3f}  (target >= {TARGET_C}: "
+        f"{verdict})"
+    )
+
+
+def _compare_dask(spec, args, tmp: Path, t_local: float) -> None:
+    try:
+        from distributed import LocalCluster
+    except ImportError:
+        print("  Dask: distributed not installed (pip install 'adaptive-ftc[distributed]')")
+        return
+    t = time.perf_counter()
+    with LocalCluster(
+        n_workers=args.jobs, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        t_start = time.perf_counter() - t
+        from distributed import Client
+
+        with Client(cluster) as client:  # warm each worker (kernel cache load)
+            small = load_campaign({**spec_data(2), "chunk_size": 1})
+            client.gather([client.submit(run_chunk, small, c, 1, pure=False) for c in (0, 1)])
+            t = time.perf_counter()
+            run_campaign(spec, tmp / "dask", scheduler=client, progress=False, summary=False)
+            t_dask = time.perf_counter() - t
+    overhead = t_dask / t_local - 1.0
+    verdict = "MET" if overhead <= TARGET_DASK else "NOT MET"
+    print(
+        f"  Dask LocalCluster ({args.jobs} processes):       {t_dask:8.2f} s  "
+        f"(cluster start {t_start:.1f} s, not counted)"
+    )
+    print(
+        f"  Dask overhead vs local threads:          {overhead:+8.1%}  (target <= "
+        f"{TARGET_DASK:.0%}: {verdict})"
+    )
+
+
+if __name__ == "__main__":
+    sys.exit(main())
