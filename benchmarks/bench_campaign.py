@@ -80,11 +80,33 @@ def main() -> int:
         rate = args.runs / t_local
         print(f"  campaign (threads, incl. Parquet table): {t_local:8.2f} s  {rate:8.2f} runs/s")
         print(f"  summary page and figures:                {t_summary:8.2f} s")
+        _compare_simulate_many(spec, args, t_local)
         if not args.no_c:
             _compare_c(spec, args, rate)
         if not args.no_dask:
             _compare_dask(spec, args, Path(tmp), t_local)
     return 0
+
+
+def _compare_simulate_many(spec, args, t_local: float) -> None:
+    """The same runs through bare simulate_many (no drawing, table or files): what the
+    campaign machinery itself costs."""
+    import warnings
+
+    from adaptive_ftc import simulate_many
+    from adaptive_ftc.errors import DivergenceWarning
+
+    loops = [draw_member(spec, i).loop for i in range(spec.runs)]
+    t = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        for k in range(0, len(loops), spec.chunk_size):
+            simulate_many(loops[k : k + spec.chunk_size], spec.base.solver, jobs=args.jobs)
+    t_bare = time.perf_counter() - t
+    print(
+        f"  bare simulate_many, same loops:          {t_bare:8.2f} s  "
+        f"(campaign overhead {t_local / t_bare - 1.0:+.1%})"
+    )
 
 
 def _compare_c(spec, args, rate: float) -> None:

@@ -218,3 +218,14 @@ def test_cli_runs_resumes_replays_and_reports_bad_specs(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "onset after the end" in err and "a <= b" in err
     assert not (tmp_path / "o2").exists()
+
+
+@pytest.mark.parametrize(
+    "module", ["adaptive_ftc.campaigns.spec", "adaptive_ftc.campaigns.sampling"]
+)
+def test_docstring_examples(module):
+    import doctest
+    import importlib
+
+    failures, _ = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert failures == 0

@@ -9,6 +9,7 @@ Public API (see the README for a tour)::
 
 from adaptive_ftc._version import __version__
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.campaigns import load_campaign, run_campaign
 from adaptive_ftc.controllers import (
     DirectAdaptive,
     FailureEstimation,
@@ -78,7 +79,9 @@ __all__ = [
     "__version__",
     "check_compensability",
     "list_scenarios",
+    "load_campaign",
     "load_scenario",
+    "run_campaign",
     "simulate",
     "simulate_many",
 ]
