@@ -1,0 +1,713 @@
+"""Compiled adaptive-step integrators, pasted as text into each generated closed-loop module.
+
+The text after the line ``# --- template: begin ---`` is the template: the code generator pastes it
+into a module that defines, at module level,
+
+- ``rhs(t, Y, ph, D, W, dY)``: the closed-loop derivative, written into ``dY`` in place;
+- ``make_work(D)``: the work arrays ``W`` that ``rhs`` uses;
+- ``jit``: the numba decorator (``numba.njit(cache=..., nogil=True, error_model="numpy")``).
+
+The integrators call the global ``rhs`` directly (a function passed as an argument would defeat
+numba's disk cache). Everything above the marker is a stand-in so that this file imports, lints
+and can be tested on its own; :func:`bind` executes the template against any jitted ``rhs``.
+
+Entry points (same signature; one compiled core serves all three)::
+
+    integrate_dopri5(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop,
+                     out_Y, out_phase, stats) -> (nrec, status, t_stop, bad)
+    integrate_rodasp(...)   # same
+    integrate_auto(...)     # same
+
+``status``: 0 finished, 1 diverged (a state non-finite or ``|y_i| >= bound``; ``bad = i``), 2 step
+size underflow or more than ``MAX_STEPS`` steps (``bad = -1``), 3 interrupted (``stop[0] != 0``,
+checked before every step; ``bad = -1``). ``stats`` (int64, length >= 5) receives
+``[accepted steps, rejected steps, rhs evaluations, Jacobians, LU factorisations]``.
+
+Integration restarts at every break time ``t_breaks[k]`` with a fresh step-size guess, and the
+interval ``[t_breaks[k], t_breaks[k+1]]`` runs with ``ph = k``. The state is recorded on ``t_rec``
+with the semantics of the fixed-step RK4 (``kernel.integrate_rk4``): a record at a break time
+belongs to the phase that starts there (``out_phase``), a record where a step ends is that step's
+state exactly, any other record comes from the method's dense output.
+
+Error control: every accepted step satisfies ``max_i |err_i| / (atol + rtol max(|y_i|, |y_new_i|))
+<= 1`` (a max norm, so no state's error is averaged away by the others).
+
+Methods and why (measured on the catalogue loops; docs/solvers.md and
+benchmarks/bench_tolerance.py hold the numbers):
+
+- ``dopri5``: Dormand-Prince 5(4) with Hairer's PI step control and 4th-order dense output
+  (Hairer, Norsett & Wanner, *Solving ODEs I*, II.5 and II.6). For non-stiff loops.
+- ``rodasp``: the L-stable, stiffly accurate Rosenbrock method RODASP of order 4(3)
+  (Steinebach 1995, the ``METH=3`` coefficients of Hairer & Wanner's ``rodas.f``; known as
+  Rodas4P), whose order does not drop on Prothero-Robinson problems ``y' = L (y - g(t)) + g'``
+  with ``|L h|`` large, as the adaptive laws driven by ``sin 5t`` are in the wing-rock loops.
+  Measured there, Hairer's original RODAS coefficients needed 18x more steps for the same
+  error on such a problem. Jacobian by forward differences, ``df/dt`` by a central
+  difference (n + 2 rhs evaluations per step), in-place LU with partial pivoting (nothing
+  allocated per step), Gustafsson's predictive step control, the method's own 3rd-order
+  dense output (a cubic Hermite interpolant is useless on stiff components: ``f(y1)``
+  multiplies the step's error by the fast rate) and steps capped at the record spacing (the
+  dense output is an order below the steps).
+- ``auto``: starts with ``dopri5`` and switches to ``rodasp`` when Hairer's stiffness test
+  (``h |k7 - k6| / |y1 - y6| > 3.25`` on 15 accepted steps) fires, and back when
+  ``h ||J||_inf`` stays below 3 for 20 accepted Rosenbrock steps.
+"""
+
+from __future__ import annotations
+
+import types
+from pathlib import Path
+
+import numba
+
+TEMPLATE_MARKER = "# --- template: begin ---"
+
+jit = numba.njit(nogil=True, error_model="numpy")
+
+
+def rhs(t, Y, ph, D, W, dY):  # pragma: no cover - stand-in, replaced by the generated module
+    """Stand-in for the generated closed-loop derivative."""
+    raise NotImplementedError("the template's rhs is a stand-in; use bind() or a generated module")
+
+
+def make_work(D):  # pragma: no cover - stand-in, replaced by the generated module
+    """Stand-in for the generated work-array factory."""
+    raise NotImplementedError("the template's make_work is a stand-in")
+
+
+def template_text() -> str:
+    """Return the template source: everything after the ``# --- template: begin ---`` line."""
+    text = Path(__file__).read_text(encoding="utf-8")
+    return text.split(TEMPLATE_MARKER + "\n", 1)[1]
+
+
+def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators"):
+    """Execute the template against a jitted ``rhs`` (for tests and benchmarks).
+
+    Parameters
+    ----------
+    rhs
+        A numba-jitted ``rhs(t, Y, ph, D, W, dY)``.
+    make_work
+        A (jitted or plain) ``make_work(D)``.
+    jit
+        The decorator for the template's functions; default ``numba.njit(nogil=True,
+        error_model="numpy")`` (in memory: code executed from a string cannot be disk-cached).
+    name
+        Name of the returned module object.
+
+    Returns
+    -------
+    types.ModuleType
+        Holds ``integrate_dopri5``, ``integrate_rodasp``, ``integrate_auto`` and the helpers.
+    """
+    mod = types.ModuleType(name)
+    mod.__dict__.update(
+        rhs=rhs,
+        make_work=make_work,
+        jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
+    )
+    exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
+    return mod
+
+
+# --- template: begin ---
+# ============================================================================ adaptive step
+# Pasted from adaptive_ftc/sim/templates/adaptive.py: Dormand-Prince 5(4), Rodas4 and automatic
+# switching between them. Needs the module globals ``rhs``, ``make_work`` and ``jit``.
+import math  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+MAX_STEPS = 50_000_000
+_UROUND = 2.220446049250313e-16
+
+# Dormand-Prince 5(4) (Hairer, Norsett & Wanner I, Table II.5.2), dense output II.6 (6.12)
+_C2, _C3, _C4, _C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
+_A21 = 0.2
+_A31, _A32 = 3.0 / 40.0, 9.0 / 40.0
+_A41, _A42, _A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+_A51, _A52, _A53, _A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+_A61, _A62, _A63 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0
+_A64, _A65 = 49.0 / 176.0, -5103.0 / 18656.0
+_A71, _A73, _A74 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0
+_A75, _A76 = -2187.0 / 6784.0, 11.0 / 84.0
+_E1, _E3, _E4 = 71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0
+_E5, _E6, _E7 = -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0
+_D1, _D3 = -12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0
+_D4, _D5 = -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0
+_D6, _D7 = -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0
+
+# RODASP 4(3) (Steinebach 1995; rodas.f METH=3): Rodas4 coefficients re-derived so that the
+# order stays 4 on Prothero-Robinson problems y' = L (y - g(t)) + g'(t) with |L h| large
+_RG = 0.25
+_RC2, _RC3, _RC4 = 0.75, 0.21, 0.63
+_RD1, _RD2, _RD3, _RD4 = 0.25, -0.5, -0.023504, -0.0362
+_RA21 = 3.0
+_RA31, _RA32 = 1.831036793486759, 0.4955183967433795
+_RA41, _RA42, _RA43 = 2.304376582692669, -0.05249275245743001, -1.176798761832782
+_RA51, _RA52 = -7.170454962423024, -4.741636671481785
+_RA53, _RA54 = -16.31002631330971, -1.062004044111401
+_RC21 = -12.0
+_RC31, _RC32 = -8.791795173947035, -2.207865586973518
+_RC41, _RC42, _RC43 = 10.81793056857153, 6.780270611428266, 19.5348594464241
+_RC51, _RC52 = 34.19095006749676, 15.49671153725963
+_RC53, _RC54 = 54.7476087596413, 14.16005392148534
+_RC61, _RC62, _RC63 = 34.62605830930532, 15.30084976114473, 56.99955578662667
+_RC64, _RC65 = 18.40807009793095, -5.714285714285717
+# dense output y(t + s h) = y0 + s (y1 - y0) + s (1 - s) (H2 + s H3), H_k = sum_j _RHkj k_j
+_RH21, _RH22, _RH23 = 25.09876703708589, 11.62013104361867, 28.49148307714626
+_RH24, _RH25 = -5.664021568594133, 0.0
+_RH31, _RH32, _RH33 = 1.638054557396973, -0.7373619806678748, 8.47791821923899
+_RH34, _RH35 = 15.9925314877952, -1.882352941176471
+
+
+@jit
+def _first_bad(Y, bound):
+    for i in range(Y.size):
+        if not (abs(Y[i]) < bound):  # catches nan too
+            return i
+    return -1
+
+
+@jit
+def _err_max(e, y0, y1, rtol, atol):
+    """Max-norm of ``e`` scaled by ``atol + rtol max(|y0|, |y1|)``; inf if not finite."""
+    m = 0.0
+    for i in range(e.size):
+        v = abs(e[i]) / (atol + rtol * max(abs(y0[i]), abs(y1[i])))
+        if not (v <= m):
+            m = v
+    if not (m < math.inf):
+        return math.inf
+    return m
+
+
+@jit
+def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
+    """Initial step size (Hairer, Norsett & Wanner I, II.4); one rhs evaluation."""
+    n = Y.size
+    dnf = 0.0
+    dny = 0.0
+    for i in range(n):
+        sk = atol + rtol * abs(Y[i])
+        dnf += (f0[i] / sk) ** 2
+        dny += (Y[i] / sk) ** 2
+    dnf = math.sqrt(dnf / n)
+    dny = math.sqrt(dny / n)
+    h = 1e-6 if (dnf <= 1e-5 or dny <= 1e-5) else 0.01 * dny / dnf
+    h = min(h, h_max, span)
+    for i in range(n):
+        y1[i] = Y[i] + h * f0[i]
+    rhs(t + h, y1, ph, D, W, f1)
+    der2 = 0.0
+    for i in range(n):
+        sk = atol + rtol * abs(Y[i])
+        der2 += ((f1[i] - f0[i]) / sk) ** 2
+    der2 = math.sqrt(der2 / n) / h
+    der12 = max(der2, dnf)
+    if not (der12 > 1e-15):
+        h1 = max(1e-6, h * 1e-3)
+    else:
+        h1 = (0.01 / der12) ** (1.0 / order)
+    h = min(100.0 * h, h1, h_max, span)
+    if not (h > 0.0):
+        h = min(1e-6, span)
+    return h
+
+
+@jit
+def _lu_factor(A, piv):
+    """In-place LU with partial pivoting (rows swapped whole); False if singular."""
+    n = A.shape[0]
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            v = abs(A[i, k])
+            if v > amax:
+                amax = v
+                p = i
+        piv[k] = p
+        if not (amax > 0.0) or not (amax < math.inf):
+            return False
+        if p != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            lik = A[i, k] * inv
+            A[i, k] = lik
+            if lik != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= lik * A[k, j]
+    return True
+
+
+@jit
+def _lu_solve(A, piv, b):
+    """Solve ``A x = b`` in place with the factors of :func:`_lu_factor`."""
+    n = A.shape[0]
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= A[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= A[i, j] * b[j]
+        b[i] = s / A[i, i]
+
+
+@jit
+def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
+    """Write the records ``t_rec[r] < limit`` of the step ``[t, t1]``; returns the new ``r``.
+
+    ``rc`` holds the dense-output coefficients: ``y(t + s hh) = rc0 + s (rc1 + (1 - s) (rc2 +
+    s (rc3 + (1 - s) rc4)))``.
+    """
+    n = Y.size
+    nrec = t_rec.size
+    while r < nrec and t_rec[r] < limit:
+        tr = t_rec[r]
+        if abs(tr - t1) <= tol:
+            for i in range(n):
+                out_Y[r, i] = yn[i]
+        else:
+            s = (tr - t) / hh
+            s1 = 1.0 - s
+            for i in range(n):
+                out_Y[r, i] = Y[i] + s * (
+                    rc[1, i] + s1 * (rc[2, i] + s * (rc[3, i] + s1 * rc[4, i]))
+                )
+        out_phase[r] = ph
+        r += 1
+    return r
+
+
+@jit
+def _solve(
+    method, y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
+):
+    """Shared core: ``method`` 0 = dopri5, 1 = rodasp, 2 = auto (starts with dopri5)."""
+    n = y0.size
+    Y = y0.copy()
+    yn = np.empty(n)
+    yt = np.empty(n)
+    ysti = np.empty(n)
+    f0 = np.empty(n)
+    fs = np.empty(n)
+    ft = np.empty(n)
+    dy = np.empty(n)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    k5 = np.empty(n)
+    k6 = np.empty(n)
+    k7 = np.empty(n)
+    rc = np.zeros((5, n))
+    J = np.empty((n, n))
+    A = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    for i in range(5):
+        stats[i] = 0
+    if not (h_max > 0.0):
+        h_max = math.inf
+    nrec = t_rec.size
+    # RODASP's dense output is of order 3 against order 4 at the step ends: on a smooth
+    # solution its error over a step of h is ~h^4, far above the tolerance when the steps
+    # grow long (Prothero-Robinson, 80 steps over 10 s at rtol 1e-6: 5e-4). Its steps are
+    # therefore capped at the mean record spacing.
+    h_rec = math.inf
+    if nrec > 1:
+        h_rec = (t_rec[nrec - 1] - t_rec[0]) / (nrec - 1)
+        if not (h_rec > 0.0):
+            h_rec = math.inf
+    r = 0
+    nph = t_breaks.size - 1
+    t_end = t_breaks[nph]
+    bad = _first_bad(Y, bound)
+    if bad >= 0:
+        return 0, 1, t_breaks[0], bad
+    stiff = method == 1
+    nstep = 0
+    for ph in range(nph):
+        a = t_breaks[ph]
+        b = t_breaks[ph + 1]
+        tol = 1e-9 * max(1.0, abs(b))
+        while r < nrec and t_rec[r] <= a + tol:
+            out_Y[r, :] = Y
+            out_phase[r] = ph
+            r += 1
+        if not (b > a):
+            continue
+        t = a
+        rhs(t, Y, ph, D, W, f0)
+        h = _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, b - a, 4.0 if stiff else 5.0, yt, k2)
+        stats[2] += 2
+        reject_last = False
+        first = True
+        facold = 1e-4
+        hacc = 0.0
+        erracc = 1e-2
+        jac_ok = False
+        n_stiff = 0
+        n_nonstiff = 0
+        while True:
+            if stop[0] != 0:
+                return r, 3, t, -1
+            if nstep >= MAX_STEPS or h < 10.0 * _UROUND * max(1.0, abs(t)):
+                return r, 2, t, -1
+            if stiff and h > h_rec:
+                h = h_rec
+            last = t + 1.01 * h >= b
+            t1 = b if last else t + h
+            hh = t1 - t
+            nstep += 1
+            if not stiff:
+                # ---------------------------------------------- Dormand-Prince 5(4)
+                for i in range(n):
+                    yt[i] = Y[i] + hh * _A21 * f0[i]
+                rhs(t + _C2 * hh, yt, ph, D, W, k2)
+                for i in range(n):
+                    yt[i] = Y[i] + hh * (_A31 * f0[i] + _A32 * k2[i])
+                rhs(t + _C3 * hh, yt, ph, D, W, k3)
+                for i in range(n):
+                    yt[i] = Y[i] + hh * (_A41 * f0[i] + _A42 * k2[i] + _A43 * k3[i])
+                rhs(t + _C4 * hh, yt, ph, D, W, k4)
+                for i in range(n):
+                    yt[i] = Y[i] + hh * (_A51 * f0[i] + _A52 * k2[i] + _A53 * k3[i] + _A54 * k4[i])
+                rhs(t + _C5 * hh, yt, ph, D, W, k5)
+                for i in range(n):
+                    ysti[i] = Y[i] + hh * (
+                        _A61 * f0[i] + _A62 * k2[i] + _A63 * k3[i] + _A64 * k4[i] + _A65 * k5[i]
+                    )
+                rhs(t1, ysti, ph, D, W, k6)
+                for i in range(n):
+                    yn[i] = Y[i] + hh * (
+                        _A71 * f0[i] + _A73 * k3[i] + _A74 * k4[i] + _A75 * k5[i] + _A76 * k6[i]
+                    )
+                rhs(t1, yn, ph, D, W, k7)
+                stats[2] += 6
+                for i in range(n):
+                    dy[i] = hh * (
+                        _E1 * f0[i]
+                        + _E3 * k3[i]
+                        + _E4 * k4[i]
+                        + _E5 * k5[i]
+                        + _E6 * k6[i]
+                        + _E7 * k7[i]
+                    )
+                err = _err_max(dy, Y, yn, rtol, atol)
+                if err <= 1.0:
+                    bad = _first_bad(yn, bound)
+                    if bad >= 0:
+                        return r, 1, t1, bad
+                    stats[0] += 1
+                    last_phase = ph == nph - 1
+                    limit = t1 + tol if (last and last_phase) else t1 - tol
+                    if r < nrec and t_rec[r] < limit:
+                        for i in range(n):
+                            ydiff = yn[i] - Y[i]
+                            bspl = hh * f0[i] - ydiff
+                            rc[1, i] = ydiff
+                            rc[2, i] = bspl
+                            rc[3, i] = ydiff - hh * k7[i] - bspl
+                            rc[4, i] = hh * (
+                                _D1 * f0[i]
+                                + _D3 * k3[i]
+                                + _D4 * k4[i]
+                                + _D5 * k5[i]
+                                + _D6 * k6[i]
+                                + _D7 * k7[i]
+                            )
+                        r = _record(
+                            r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase
+                        )
+                    # stiffness test (Hairer I, IV.2): h * |k7 - k6| / |yn - ysti|
+                    if method == 2:
+                        num = 0.0
+                        den = 0.0
+                        for i in range(n):
+                            num += (k7[i] - k6[i]) ** 2
+                            den += (yn[i] - ysti[i]) ** 2
+                        if den > 0.0 and hh * math.sqrt(num / den) > 3.25:
+                            n_nonstiff = 0
+                            n_stiff += 1
+                            if n_stiff >= 15:
+                                stiff = True
+                                n_stiff = 0
+                                first = True
+                        else:
+                            n_nonstiff += 1
+                            if n_nonstiff >= 6:
+                                n_stiff = 0
+                    fac11 = err**0.17
+                    fac = fac11 / facold**0.04
+                    fac = max(0.1, min(5.0, fac / 0.9))
+                    hnew = hh / fac
+                    if reject_last:
+                        hnew = min(hnew, hh)
+                    facold = max(err, 1e-4)
+                    reject_last = False
+                    for i in range(n):
+                        Y[i] = yn[i]
+                        f0[i] = k7[i]
+                    t = t1
+                    h = min(hnew, h_max)
+                    if last:
+                        break
+                else:
+                    stats[1] += 1
+                    if err < math.inf:
+                        h = hh / min(5.0, err**0.17 / 0.9)
+                    else:
+                        h = 0.1 * hh
+                    reject_last = True
+            else:
+                # ---------------------------------------------- Rodas4
+                if not jac_ok:
+                    for i in range(n):
+                        yt[i] = Y[i]
+                    for j in range(n):
+                        yj = Y[j]
+                        delt = math.sqrt(_UROUND * max(1e-5, abs(yj)))
+                        yt[j] = yj + delt
+                        rhs(t, yt, ph, D, W, fs)
+                        for i in range(n):
+                            J[i, j] = (fs[i] - f0[i]) / delt
+                        yt[j] = yj
+                    # df/dt by a central difference: a forward one (its O(delt) bias times the
+                    # large f_tt of the wing-rock loops) tripled the rejected steps at rtol 1e-9
+                    delt = 1e-5 * max(1.0, abs(t))
+                    rhs(t + delt, Y, ph, D, W, fs)
+                    rhs(t - delt, Y, ph, D, W, ft)
+                    for i in range(n):
+                        ft[i] = (fs[i] - ft[i]) / (2.0 * delt)
+                    stats[2] += n + 2
+                    stats[3] += 1
+                    jac_ok = True
+                fac = 1.0 / (_RG * hh)
+                for i in range(n):
+                    for j in range(n):
+                        A[i, j] = -J[i, j]
+                    A[i, i] += fac
+                stats[4] += 1
+                if not _lu_factor(A, piv):
+                    stats[1] += 1
+                    h = 0.5 * hh
+                    reject_last = True
+                    continue
+                for i in range(n):
+                    k1[i] = f0[i] + hh * _RD1 * ft[i]
+                _lu_solve(A, piv, k1)
+                for i in range(n):
+                    yt[i] = Y[i] + _RA21 * k1[i]
+                rhs(t + _RC2 * hh, yt, ph, D, W, fs)
+                for i in range(n):
+                    k2[i] = fs[i] + hh * _RD2 * ft[i] + _RC21 * k1[i] / hh
+                _lu_solve(A, piv, k2)
+                for i in range(n):
+                    yt[i] = Y[i] + _RA31 * k1[i] + _RA32 * k2[i]
+                rhs(t + _RC3 * hh, yt, ph, D, W, fs)
+                for i in range(n):
+                    k3[i] = fs[i] + hh * _RD3 * ft[i] + (_RC31 * k1[i] + _RC32 * k2[i]) / hh
+                _lu_solve(A, piv, k3)
+                for i in range(n):
+                    yt[i] = Y[i] + _RA41 * k1[i] + _RA42 * k2[i] + _RA43 * k3[i]
+                rhs(t + _RC4 * hh, yt, ph, D, W, fs)
+                for i in range(n):
+                    k4[i] = (
+                        fs[i]
+                        + hh * _RD4 * ft[i]
+                        + (_RC41 * k1[i] + _RC42 * k2[i] + _RC43 * k3[i]) / hh
+                    )
+                _lu_solve(A, piv, k4)
+                for i in range(n):
+                    dy[i] = _RA51 * k1[i] + _RA52 * k2[i] + _RA53 * k3[i] + _RA54 * k4[i]
+                    yt[i] = Y[i] + dy[i]
+                rhs(t1, yt, ph, D, W, fs)
+                for i in range(n):
+                    k5[i] = (
+                        fs[i] + (_RC51 * k1[i] + _RC52 * k2[i] + _RC53 * k3[i] + _RC54 * k4[i]) / hh
+                    )
+                _lu_solve(A, piv, k5)
+                for i in range(n):
+                    dy[i] += k5[i]
+                    yt[i] = Y[i] + dy[i]
+                rhs(t1, yt, ph, D, W, fs)
+                for i in range(n):
+                    k6[i] = (
+                        fs[i]
+                        + (
+                            _RC61 * k1[i]
+                            + _RC62 * k2[i]
+                            + _RC63 * k3[i]
+                            + _RC64 * k4[i]
+                            + _RC65 * k5[i]
+                        )
+                        / hh
+                    )
+                _lu_solve(A, piv, k6)
+                for i in range(n):
+                    yn[i] = Y[i] + dy[i] + k6[i]
+                stats[2] += 5
+                err = _err_max(k6, Y, yn, rtol, atol)
+                if err <= 1.0:
+                    bad = _first_bad(yn, bound)
+                    if bad >= 0:
+                        return r, 1, t1, bad
+                    stats[0] += 1
+                    rhs(t1, yn, ph, D, W, k7)
+                    stats[2] += 1
+                    last_phase = ph == nph - 1
+                    limit = t1 + tol if (last and last_phase) else t1 - tol
+                    if r < nrec and t_rec[r] < limit:
+                        for i in range(n):  # the method's own dense output (rodas.f)
+                            rc[1, i] = yn[i] - Y[i]
+                            rc[2, i] = (
+                                _RH21 * k1[i]
+                                + _RH22 * k2[i]
+                                + _RH23 * k3[i]
+                                + _RH24 * k4[i]
+                                + _RH25 * k5[i]
+                            )
+                            rc[3, i] = (
+                                _RH31 * k1[i]
+                                + _RH32 * k2[i]
+                                + _RH33 * k3[i]
+                                + _RH34 * k4[i]
+                                + _RH35 * k5[i]
+                            )
+                            rc[4, i] = 0.0
+                        r = _record(
+                            r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase
+                        )
+                    e = max(err, 1e-10)
+                    ratio = min(6.0, max(0.2, 0.9 * e**-0.25))
+                    if not first:  # Gustafsson's predictive controller
+                        rg = 0.9 * (hh / hacc) * (erracc / (e * e)) ** 0.25
+                        ratio = min(ratio, min(6.0, max(0.2, rg)))
+                    first = False
+                    hacc = hh
+                    erracc = max(1e-2, e)
+                    hnew = hh * ratio
+                    if reject_last:
+                        hnew = min(hnew, hh)
+                    reject_last = False
+                    if method == 2:
+                        # back to the explicit method when h ||J||_inf stays small
+                        jn = 0.0
+                        for i in range(n):
+                            s = 0.0
+                            for j in range(n):
+                                s += abs(J[i, j])
+                            jn = max(jn, s)
+                        if hh * jn < 3.0:
+                            n_nonstiff += 1
+                            if n_nonstiff >= 20:
+                                stiff = False
+                                n_nonstiff = 0
+                                n_stiff = 0
+                                facold = 1e-4
+                        else:
+                            n_nonstiff = 0
+                    for i in range(n):
+                        Y[i] = yn[i]
+                        f0[i] = k7[i]
+                    t = t1
+                    jac_ok = False
+                    h = min(hnew, h_max)
+                    if last:
+                        break
+                else:
+                    stats[1] += 1
+                    if err < math.inf:
+                        h = hh * max(0.2, 0.9 * err**-0.25)
+                    else:
+                        h = 0.1 * hh
+                    reject_last = True
+    while r < nrec and t_rec[r] <= t_end + 1e-9 * max(1.0, abs(t_end)):
+        out_Y[r, :] = Y
+        out_phase[r] = nph - 1
+        r += 1
+    return r, 0, t_end, -1
+
+
+@jit
+def integrate_dopri5(
+    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
+):
+    """Dormand-Prince 5(4), adaptive step, restarts at every break (non-stiff loops)."""
+    return _solve(
+        np.int64(0),
+        y0,
+        t_breaks,
+        t_rec,
+        D,
+        W,
+        rtol,
+        atol,
+        h_max,
+        bound,
+        stop,
+        out_Y,
+        out_phase,
+        stats,
+    )
+
+
+@jit
+def integrate_rodasp(
+    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
+):
+    """RODASP Rosenbrock 4(3), L-stable, finite-difference Jacobian (stiff loops)."""
+    return _solve(
+        np.int64(1),
+        y0,
+        t_breaks,
+        t_rec,
+        D,
+        W,
+        rtol,
+        atol,
+        h_max,
+        bound,
+        stop,
+        out_Y,
+        out_phase,
+        stats,
+    )
+
+
+@jit
+def integrate_auto(
+    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
+):
+    """Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff."""
+    return _solve(
+        np.int64(2),
+        y0,
+        t_breaks,
+        t_rec,
+        D,
+        W,
+        rtol,
+        atol,
+        h_max,
+        bound,
+        stop,
+        out_Y,
+        out_phase,
+        stats,
+    )

@@ -1,0 +1,283 @@
+"""The compiled adaptive-step integrators (sim/templates/adaptive.py) against exact solutions.
+
+One test right-hand side serves every problem (``D[0]`` picks it), so the template compiles once.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+
+from adaptive_ftc.sim.templates import adaptive
+
+METHODS = ("dopri5", "rodasp", "auto")
+ORDERS = {"dopri5": 5, "rodasp": 4}
+
+# stiff linear problem y' = A y, eigenvalues -1 and -1e5 (A = P diag(-1, -1e5) P^-1)
+_P = np.array([[1.0, 1.0], [1.0, -1.0]])
+_A = _P @ np.diag([-1.0, -1e5]) @ np.linalg.inv(_P)
+
+
+@numba.njit
+def _rhs(t, Y, ph, D, W, dY):
+    kind = int(D[0])
+    W[0][0] += 1.0  # the work arrays reach rhs
+    if kind == 0:  # linear y' = A y, A = [[D1, D2], [D3, D4]]
+        dY[0] = D[1] * Y[0] + D[2] * Y[1]
+        dY[1] = D[3] * Y[0] + D[4] * Y[1]
+    elif kind == 1:  # y' = -2 t y^2, y = 1 / (1 + t^2);  z' = -z + cos t
+        dY[0] = -2.0 * t * Y[0] * Y[0]
+        dY[1] = -Y[1] + math.cos(t)
+    elif kind == 2:  # piecewise y' = -k_ph y, z' = c_ph (phase-dependent)
+        dY[0] = -D[1 + ph] * Y[0]
+        dY[1] = D[5 + ph]
+    elif kind == 3:  # y' = y^2 (blows up at t = 1 / y0);  z' = 0
+        dY[0] = Y[0] * Y[0]
+        dY[1] = 0.0
+    elif kind == 4:  # y' = 1 / (t - 0.5): a singularity no step size resolves
+        dY[0] = 1.0 / (t - 0.5)
+        dY[1] = 0.0
+    else:  # Prothero-Robinson y' = L (y - cos t) - sin t, L = -1e4; z' = -z^2
+        dY[0] = -1e4 * (Y[0] - math.cos(t)) - math.sin(t)
+        dY[1] = -Y[1] * Y[1]
+
+
+@numba.njit
+def _make_work(D):
+    return (np.zeros(1),)
+
+
+@pytest.fixture(scope="module")
+def mod():
+    return adaptive.bind(_rhs, _make_work, name="test_solvers_integrators")
+
+
+def solve(mod, method, y0, breaks, t_rec, D, rtol=1e-8, atol=1e-10, bound=1e8, stop=None):
+    n = len(y0)
+    Y = np.zeros((len(t_rec), n))
+    phase = np.full(len(t_rec), -1, dtype=np.int64)
+    stats = np.zeros(5, dtype=np.int64)
+    stop = np.zeros(1, dtype=np.int64) if stop is None else stop
+    nrec, status, t_stop, bad = getattr(mod, f"integrate_{method}")(
+        np.asarray(y0, dtype=float),
+        np.asarray(breaks, dtype=float),
+        np.asarray(t_rec, dtype=float),
+        np.asarray(D, dtype=float),
+        (np.zeros(1),),
+        float(rtol),
+        float(atol),
+        math.inf,
+        float(bound),
+        stop,
+        Y,
+        phase,
+        stats,
+    )
+    return Y, phase, int(nrec), int(status), float(t_stop), int(bad), stats
+
+
+def assert_close(actual, expected, atol):
+    err = np.max(np.abs(np.asarray(actual) - np.asarray(expected)))
+    assert err <= atol, f"max error {err:.3e} > {atol:.1e}"
+
+
+def test_template_text_is_what_follows_the_marker():
+    text = adaptive.template_text()
+    source = Path(adaptive.__file__).read_text()
+    assert source.endswith(text)
+    assert "def integrate_dopri5(" in text and "def bind(" not in text
+    assert source.count(adaptive.TEMPLATE_MARKER + "\n") == 1
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_nonlinear_nonautonomous_problem_meets_the_tolerance(mod, method):
+    t_rec = np.linspace(0.0, 5.0, 51)
+    exact = np.c_[1.0 / (1.0 + t_rec**2), 0.5 * (np.cos(t_rec) + np.sin(t_rec) - np.exp(-t_rec))]
+    Y, phase, nrec, status, t_stop, bad, stats = solve(
+        mod, method, [1.0, 0.0], [0.0, 5.0], t_rec, [1.0], rtol=1e-8, atol=1e-10
+    )
+    assert (nrec, status, t_stop, bad) == (51, 0, 5.0, -1)
+    assert (phase == 0).all()
+    assert_close(Y, exact, 1e-7)
+    assert stats[0] > 0 and stats[2] > stats[0]
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rodasp"])
+def test_convergence_order(mod, method):
+    """Global error against steps taken falls with the slope of the method's order."""
+    t_rec = np.array([0.0, 5.0])
+    errs, steps = [], []
+    for tol in (1e-6, 1e-9):
+        Y, *_, stats = solve(mod, method, [1.0, 0.0], [0.0, 5.0], t_rec, [1.0], tol, tol * 1e-2)
+        exact = [1.0 / 26.0, 0.5 * (math.cos(5.0) + math.sin(5.0) - math.exp(-5.0))]
+        errs.append(np.max(np.abs(Y[-1] - exact)))
+        steps.append(stats[0])
+    slope = -math.log(errs[1] / errs[0]) / math.log(steps[1] / steps[0])
+    assert ORDERS[method] - 1.0 <= slope <= ORDERS[method] + 1.5, (slope, errs, steps)
+
+
+def test_stiff_linear_problem_against_exact_solution(mod):
+    """Eigenvalues -1 and -1e5: the Rosenbrock method takes few steps, DOPRI5 is step-bound."""
+    t_rec = np.linspace(0.0, 2.0, 21)
+    y0 = np.array([2.0, 0.5])
+    lam = np.array([-1.0, -1e5])
+    c = np.linalg.solve(_P, y0)
+    exact = (_P @ (c[:, None] * np.exp(np.outer(lam, t_rec)))).T
+    D = [0.0, *_A.ravel()]
+    Ys, _, _, status, *_, stats_s = solve(mod, "rodasp", y0, [0.0, 2.0], t_rec, D, 1e-7, 1e-9)
+    assert status == 0
+    assert_close(Ys, exact, 1e-6)
+    assert stats_s[0] < 300
+    # one Jacobian per accepted step (a rejected step reuses it), one LU per attempt
+    assert stats_s[3] == stats_s[0] and stats_s[4] == stats_s[0] + stats_s[1]
+    Ye, _, _, status, *_, stats_e = solve(mod, "dopri5", y0, [0.0, 2.0], t_rec, D, 1e-7, 1e-9)
+    assert status == 0
+    assert_close(Ye, exact, 1e-6)
+    assert stats_e[0] > 50 * stats_s[0]  # stability-limited: h < 3.3e-5
+    Ya, _, _, status, *_, stats_a = solve(mod, "auto", y0, [0.0, 2.0], t_rec, D, 1e-7, 1e-9)
+    assert status == 0
+    assert_close(Ya, exact, 1e-6)
+    assert stats_a[3] > 0 and stats_a[0] < stats_e[0] / 10  # switched to the stiff method
+
+
+def test_prothero_robinson_stiff_component_dense_output(mod):
+    """Recorded (interpolated) values of a stiff component stay within the tolerance."""
+    t_rec = np.linspace(0.0, 10.0, 1001)
+    exact = np.c_[np.cos(t_rec) + np.exp(-1e4 * t_rec), 1.0 / (1.0 + t_rec)]
+    Y, _, nrec, status, *_, stats = solve(
+        mod, "rodasp", [2.0, 1.0], [0.0, 10.0], t_rec, [5.0], 1e-6, 1e-8
+    )
+    assert status == 0 and nrec == t_rec.size
+    assert_close(Y[1:], exact[1:], 2e-6)
+    # steps capped at the record spacing (0.01): the 3rd-order dense output over the ~0.13 s
+    # steps the tolerance alone allows is off by 5e-4
+    assert 1000 <= stats[0] < 1100
+
+
+def test_auto_stays_explicit_on_a_nonstiff_problem(mod):
+    Y, *_, stats = solve(mod, "auto", [1.0, 0.0], [0.0, 5.0], np.array([0.0, 5.0]), [1.0])
+    assert stats[3] == 0 and stats[4] == 0
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_exact_restart_at_breaks_and_phase_of_records(mod, method):
+    """y' = -k_ph y, z' = c_ph with k, c changing at t = 1 and 2.5 (a kink the steps must not
+    cross); a record at a break time belongs to the phase that starts there."""
+    k = [1.0, 3.0, 0.5]
+    c = [1.0, -2.0, 4.0]
+    D = [2.0, *k, 0.0, *c]
+    breaks = [0.0, 1.0, 2.5, 4.0]
+    t_rec = np.linspace(0.0, 4.0, 17)  # 0.25 apart: 1.0 and 2.5 are record times
+    y, z = np.empty_like(t_rec), np.empty_like(t_rec)
+    y0, z0 = 1.0, 0.0
+    for ph in range(3):
+        a, b = breaks[ph], breaks[ph + 1]
+        sel = (t_rec >= a) & ((t_rec < b) if ph < 2 else (t_rec <= b))
+        y[sel] = y0 * np.exp(-k[ph] * (t_rec[sel] - a))
+        z[sel] = z0 + c[ph] * (t_rec[sel] - a)
+        y0, z0 = y0 * math.exp(-k[ph] * (b - a)), z0 + c[ph] * (b - a)
+    Y, phase, nrec, status, t_stop, bad, _ = solve(mod, method, [1.0, 0.0], breaks, t_rec, D)
+    assert (nrec, status, t_stop, bad) == (17, 0, 4.0, -1)
+    assert_close(Y[:, 0], y, 1e-8)
+    assert_close(Y[:, 1], z, 1e-9)
+    expected_phase = np.searchsorted(np.array(breaks[1:-1]), t_rec, side="right")
+    np.testing.assert_array_equal(phase, expected_phase)
+    assert phase[4] == 1 and phase[10] == 2  # t = 1.0 and t = 2.5
+
+
+def _rk4_module():
+    path = Path(adaptive.__file__).with_name("rk4.py")
+    if not path.exists():
+        pytest.skip("templates/rk4.py (the fixed-step template) is not there")
+    text = path.read_text().split(adaptive.TEMPLATE_MARKER + "\n", 1)[1]
+    ns = {"rhs": _rhs, "jit": numba.njit, "np": np, "math": math}
+    exec(compile(text, str(path), "exec"), ns)  # noqa: S102
+    return ns
+
+
+def test_recording_semantics_match_rk4(mod):
+    """Same number of records, same phases, same values (to the tolerance) as fixed-step RK4,
+    on a grid whose points fall on breaks, between steps and past the last break."""
+    ns = _rk4_module()
+    D = np.array([2.0, 1.0, 3.0, 0.5, 0.0, 1.0, -2.0, 4.0])
+    breaks = np.array([0.0, 1.0, 2.5, 4.0])
+    t_rec = np.r_[np.arange(0.0, 4.0, 0.3), 1.0, 2.5, 4.0]
+    t_rec.sort()
+    Y4 = np.zeros((t_rec.size, 2))
+    ph4 = np.full(t_rec.size, -1, dtype=np.int64)
+    res = ns["integrate_rk4"](
+        np.array([1.0, 0.0]), breaks, 1e-3, t_rec, D, (np.zeros(1),), 1e8,
+        np.zeros(1, dtype=np.int64), Y4, ph4, np.zeros(5, dtype=np.int64),
+    )  # fmt: skip
+    for method in METHODS:
+        Y, phase, nrec, status, t_stop, *_ = solve(mod, method, [1.0, 0.0], breaks, t_rec, D)
+        assert (nrec, status, t_stop) == (int(res[0]), int(res[1]), float(res[2]))
+        np.testing.assert_array_equal(phase, ph4)
+        assert_close(Y, Y4, 1e-8)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_divergence_reports_the_state(mod, method):
+    Y, phase, nrec, status, t_stop, bad, _ = solve(
+        mod, method, [1.0, 0.0], [0.0, 2.0], np.linspace(0.0, 2.0, 21), [3.0], bound=1e6
+    )
+    assert status == 1 and bad == 0
+    assert 0.999 < t_stop < 1.0  # y = 1 / (1 - t) passes 1e6 at t = 1 - 1e-6
+    assert nrec == 10  # records up to 0.9; the one at 1.0 is never reached
+    assert np.all(np.abs(Y[:nrec, 0]) < 1e6)
+
+
+def test_non_finite_initial_state_is_divergence_at_t0(mod):
+    *_, nrec, status, t_stop, bad, _ = solve(
+        mod, "dopri5", [0.0, math.nan], [0.0, 1.0], np.linspace(0.0, 1.0, 3), [1.0]
+    )
+    assert (nrec, status, t_stop, bad) == (0, 1, 0.0, 1)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_unresolvable_singularity_is_step_underflow(mod, method):
+    *_, nrec, status, t_stop, bad, _ = solve(
+        mod, method, [0.0, 0.0], [0.0, 1.0], np.linspace(0.0, 1.0, 11), [4.0]
+    )
+    assert status == 2 and bad == -1
+    assert 0.49 < t_stop <= 0.5 and nrec == 5
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_stop_flag_set_before_the_run_interrupts_at_once(mod, method):
+    stop = np.ones(1, dtype=np.int64)
+    *_, nrec, status, t_stop, bad, stats = solve(
+        mod, method, [1.0, 0.0], [0.0, 5.0], np.linspace(0.0, 5.0, 6), [1.0], stop=stop
+    )
+    assert (nrec, status, t_stop, bad) == (1, 3, 0.0, -1)  # only the record at t0
+    assert stats[0] == 0
+
+
+def test_stop_flag_from_another_thread_interrupts_a_running_integration(mod):
+    """The integrators release the GIL and poll ``stop`` every step (Ctrl-C in the engine)."""
+    stop = np.zeros(1, dtype=np.int64)
+    out = {}
+    # DOPRI5 on the Prothero-Robinson problem over 1e4 s: its step stays below 3.3e-4 (the
+    # stability bound of the fast mode), so ~3e7 steps, far longer than the test waits
+    D = [5.0]
+    solve(mod, "dopri5", [1.0, 1.0], [0.0, 1e-3], np.array([0.0]), D)  # compiled before timing
+
+    def target():
+        out["res"] = solve(
+            mod, "dopri5", [1.0, 1.0], [0.0, 1e4], np.array([0.0, 1e4]), D, stop=stop
+        )
+
+    worker = threading.Thread(target=target)
+    worker.start()
+    time.sleep(0.2)
+    stop[0] = 1
+    worker.join(timeout=20.0)
+    assert not worker.is_alive()
+    *_, nrec, status, t_stop, bad, stats = out["res"]
+    assert status == 3 and 0.0 < t_stop < 1e4 and nrec == 1 and stats[0] > 0
