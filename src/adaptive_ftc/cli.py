@@ -163,6 +163,10 @@ def _cmd_list() -> int:
 def _plant_gains(plant) -> tuple[float, ...] | None:
     """Per-actuator plant gains ``g_j`` when the plant exposes them, else ``None`` (all 1)."""
     m = plant.n_actuators
+    try:  # measured from the plant's own equations (any plant, user plants included)
+        return tuple(float(v) for v in plant.input_gains()[0])
+    except Exception:  # noqa: BLE001 - fall back to declared gains
+        pass
     for attr in ("actuator_gains", "b"):
         value = getattr(plant, attr, None)
         try:

@@ -71,7 +71,7 @@ class NussbaumAdaptive(AdaptiveController):
         g.y0_extra.append(float(self.tau0))
         text = g.constant_block(self.nussbaum_expression().node, {"tau": "tau"})
         g.defs.append(
-            "@jit\ndef nussbaum(tau, c):\n"
+            "@hot\ndef nussbaum(tau, c):\n"
             f'    """Nussbaum function N(tau) = {self.nussbaum_expression()} (4.15)."""\n'
             f"    return {text}"
         )

@@ -50,7 +50,7 @@ class Plant(ABC):
         return tuple(f"u{j + 1}" for j in range(self.n_actuators))
 
     @abstractmethod
-    def parameters(self) -> tuple:
+    def parameter_values(self) -> tuple:
         """The plant's numbers as a NamedTuple (passed to :attr:`equations` as ``p``)."""
 
     #: The dynamics ``equations(t, x, u, p, xdot)``: plain Python in the subset numba compiles,
@@ -67,8 +67,37 @@ class Plant(ABC):
         The default imports :attr:`equations`; a plant written as expressions returns the text
         of its generated function instead.
         """
-        g.use("plant_dynamics", self.equations)
+        if not callable(getattr(self, "equations", None)):
+            raise ConfigurationError(
+                f"Plant class {type(self).__name__} defines no `equations(t, x, u, p, xdot)`: "
+                "give it one (see adaptive_ftc.plants.pendulum for a complete plant), or use "
+                "CustomPlant / the @plant decorator."
+            )
+        checked = not type(self).__module__.startswith("adaptive_ftc.")
+        g.use("plant_dynamics", self.equations, checked=checked)
         return ""
+
+    def input_gains(self, t: float = 0.0, x=None) -> np.ndarray:
+        """``d(rate of output i)/d u_j`` at ``(t, x)`` (default: the zero state), shape
+        ``(outputs, actuators)``: the sign of each actuator's effect (conditions (2.16), (4.6))."""
+        x = np.zeros(self.n_states) if x is None else np.asarray(x, dtype=float)
+        u = np.zeros(self.n_actuators)
+        f0 = self.evaluate(t, x.copy(), u.copy())
+        out = np.zeros((self.n_outputs, self.n_actuators))
+        for j in range(self.n_actuators):
+            du = u.copy()
+            du[j] = 1.0
+            f1 = self.evaluate(t, x.copy(), du)
+            out[:, j] = (f1 - f0)[list(self.velocity_index)]
+        return out
+
+    def evaluate(self, t: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``dx/dt`` by running :attr:`equations` as plain Python (no compilation); used by
+        :func:`~adaptive_ftc.plants.check_plant`."""
+        xdot = np.full(self.n_states, np.nan)
+        f = getattr(self.equations, "py_func", self.equations)
+        f(float(t), x, u, self.parameter_values(), xdot)
+        return xdot
 
     def derivative(self, t: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """State derivative for applied actuator outputs ``u``.
@@ -91,7 +120,7 @@ class Plant(ABC):
         shape = np.broadcast_shapes(x.shape[:-1], u.shape[:-1])
         xb = np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1]))
         ub = np.ascontiguousarray(np.broadcast_to(u, shape + u.shape[-1:]).reshape(-1, u.shape[-1]))
-        params = self.parameters()
+        params = self.parameter_values()
         f = _compiled(self.equations)
         out = np.zeros_like(xb)
         for i in range(xb.shape[0]):

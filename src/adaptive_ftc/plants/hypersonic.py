@@ -100,7 +100,7 @@ class HypersonicAngleOfAttack(Plant):
     def actuator_names(self) -> tuple[str, ...]:
         return tuple(f"delta_e{j + 1}" for j in range(self.elevators))
 
-    def parameters(self) -> HypersonicParams:
+    def parameter_values(self) -> HypersonicParams:
         return HypersonicParams(
             self.scale, self.k_alpha, *self.alpha_poly, self.k_q, *self.q_poly, self.k_elevator
         )

@@ -109,5 +109,5 @@ class TwoLinkManipulator(Plant):
         a4 = self.me * self.l1 * self.lce * math.sin(de)
         return a1, a2, a3, a4
 
-    def parameters(self) -> ManipulatorParams:
+    def parameter_values(self) -> ManipulatorParams:
         return ManipulatorParams(*self.inertia_constants())

@@ -216,7 +216,7 @@ class FlexibleSpacecraft(Plant):
     def actuator_names(self) -> tuple[str, ...]:
         return tuple(f"wheel{j + 1}" for j in range(6))
 
-    def parameters(self) -> SpacecraftParams:
+    def parameter_values(self) -> SpacecraftParams:
         return SpacecraftParams(
             *self.inertia,
             *np.ravel(self.coupling).tolist(),

@@ -77,7 +77,7 @@ class WingRock(Plant):
     def actuator_names(self) -> tuple[str, ...]:
         return tuple(f"delta_a{j + 1}" for j in range(len(self.b)))
 
-    def parameters(self) -> WingRockParams:
+    def parameter_values(self) -> WingRockParams:
         return WingRockParams(
             self.a0, self.a1, self.a2, self.a3, self.a4, tuple(float(v) for v in self.b)
         )

@@ -21,6 +21,7 @@ import hashlib
 import importlib.util
 import math
 import os
+import re
 import sys
 import tempfile
 import threading
@@ -31,7 +32,15 @@ from pathlib import Path
 from adaptive_ftc._version import __version__
 from adaptive_ftc.errors import ConfigurationError
 
-__all__ = ["cache_dir", "compile_expression", "emit", "load_module", "stats", "template"]
+__all__ = [
+    "cache_dir",
+    "compile_expression",
+    "emit",
+    "emit_at",
+    "load_module",
+    "stats",
+    "template",
+]
 
 _BEGIN = "# --- template: begin ---"
 _lock = threading.RLock()
@@ -69,6 +78,30 @@ def emit(node, names: Mapping[str, str], consts: list[float], base: str = "o") -
 
     args = ", ".join(emit(a, names, consts, base) for a in node[2])
     return f"{FUNCTIONS[node[1]]}({args})"
+
+
+def emit_at(
+    node, names: Mapping[str, str], consts: list[float], *, share_from: int | None = None
+) -> str:
+    """Like :func:`emit`, with the numbers appended to ``consts`` read as ``c[<index>]``.
+
+    With ``share_from``, a number equal to one already in ``consts[share_from:]`` reuses its
+    index, so repeated subexpressions (``sin(w*t)`` in a reference and its derivatives) are the
+    same text and the compiler computes them once.
+    """
+    local: list[float] = []
+    text = emit(node, names, local, base="_")
+    index = []
+    for v in local:
+        k = None
+        if share_from is not None:
+            key = v.hex()
+            k = next((i for i in range(share_from, len(consts)) if consts[i].hex() == key), None)
+        if k is None:
+            consts.append(v)
+            k = len(consts) - 1
+        index.append(k)
+    return re.sub(r"c\[_ \+ (\d+)\]", lambda mt: f"c[{index[int(mt.group(1))]}]", text)
 
 
 def template(name: str) -> str:

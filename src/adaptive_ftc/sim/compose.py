@@ -74,6 +74,7 @@ class Generator:
     consts: list[float] = field(default_factory=list)
     imports: dict[str, str] = field(default_factory=dict)  # alias -> "module:function"
     inject: dict[str, object] = field(default_factory=dict)
+    checked: set[str] = field(default_factory=set)
     defs: list[str] = field(default_factory=list)  # generated functions
     centers: list[float] = field(default_factory=list)
     spread: list[float] = field(default_factory=list)
@@ -95,8 +96,14 @@ class Generator:
     def m(self) -> int:
         return self.loop.plant.n_actuators
 
-    def use(self, alias: str, func) -> str:
-        """Make the plain-Python part function ``func`` available, jitted, as ``alias``."""
+    def use(self, alias: str, func, *, checked: bool = False) -> str:
+        """Make the plain-Python part function ``func`` available, jitted, as ``alias``.
+
+        ``checked``: compile with bounds checking (user code: an index error becomes an
+        exception instead of a memory error).
+        """
+        if checked:
+            self.checked.add(alias)
         func = getattr(func, "py_func", func)  # accept numba dispatchers too
         modname = getattr(func, "__module__", None)
         qual = getattr(func, "__qualname__", "")
@@ -113,13 +120,9 @@ class Generator:
             self.imports[alias] = ""
         return alias
 
-    def constant_block(self, node, names: dict[str, str]) -> str:
+    def constant_block(self, node, names: dict[str, str], share_from: int | None = None) -> str:
         """Text of an expression whose numbers sit at a fixed place of ``c``."""
-        start = len(self.consts)
-        local: list[float] = []
-        text = codegen.emit(node, names, local, base="_")
-        self.consts.extend(local)
-        return re.sub(r"c\[_ \+ (\d+)\]", lambda mt: f"c[{start + int(mt.group(1))}]", text)
+        return codegen.emit_at(node, names, self.consts, share_from=share_from)
 
     def signal(self, name: str, where: str) -> int:
         names = self.loop.signal_names()
@@ -193,7 +196,7 @@ class Assembled:
 # ----------------------------------------------------------------------------- generation
 def _reference(g: Generator) -> str:
     lines = [
-        "@jit",
+        "@hot",
         "def reference(t, c, out):",
         '    """Desired outputs and their first two derivatives (taken symbolically)."""',
     ]
@@ -201,8 +204,10 @@ def _reference(g: Generator) -> str:
         name = g.loop.plant.output_names[i]
         e = Expression(text, ("t",), context=f"reference of output '{name}'")
         lines.append(f"    # {name}: y_d = {e}")
+        start = len(g.consts)
         for d in range(3):
-            lines.append(f"    out[{3 * i + d}] = {g.constant_block(e.node, {'t': 't'})}")
+            text = g.constant_block(e.node, {"t": "t"}, share_from=start)
+            lines.append(f"    out[{3 * i + d}] = {text}")
             e = e.derivative("t")
     return "\n".join(lines)
 
@@ -242,7 +247,7 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
             fphase[k, j] = seen[id(f)]
     fn, dfn = (
         [
-            "@jit",
+            "@hot",
             "def failure(k, t, x, u, D):",
             '    """Applied output of a failed actuator (pattern of failure instance k)."""',
             "    c = D.c",
@@ -250,7 +255,7 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
             "    s = D.fshape[k]",
         ],
         [
-            "@jit",
+            "@hot",
             "def dfailure(k, t, x, u, D):",
             '    """d(applied output)/du of failure instance k."""',
             "    c = D.c",
@@ -311,7 +316,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     # ------------------------------------------------------------ the right-hand side
     pos, vel = plant.position_index, plant.velocity_index
     body = [
-        "@jit",
+        "@hot",
         "def rhs(t, Y, ph, D, W, dY):",
         f'    """Closed-loop derivative of {plant.name} + {ctrl.design} (in place)."""',
         f"    x = Y[0:{nx}]",
@@ -401,12 +406,17 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "# ruff: noqa",
         *imports,
         "",
+        "# jit: functions that allocate; hot: the right-hand side and its parts, which never",
+        "# allocate and so run without reference counting (the generated code's inner loop)",
         'jit = njit(cache=CACHE, nogil=True, error_model="numpy")',
-        '_part = njit(nogil=True, error_model="numpy")',
+        'hot = njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False)',
+        '_part = njit(nogil=True, error_model="numpy", _nrt=False)',
+        '_user_part = njit(nogil=True, error_model="numpy", _nrt=False, boundscheck=True)',
     ]
     for name in jits:
         src = f"_py_{name}" if name in g.imports else name
-        header.append(f"{name} = _part({src})")
+        deco = "_user_part" if name in g.checked else "_part"
+        header.append(f"{name} = {deco}({src})")
     text = (
         "\n\n".join(
             [
@@ -440,7 +450,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         spread=np.array(g.spread, dtype=float),
         pos=np.array(pos, dtype=np.int64),
         vel=np.array(vel, dtype=np.int64),
-        plant=plant.parameters(),
+        plant=plant.parameter_values(),
         gains=ctrl.gains(),
     )
     sizes = (nx + 3 * p, n_phi, g.n_mu, g.n_w, ny)

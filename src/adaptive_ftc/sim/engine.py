@@ -184,7 +184,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
                 stats,
             )
 
-        nrec, status, t_stop, bad = _interruptible(run)
+        nrec, status, t_stop, bad = _compiled_call(loop, run)
         nrec = int(nrec)
         if status == 0:
             message = ""
@@ -199,6 +199,32 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
         Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
     wall = time.perf_counter() - start
     return asm, t_rec, Y, phases, nrec, message, wall, stats
+
+
+def _compiled_call(loop: ClosedLoop, run):
+    """Run the compiled loop, turning compiler and bounds errors of user parts into clear
+    errors that name the plant."""
+    try:
+        return _interruptible(run)
+    except IndexError as exc:
+        raise ConfigurationError(
+            f"The equations of plant '{loop.plant.name}' index outside an array ({exc}): "
+            f"x has {loop.plant.n_states} states, u has {loop.plant.n_actuators} actuators and "
+            "xdot has one entry per state."
+        ) from None
+    except Exception as exc:
+        import numba
+
+        if not isinstance(exc, numba.core.errors.NumbaError):
+            raise
+        first = next((ln for ln in str(exc).splitlines() if ln.strip()), str(exc))
+        where = [ln.strip() for ln in str(exc).splitlines() if ln.strip().startswith("File ")]
+        raise ConfigurationError(
+            f"The closed loop of plant '{loop.plant.name}' cannot be compiled: {first.strip()}"
+            + (f" ({where[-1]})" if where else "")
+            + ". Plant equations must use numbers, arrays, indexing, loops and the math "
+            "module only (the subset numba compiles)."
+        ) from None
 
 
 def _interruptible(run):

@@ -68,6 +68,10 @@ class ClosedLoop:
             raise ConfigurationError(
                 f"`controller` must be an adaptive design; got {self.controller!r}."
             )
+        if not type(plant).__module__.startswith("adaptive_ftc."):
+            from adaptive_ftc.plants.custom import check_plant
+
+            check_plant(plant)  # a user's Plant subclass: check what the designs assume
         p, m, n = plant.n_outputs, plant.n_actuators, plant.n_states
         R = np.asarray(self.allocation, dtype=float) if len(self.allocation) else np.zeros(0)
         if R.ndim == 1 and p == 1:

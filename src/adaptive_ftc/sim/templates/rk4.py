@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 from numba import njit as jit
+from numba import njit as hot
 
 
 def rhs(t, Y, ph, D, W, dY):  # placeholder: every generated module defines its own
@@ -15,7 +16,7 @@ def rhs(t, Y, ph, D, W, dY):  # placeholder: every generated module defines its 
 
 
 # --- template: begin ---
-@jit
+@hot
 def first_bad(Y, bound):
     """Index of the first state that is non-finite or not below ``bound`` in size, else -1."""
     for i in range(Y.size):
@@ -24,7 +25,7 @@ def first_bad(Y, bound):
     return -1
 
 
-@jit
+@hot
 def record_hermite(out_Y, r, tr, t, h, Y, k1, yn, fe):
     """Cubic Hermite interpolant between ``(t, Y, k1)`` and ``(t + h, yn, fe)`` at ``tr``."""
     s = (tr - t) / h

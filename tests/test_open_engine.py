@@ -1,0 +1,318 @@
+"""The open engine: parts carry their equations, users bring their own plant, a structure
+compiles once whatever its numbers, and nothing a user writes can crash the interpreter."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import warnings
+from dataclasses import replace
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+
+from adaptive_ftc import (
+    Bias,
+    ClosedLoop,
+    DirectAdaptive,
+    FuzzyBasis,
+    LinearRegressor,
+    LossOfEffectiveness,
+    SignEstimation,
+    Stuck,
+    load_scenario,
+    simulate,
+    simulate_many,
+)
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.plants import CustomPlant, ExpressionPlant, Pendulum, Plant, check_plant, plant
+from adaptive_ftc.sim import codegen
+from adaptive_ftc.sim.compose import assemble, source_of
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class PendulumNumbers(NamedTuple):
+    g_over_l: float
+    damping: float
+    inertia: float
+
+
+def pendulum_equations(t, x, u, p, xdot):
+    """The built-in Pendulum's equations, written again by a user."""
+    xdot[0] = x[1]
+    xdot[1] = -p.g_over_l * math.sin(x[0]) + (u[0] + u[1] + u[2] - p.damping * x[1]) / p.inertia
+
+
+def _pendulum_loop(plant_obj, *, t_final=6.0, design=None):
+    fls = FuzzyBasis(
+        inputs=("theta", "omega"), centers=(-1.0, 0.0, 1.0), width=(0.5, 1.0), normalised=False
+    )
+    ctrl = design or DirectAdaptive(regressor=fls, lam=2, k=5, k0=1, gamma=10, sigma=0.01)
+    return ClosedLoop(
+        plant=plant_obj,
+        controller=ctrl,
+        allocation=(1.0, 1.0, 1.0),
+        reference=("0.5*sin(0.5*t)",),
+        initial_state=(0.1, 0.0),
+        failures=(LossOfEffectiveness(actuator=2, onset=2.0, effectiveness=0.3),),
+        t_final=t_final,
+    )
+
+
+USER_PENDULUM = CustomPlant(
+    name="user-pendulum",
+    states=("theta", "omega"),
+    outputs={"theta": "omega"},
+    actuators=("m1", "m2", "m3"),
+    equations=pendulum_equations,
+    params=PendulumNumbers(9.81, 0.05, 0.1),
+)
+FILE_PENDULUM = ExpressionPlant(
+    name="file-pendulum",
+    states=("theta", "omega"),
+    outputs={"theta": "omega"},
+    actuators=("m1", "m2", "m3"),
+    parameters={"g_over_l": 9.81, "damping": 0.05, "inertia": 0.1},
+    dynamics={
+        "theta": "omega",
+        "omega": "-g_over_l*sin(theta) + (m1 + m2 + m3 - damping*omega)/inertia",
+    },
+)
+
+
+def test_a_plant_written_three_ways_gives_the_same_closed_loop():
+    """Built-in class, user Python function and scenario-file equations: three independent
+    routes to the same plant agree to rounding."""
+    runs = [simulate(_pendulum_loop(p)) for p in (Pendulum(), USER_PENDULUM, FILE_PENDULUM)]
+    for r in runs:
+        assert r.status == "completed"
+    for r in runs[1:]:
+        np.testing.assert_allclose(r.states, runs[0].states, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(r.adaptive, runs[0].adaptive, rtol=0, atol=1e-10)
+
+
+def test_user_plant_open_loop_matches_the_analytic_oscillator():
+    class K(NamedTuple):
+        w2: float
+
+    @plant(states=("q", "v"), outputs={"q": "v"}, actuators=("a", "b"), params=K(4.0))
+    def oscillator(t, x, u, p, xdot):
+        xdot[0] = x[1]
+        xdot[1] = -p.w2 * x[0] + u[0] + u[1]
+
+    ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
+    loop = ClosedLoop(
+        plant=oscillator, controller=ctrl, allocation=(0.0, 0.0), initial_state=(1.0, 0.0),
+        t_final=3.0,
+    )
+    r = simulate(loop)
+    np.testing.assert_allclose(r.states[:, 0], np.cos(2.0 * r.time), atol=1e-9)
+
+
+def test_two_hundred_members_that_differ_only_in_numbers_compile_once():
+    """Gains, failure values and times, initial states are data, not code."""
+    sc = load_scenario("hypersonic-direct-s1")
+    base = replace(sc.loop, t_final=0.2)
+    rng = np.random.default_rng(0)
+    loops = []
+    for _ in range(200):
+        ctrl = replace(base.controller, gamma=float(rng.uniform(1, 10)), k=float(rng.uniform(1, 9)))
+        fails = (
+            Stuck(actuator=2, onset=float(rng.uniform(0.01, 0.1)),
+                  value=f"{rng.uniform(-0.2, 0.2)!r} + {rng.uniform(0, 0.1)!r}*cos(0.5*t) - "
+                        f"{rng.uniform(0, 0.1)!r}*sin(0.5*t)"),
+            LossOfEffectiveness(actuator=1, onset=float(rng.uniform(0.1, 0.15)),
+                                effectiveness=float(rng.uniform(0.2, 0.9))),
+        )
+        loops.append(replace(base, controller=ctrl, failures=fails,
+                             initial_state=(float(rng.uniform(-0.05, 0.05)), 0.0)))
+    simulate(loops[0], sc.solver)  # compile (or load) the structure once
+    before = codegen.stats()
+    results = simulate_many(loops[1:], sc.solver, jobs=2)
+    assert all(r.status == "completed" for r in results)
+    after = codegen.stats()
+    assert after["generated"] == before["generated"]
+    assert after["loaded"] == before["loaded"]  # no new module for any member
+    module = assemble(loops[0]).module
+    assert len(module.integrate_rk4.signatures) == 1
+
+
+def test_the_generated_module_reads_like_the_thesis():
+    text = source_of(load_scenario("hypersonic-nussbaum-s1-pos").loop)
+    for needle in ("(4.25)-(4.27)", "def rhs(t, Y, ph, D, W, dY)", "plant_dynamics(",
+                   "theta_law(", "nussbaum(", "def integrate_rk4("):
+        assert needle in text
+    assert "0.75" not in text  # failure numbers are data, not code
+
+
+def test_the_cache_survives_a_new_process_and_is_keyed_by_content(tmp_path):
+    env = {**os.environ, "ADAPTIVE_FTC_CACHE_DIR": str(tmp_path)}
+    code = (
+        "from dataclasses import replace\n"
+        "from adaptive_ftc import load_scenario, simulate\n"
+        "from adaptive_ftc.sim import codegen\n"
+        "sc = load_scenario('hypersonic-direct-s2')\n"
+        "simulate(replace(sc.loop, t_final=0.1), sc.solver)\n"
+        "print(codegen.stats()['compiled'])\n"
+    )
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, timeout=300) for _ in range(2)]
+    assert [r.returncode for r in runs] == [0, 0], runs[0].stderr + runs[1].stderr
+    assert int(runs[0].stdout.split()[-1]) > 0  # first process compiles
+    assert int(runs[1].stdout.split()[-1]) == 0  # second process loads from the disk cache
+    assert len(list((tmp_path / "loops").glob("loop_*.py"))) == 1
+
+
+def test_no_writable_cache_directory_compiles_in_memory(monkeypatch, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    monkeypatch.setenv("ADAPTIVE_FTC_CACHE_DIR", str(blocker / "x"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker / "y"))
+    monkeypatch.setattr(codegen.tempfile, "gettempdir", lambda: str(blocker / "z"))
+    assert codegen.cache_dir() is None
+    loop = replace(_pendulum_loop(Pendulum()), t_final=0.5, name="in-memory")
+    loop = replace(loop, controller=replace(loop.controller, k=4.5))
+    before = codegen.stats()["in_memory"]
+    # a structure not seen in this process: an extra failure shape
+    loop = replace(loop, failures=(Bias(actuator=3, onset=0.1, bias="0.01*t*t"),))
+    assert simulate(loop).status == "completed"
+    assert codegen.stats()["in_memory"] == before + 1
+
+
+def test_import_does_not_load_numba_or_scipy():
+    code = "import sys, adaptive_ftc; print('numba' in sys.modules, 'scipy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert out.stdout.split() == ["False", "False"], out.stderr
+
+
+# ----------------------------------------------------------------------------- refusals
+def _custom(equations, **kw):
+    class P(NamedTuple):
+        k: float
+
+    args = dict(name="m", states=("p", "v"), outputs={"p": "v"}, actuators=("a", "b"),
+                equations=equations, params=P(1.0))
+    args.update(kw)
+    return CustomPlant(**args)
+
+
+def _ok(t, x, u, p, xdot):
+    xdot[0] = x[1]
+    xdot[1] = -p.k * x[0] + u[0] + u[1]
+
+
+@pytest.mark.parametrize(
+    ("equations", "kw", "message"),
+    [
+        (lambda t, x, u, p, xdot: _set(xdot, x[1] + u[0], u[0]), {}, "acts directly on output"),
+        (lambda t, x, u, p, xdot: _set(xdot, x[1], x[0]), {}, "No actuator"),
+        (lambda t, x, u, p, xdot: _set(xdot, x[1], u[2]), {}, "index outside"),
+        (lambda t, x, u, p, xdot: _set(xdot, 2 * x[1], u[0]), {}, "relative degree 2"),
+        (lambda t, x, u, p, xdot: None, {}, "finite dx/dt"),
+        (lambda t, x, u, p: None, {}, "takes 4 argument"),
+        (_ok, {"outputs": {"p": "p"}}, "its own rate"),
+        (_ok, {"outputs": {"p": "speed"}}, "is not a state"),
+        (_ok, {"params": {"k": 1.0}}, "NamedTuple"),
+        (_ok, {"states": ("p", "p")}, "repeats"),
+    ],
+)
+def test_a_plant_that_breaks_the_designs_assumptions_is_refused(equations, kw, message):
+    with pytest.raises(ConfigurationError, match=message):
+        _custom(equations, **kw)
+
+
+def _set(xdot, a, b):
+    xdot[0] = a
+    xdot[1] = b
+
+
+def _uses_python_objects(t, x, u, p, xdot):
+    import time
+
+    xdot[0] = x[1]
+    xdot[1] = u[0] + u[1] + 0.0 * time.time()
+
+
+def test_equations_numba_cannot_compile_give_a_clear_error_not_a_crash():
+    loop = ClosedLoop(
+        plant=_custom(_uses_python_objects),
+        controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e", "edot"))),
+        allocation=(1.0, 1.0), reference=("sin(t)",), t_final=0.5,
+    )
+    with pytest.raises(ConfigurationError, match="cannot be compiled"):
+        simulate(loop)
+
+
+def test_a_plant_subclass_without_equations_is_refused_not_silently_replaced():
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    @dataclass(frozen=True, kw_only=True)
+    class Incomplete(Plant):
+        name: ClassVar[str] = "incomplete"
+        state_names: ClassVar[tuple[str, ...]] = ("a", "b")
+        output_names: ClassVar[tuple[str, ...]] = ("a",)
+        position_index: ClassVar[tuple[int, ...]] = (0,)
+        velocity_index: ClassVar[tuple[int, ...]] = (1,)
+
+        @property
+        def n_actuators(self) -> int:
+            return 2
+
+        def parameter_values(self):
+            return ()
+
+    with pytest.raises(ConfigurationError, match="equations"):
+        ClosedLoop(plant=Incomplete(),
+                   controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e",))),
+                   allocation=(1.0, 1.0))
+
+
+def test_expression_plant_errors_name_the_state_and_the_fix():
+    with pytest.raises(ConfigurationError, match="no equation for omega"):
+        ExpressionPlant(states=("theta", "omega"), outputs={"theta": "omega"},
+                        actuators=("m",), dynamics={"theta": "omega"})
+    with pytest.raises(ConfigurationError, match="unknown name 'thetta'"):
+        ExpressionPlant(states=("theta", "omega"), outputs={"theta": "omega"},
+                        actuators=("m",), dynamics={"theta": "omega", "omega": "-thetta + m"})
+
+
+def test_check_plant_accepts_every_registered_plant():
+    from adaptive_ftc.plants import PLANTS
+
+    for name, cls in PLANTS.items():
+        if cls is not ExpressionPlant:
+            check_plant(cls()), name
+
+
+def test_fuzzy_widths_per_input_scale_each_input():
+    fls = FuzzyBasis(inputs=("a", "b"), centers=((0.0,), (0.0,)), width=(1.0, 10.0),
+                     normalised=False)
+    np.testing.assert_allclose(fls([1.0, 10.0]), [math.exp(-0.5) * math.exp(-0.5)])
+    with pytest.raises(ConfigurationError, match="one per input"):
+        FuzzyBasis(inputs=("a", "b"), centers=(0.0,), width=(1.0, 2.0, 3.0))
+
+
+def test_sign_estimation_on_the_reversed_pendulum_finds_the_direction():
+    fls = FuzzyBasis(inputs=("theta", "omega"), centers=(-1.0, 0.0, 1.0), width=(0.5, 1.0),
+                     normalised=False)
+    ctrl = SignEstimation(regressor=fls, lam=2, k=5, k0=1, alpha0=10, alpha1=10, sigma0=0.01,
+                          sigma1=1e-4, rho0=1.0)
+    r = simulate(_pendulum_loop(Pendulum(gains=(-1.0, -1.0, -1.0)), design=ctrl, t_final=10.0))
+    assert r.adaptive_state("rho")[-1] < 0  # true direction negative
+    assert float(r.rms_error(8, 10)[0]) < 1e-3
+
+
+@pytest.mark.parametrize("script", ["own_plant_python.py", "own_plant_file.py"])
+def test_examples_run(script):
+    with warnings.catch_warnings():
+        out = subprocess.run([sys.executable, str(ROOT / "examples" / script)],
+                             capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "completed" in out.stdout
