@@ -204,11 +204,14 @@ def study(name: str, quick: bool):
         dt = dt0 * fac
         Y = np.zeros((t_rec.size, n))
         ph = np.zeros(t_rec.size, dtype=np.int64)
-        wall, res = _timed(lambda dt=dt, Y=Y, ph=ph: rk4(dt, t_rec, Y, ph))
+        call = lambda dt=dt, Y=Y, ph=ph: rk4(dt, t_rec, Y, ph)  # noqa: E731
+        wall, res = _timed(call)
         nrec, status = int(res[0]), int(res[1])
         err, worst, absdiff = _error(Y, Yref, nrec)
         steps = int(round((breaks[-1] - breaks[0]) / dt))
-        rows.append(("rk4", f"dt={dt:.3g}", status, wall, steps, 0, 4 * steps, err, worst, absdiff))
+        rows.append(
+            ("rk4", f"dt={dt:.3g}", status, wall, steps, 0, 4 * steps, err, worst, absdiff, call)
+        )
     rtols = (1e-5, 1e-6, 1e-7) if quick else (1e-4, 1e-5, 1e-6, 3e-7, 1e-7, 1e-8, 1e-9, 1e-10)
     methods = ("dopri5", "rodasp", "auto")
     if n > 60:  # a dense n x n Jacobian per step: RODASP only on small loops
@@ -240,6 +243,7 @@ def study(name: str, quick: bool):
                     err,
                     worst,
                     absdiff,
+                    run,
                 )
             )
     for r in rows:
@@ -252,9 +256,15 @@ def study(name: str, quick: bool):
     ok = [r for r in rows if r[2] == 0 and r[7] <= TARGET]
     if ok:
         best = min(ok, key=lambda r: r[3])
+        # the machine is shared: time the two again, interleaved, and keep the best of each
+        t_best, t_base = math.inf, math.inf
+        for _ in range(3):
+            t_best = min(t_best, _timed(best[10], reps=1)[0])
+            t_base = min(t_base, _timed(base[10], reps=1)[0])
         print(
-            f"fastest meeting {TARGET:g}: {best[0]} {best[1]}, {1e3 * best[3]:.1f} ms, "
-            f"{base[3] / best[3]:.2f}x faster than rk4 dt={dt0:g} (error {base[7]:.2e})"
+            f"fastest meeting {TARGET:g}: {best[0]} {best[1]}, {1e3 * t_best:.1f} ms, "
+            f"{t_base / t_best:.2f}x faster than rk4 dt={dt0:g} ({1e3 * t_base:.1f} ms, "
+            f"error {base[7]:.2e}; interleaved re-timing, best of 3)"
         )
     else:
         print(f"no setting meets {TARGET:g} on every state")

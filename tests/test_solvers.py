@@ -5,6 +5,7 @@ One test right-hand side serves every problem (``D[0]`` picks it), so the templa
 
 from __future__ import annotations
 
+import importlib
 import math
 import threading
 import time
@@ -196,7 +197,9 @@ def _rk4_module():
     if not path.exists():
         pytest.skip("templates/rk4.py (the fixed-step template) is not there")
     text = path.read_text().split(adaptive.TEMPLATE_MARKER + "\n", 1)[1]
-    ns = {"rhs": _rhs, "jit": numba.njit, "np": np, "math": math}
+    # the names its header stands in for (decorators, imports), with our rhs
+    ns = {k: v for k, v in vars(importlib.import_module(f"{adaptive.__package__}.rk4")).items()}
+    ns["rhs"] = _rhs
     exec(compile(text, str(path), "exec"), ns)  # noqa: S102
     return ns
 
