@@ -9,6 +9,7 @@ Public API (see the README for a tour)::
 
 from adaptive_ftc._version import __version__
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.baselines import fixed_gain
 from adaptive_ftc.campaigns import load_campaign, run_campaign
 from adaptive_ftc.controllers import (
     DirectAdaptive,
@@ -78,6 +79,7 @@ __all__ = [
     "WingRock",
     "__version__",
     "check_compensability",
+    "fixed_gain",
     "list_scenarios",
     "load_campaign",
     "load_scenario",
