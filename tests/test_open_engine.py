@@ -107,7 +107,10 @@ def test_user_plant_open_loop_matches_the_analytic_oscillator():
 
     ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
     loop = ClosedLoop(
-        plant=oscillator, controller=ctrl, allocation=(0.0, 0.0), initial_state=(1.0, 0.0),
+        plant=oscillator,
+        controller=ctrl,
+        allocation=(0.0, 0.0),
+        initial_state=(1.0, 0.0),
         t_final=3.0,
     )
     r = simulate(loop)
@@ -123,14 +126,26 @@ def test_two_hundred_members_that_differ_only_in_numbers_compile_once():
     for _ in range(200):
         ctrl = replace(base.controller, gamma=float(rng.uniform(1, 10)), k=float(rng.uniform(1, 9)))
         fails = (
-            Stuck(actuator=2, onset=float(rng.uniform(0.01, 0.1)),
-                  value=f"{rng.uniform(-0.2, 0.2)!r} + {rng.uniform(0, 0.1)!r}*cos(0.5*t) - "
-                        f"{rng.uniform(0, 0.1)!r}*sin(0.5*t)"),
-            LossOfEffectiveness(actuator=1, onset=float(rng.uniform(0.1, 0.15)),
-                                effectiveness=float(rng.uniform(0.2, 0.9))),
+            Stuck(
+                actuator=2,
+                onset=float(rng.uniform(0.01, 0.1)),
+                value=f"{rng.uniform(-0.2, 0.2)!r} + {rng.uniform(0, 0.1)!r}*cos(0.5*t) - "
+                f"{rng.uniform(0, 0.1)!r}*sin(0.5*t)",
+            ),
+            LossOfEffectiveness(
+                actuator=1,
+                onset=float(rng.uniform(0.1, 0.15)),
+                effectiveness=float(rng.uniform(0.2, 0.9)),
+            ),
         )
-        loops.append(replace(base, controller=ctrl, failures=fails,
-                             initial_state=(float(rng.uniform(-0.05, 0.05)), 0.0)))
+        loops.append(
+            replace(
+                base,
+                controller=ctrl,
+                failures=fails,
+                initial_state=(float(rng.uniform(-0.05, 0.05)), 0.0),
+            )
+        )
     simulate(loops[0], sc.solver)  # compile (or load) the structure once
     before = codegen.stats()
     results = simulate_many(loops[1:], sc.solver, jobs=2)
@@ -144,10 +159,17 @@ def test_two_hundred_members_that_differ_only_in_numbers_compile_once():
 
 def test_the_generated_module_reads_like_the_thesis():
     text = source_of(load_scenario("hypersonic-nussbaum-s1-pos").loop)
-    for needle in ("(4.25)-(4.27)", "def rhs(t, Y, ph, D, W, dY)", "plant_dynamics(",
-                   "theta_law(", "nussbaum(", "def integrate_rk4("):
+    for needle in (
+        "(4.25)-(4.27)",
+        "def rhs(t, Y, ph, D, W, dY)",
+        "plant_dynamics(",
+        "theta_law(",
+        "nussbaum(",
+        "def integrate_rk4(",
+    ):
         assert needle in text
-    assert "0.75" not in text  # failure numbers are data, not code
+    failures = text[text.index("def failure(") : text.index("def rhs(")]
+    assert "c[o + " in failures and "0.75" not in failures  # failure numbers are data
 
 
 def test_the_cache_survives_a_new_process_and_is_keyed_by_content(tmp_path):
@@ -160,8 +182,12 @@ def test_the_cache_survives_a_new_process_and_is_keyed_by_content(tmp_path):
         "simulate(replace(sc.loop, t_final=0.1), sc.solver)\n"
         "print(codegen.stats()['compiled'])\n"
     )
-    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                           text=True, timeout=300) for _ in range(2)]
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+        )
+        for _ in range(2)
+    ]
     assert [r.returncode for r in runs] == [0, 0], runs[0].stderr + runs[1].stderr
     assert int(runs[0].stdout.split()[-1]) > 0  # first process compiles
     assert int(runs[1].stdout.split()[-1]) == 0  # second process loads from the disk cache
@@ -186,8 +212,7 @@ def test_no_writable_cache_directory_compiles_in_memory(monkeypatch, tmp_path):
 
 def test_import_does_not_load_numba_or_scipy():
     code = "import sys, adaptive_ftc; print('numba' in sys.modules, 'scipy' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.stdout.split() == ["False", "False"], out.stderr
 
 
@@ -196,8 +221,14 @@ def _custom(equations, **kw):
     class P(NamedTuple):
         k: float
 
-    args = dict(name="m", states=("p", "v"), outputs={"p": "v"}, actuators=("a", "b"),
-                equations=equations, params=P(1.0))
+    args = dict(
+        name="m",
+        states=("p", "v"),
+        outputs={"p": "v"},
+        actuators=("a", "b"),
+        equations=equations,
+        params=P(1.0),
+    )
     args.update(kw)
     return CustomPlant(**args)
 
@@ -243,7 +274,9 @@ def test_equations_numba_cannot_compile_give_a_clear_error_not_a_crash():
     loop = ClosedLoop(
         plant=_custom(_uses_python_objects),
         controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e", "edot"))),
-        allocation=(1.0, 1.0), reference=("sin(t)",), t_final=0.5,
+        allocation=(1.0, 1.0),
+        reference=("sin(t)",),
+        t_final=0.5,
     )
     with pytest.raises(ConfigurationError, match="cannot be compiled"):
         simulate(loop)
@@ -269,18 +302,28 @@ def test_a_plant_subclass_without_equations_is_refused_not_silently_replaced():
             return ()
 
     with pytest.raises(ConfigurationError, match="equations"):
-        ClosedLoop(plant=Incomplete(),
-                   controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e",))),
-                   allocation=(1.0, 1.0))
+        ClosedLoop(
+            plant=Incomplete(),
+            controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e",))),
+            allocation=(1.0, 1.0),
+        )
 
 
 def test_expression_plant_errors_name_the_state_and_the_fix():
     with pytest.raises(ConfigurationError, match="no equation for omega"):
-        ExpressionPlant(states=("theta", "omega"), outputs={"theta": "omega"},
-                        actuators=("m",), dynamics={"theta": "omega"})
+        ExpressionPlant(
+            states=("theta", "omega"),
+            outputs={"theta": "omega"},
+            actuators=("m",),
+            dynamics={"theta": "omega"},
+        )
     with pytest.raises(ConfigurationError, match="unknown name 'thetta'"):
-        ExpressionPlant(states=("theta", "omega"), outputs={"theta": "omega"},
-                        actuators=("m",), dynamics={"theta": "omega", "omega": "-thetta + m"})
+        ExpressionPlant(
+            states=("theta", "omega"),
+            outputs={"theta": "omega"},
+            actuators=("m",),
+            dynamics={"theta": "omega", "omega": "-thetta + m"},
+        )
 
 
 def test_check_plant_accepts_every_registered_plant():
@@ -292,18 +335,21 @@ def test_check_plant_accepts_every_registered_plant():
 
 
 def test_fuzzy_widths_per_input_scale_each_input():
-    fls = FuzzyBasis(inputs=("a", "b"), centers=((0.0,), (0.0,)), width=(1.0, 10.0),
-                     normalised=False)
+    fls = FuzzyBasis(
+        inputs=("a", "b"), centers=((0.0,), (0.0,)), width=(1.0, 10.0), normalised=False
+    )
     np.testing.assert_allclose(fls([1.0, 10.0]), [math.exp(-0.5) * math.exp(-0.5)])
     with pytest.raises(ConfigurationError, match="one per input"):
         FuzzyBasis(inputs=("a", "b"), centers=(0.0,), width=(1.0, 2.0, 3.0))
 
 
 def test_sign_estimation_on_the_reversed_pendulum_finds_the_direction():
-    fls = FuzzyBasis(inputs=("theta", "omega"), centers=(-1.0, 0.0, 1.0), width=(0.5, 1.0),
-                     normalised=False)
-    ctrl = SignEstimation(regressor=fls, lam=2, k=5, k0=1, alpha0=10, alpha1=10, sigma0=0.01,
-                          sigma1=1e-4, rho0=1.0)
+    fls = FuzzyBasis(
+        inputs=("theta", "omega"), centers=(-1.0, 0.0, 1.0), width=(0.5, 1.0), normalised=False
+    )
+    ctrl = SignEstimation(
+        regressor=fls, lam=2, k=5, k0=1, alpha0=10, alpha1=10, sigma0=0.01, sigma1=1e-4, rho0=1.0
+    )
     r = simulate(_pendulum_loop(Pendulum(gains=(-1.0, -1.0, -1.0)), design=ctrl, t_final=10.0))
     assert r.adaptive_state("rho")[-1] < 0  # true direction negative
     assert float(r.rms_error(8, 10)[0]) < 1e-3
@@ -312,7 +358,54 @@ def test_sign_estimation_on_the_reversed_pendulum_finds_the_direction():
 @pytest.mark.parametrize("script", ["own_plant_python.py", "own_plant_file.py"])
 def test_examples_run(script):
     with warnings.catch_warnings():
-        out = subprocess.run([sys.executable, str(ROOT / "examples" / script)],
-                             capture_output=True, text=True, timeout=600, cwd=ROOT)
+        out = subprocess.run(
+            [sys.executable, str(ROOT / "examples" / script)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+            cwd=ROOT,
+        )
     assert out.returncode == 0, out.stdout + out.stderr
     assert "completed" in out.stdout
+
+
+# ----------------------------------------------------------------------------- solvers, interrupts
+def test_compiled_adaptive_methods_agree_with_fine_rk4():
+    """The adaptive-step paths through simulate(): same trajectory as RK4 at a tiny step."""
+    from adaptive_ftc import SolverOptions
+
+    loop = replace(_pendulum_loop(Pendulum()), t_final=4.0)
+    ref = simulate(loop, SolverOptions(method="rk4", dt=2e-4))
+    for method in ("dopri5", "rodasp", "auto", "accurate"):
+        r = simulate(loop, SolverOptions(method=method, rtol=1e-10, atol=1e-12))
+        assert r.status == "completed"
+        assert r.meta["steps"] > 0 and r.meta["rhs_evaluations"] > r.meta["steps"]
+        np.testing.assert_allclose(r.states, ref.states, atol=2e-8, err_msg=method)
+        np.testing.assert_allclose(r.adaptive, ref.adaptive, atol=2e-7, err_msg=method)
+
+
+def test_ctrl_c_returns_the_partial_result_quickly():
+    import signal
+    import time
+
+    code = (
+        "import time, warnings\n"
+        "from dataclasses import replace\n"
+        "from adaptive_ftc import load_scenario, simulate, SolverOptions\n"
+        "sc = load_scenario('wingrock-estimation-s1')\n"
+        "simulate(replace(sc.loop, t_final=0.01), sc.solver)\n"  # compile first
+        "print('ready', flush=True)\n"
+        "warnings.simplefilter('ignore')\n"
+        "t = time.perf_counter()\n"
+        "r = simulate(replace(sc.loop, t_final=5000.0), SolverOptions(dt=2e-5, record_dt=1.0))\n"
+        "print(r.status, r.time[-1] < 5000, round(time.perf_counter() - t, 1), flush=True)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    time.sleep(1.0)
+    sent = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert time.perf_counter() - sent < 5.0
+    status, partial, _ = out.split()
+    assert (status, partial) == ("interrupted", "True")

@@ -95,9 +95,9 @@ class FuzzyBasis:
         return int(np.prod([len(c) for c in self.centers]))
 
     def emit(self, g, inputs: list[int], off: int, r: int) -> list[str]:
-        """Generated code writing the firing strengths (2.40) into ``W.phi[off:off+size]``.
+        """Generated code writing the firing strengths (2.40) into ``phi[off:off+size]``.
 
-        ``inputs`` are the indices of the input signals in ``W.sig``; the centres and spreads
+        ``inputs`` are the indices of the input signals in ``sig``; the centres and spreads
         ``1/(2 w^2)`` go into the loop's numbers, the grid sizes into the code.
         """
         counts = [len(c) for c in self.centers]
@@ -113,10 +113,10 @@ class FuzzyBasis:
             g.n_mu += n
             mus.append(m0)
             lines += [
-                f"    z = W.sig[{inputs[i]}]",
+                f"    z = sig[{inputs[i]}]",
                 f"    for l in range({n}):",
-                f"        d = z - D.centers[{k0} + l]",
-                f"        W.mu[{m0} + l] = math.exp(-D.spread[{k0} + l] * d * d)",
+                f"        d = z - c[CEN + {k0} + l]",
+                f"        mu[{m0} + l] = math.exp(-c[SPREAD + {k0} + l] * d * d)",
             ]
         lines.append(f"    i = {off}")
         indent = "    "
@@ -124,10 +124,10 @@ class FuzzyBasis:
         for i, n in enumerate(counts):
             lines.append(f"{indent}for l{i} in range({n}):")
             indent += "    "
-            cur = f"W.mu[{mus[i]} + l{i}]"
+            cur = f"mu[{mus[i]} + l{i}]"
             if i == len(counts) - 1:
                 val = cur if prev is None else f"{prev} * {cur}"
-                lines += [f"{indent}W.phi[i] = {val}", f"{indent}i += 1"]
+                lines += [f"{indent}phi[i] = {val}", f"{indent}i += 1"]
             else:
                 lines.append(f"{indent}p{i} = {cur if prev is None else f'{prev} * {cur}'}")
                 prev = f"p{i}"
@@ -135,9 +135,9 @@ class FuzzyBasis:
             lines += [
                 "    total = 0.0",
                 f"    for l in range({self.size}):",
-                f"        total += W.phi[{off} + l]",
+                f"        total += phi[{off} + l]",
                 f"    for l in range({self.size}):",
-                f"        W.phi[{off} + l] = W.phi[{off} + l] / total if total > 1e-300 "
+                f"        phi[{off} + l] = phi[{off} + l] / total if total > 1e-300 "
                 f"else {1.0 / self.size!r}",
             ]
         return lines

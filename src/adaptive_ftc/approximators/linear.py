@@ -37,17 +37,17 @@ class LinearRegressor:
         return len(self.inputs) + int(self.bias)
 
     def emit(self, g, inputs: list[int], off: int, r: int) -> list[str]:
-        """Generated code writing ``[1, z_1, ..., z_k]`` into ``W.phi[off:off+size]``."""
+        """Generated code writing ``[1, z_1, ..., z_k]`` into ``phi[off:off+size]``."""
         lines = [
             f"    # linear regressor {r + 1}: "
             f"[{'1, ' if self.bias else ''}{', '.join(self.inputs)}]"
         ]
         j = off
         if self.bias:
-            lines.append(f"    W.phi[{j}] = 1.0")
+            lines.append(f"    phi[{j}] = 1.0")
             j += 1
         for i in inputs:
-            lines.append(f"    W.phi[{j}] = W.sig[{i}]")
+            lines.append(f"    phi[{j}] = sig[{i}]")
             j += 1
         return lines
 

@@ -114,7 +114,7 @@ class AdaptiveController(ABC):
     def theta_laws(blocks, gamma: str, sigma: str, gain: str) -> list[str]:
         """Calls of :func:`~adaptive_ftc.controllers.laws.theta_law`, one per theta block."""
         return [
-            f"    theta_law(dY, Y, W.phi, W.q[{r}], {gamma}, {sigma}, {gain}, {o}, {at}, {size})"
+            f"    theta_law(dY, Y, phi, q[{r}], {gamma}, {sigma}, {gain}, {o}, {at}, {size})"
             for r, (o, at, size) in enumerate(blocks)
         ]
 

@@ -47,6 +47,6 @@ class DirectAdaptive(AdaptiveController):
         g.use("theta_law", theta_law)
         return [
             "    # adaptive law (2.29)",
-            "    W.misc[1] = 1.0",
+            "    misc[1] = 1.0",
             *self.theta_laws(blocks, "D.gains.gamma", "D.gains.sigma", "1.0"),
         ]

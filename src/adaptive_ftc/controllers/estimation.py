@@ -91,12 +91,12 @@ class FailureEstimation(AdaptiveController):
         g.n_w = i
         return [
             "    # compensator u_f = -sum_j kappa_j^T varpi_j(t) (2.62)",
-            "    basis(t, D.c, W.w)",
+            "    basis(t, c, wb)",
             "    comp = 0.0",
             f"    for l in range({i}):",
-            f"        comp -= Y[{extra_at} + l] * W.w[l]",
-            "    W.misc[0] = comp",
-            "    W.u0[0] += comp",
+            f"        comp -= Y[{extra_at} + l] * wb[l]",
+            "    misc[0] = comp",
+            "    u0[0] += comp",
         ]
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
@@ -104,8 +104,7 @@ class FailureEstimation(AdaptiveController):
         g.use("kappa_law", kappa_law)
         return [
             "    # adaptive laws (2.72)-(2.73)",
-            "    W.misc[1] = 1.0",
+            "    misc[1] = 1.0",
             *self.theta_laws(blocks, "D.gains.eta1", "D.gains.sigma", "1.0"),
-            f"    kappa_law(dY, Y, W.w, W.q[0], D.gains.eta2, D.gains.sigma, 0, {extra_at}, "
-            f"{g.n_w})",
+            f"    kappa_law(dY, Y, wb, q[0], D.gains.eta2, D.gains.sigma, 0, {extra_at}, {g.n_w})",
         ]

@@ -71,6 +71,6 @@ class MimoDirectAdaptive(AdaptiveController):
         g.use("theta_law", theta_law)
         return [
             "    # adaptive laws (3.37), one per output",
-            "    W.misc[1] = 1.0",
+            "    misc[1] = 1.0",
             *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
         ]

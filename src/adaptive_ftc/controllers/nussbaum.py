@@ -79,8 +79,8 @@ class NussbaumAdaptive(AdaptiveController):
         g.use("tau_law", tau_law)
         return [
             "    # adaptive laws (4.25)-(4.27)",
-            f"    gain = nussbaum(Y[{extra_at}], D.c)",
-            "    W.misc[1] = gain",
-            f"    dY[{extra_at}] = tau_law(W.q[0], D.gains.alpha1)",
+            f"    gain = nussbaum(Y[{extra_at}], c)",
+            "    misc[1] = gain",
+            f"    dY[{extra_at}] = tau_law(q[0], D.gains.alpha1)",
             *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain"),
         ]

@@ -62,7 +62,7 @@ class SignEstimation(AdaptiveController):
         return [
             "    # adaptive laws (4.54)-(4.55)",
             f"    rho = Y[{extra_at}]",
-            "    W.misc[1] = rho",
-            f"    dY[{extra_at}] = rho_law(W.u0[0], W.q[0], rho, D.gains.alpha1, D.gains.sigma1)",
+            "    misc[1] = rho",
+            f"    dY[{extra_at}] = rho_law(u0[0], q[0], rho, D.gains.alpha1, D.gains.sigma1)",
             *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma0", "rho"),
         ]

@@ -25,9 +25,7 @@ _RESERVED = {"t", "u", "e", "pi", "edot", "s"}
 
 def _names(owner: str, key: str, values: Any, *, allow_empty: bool = False) -> tuple[str, ...]:
     if isinstance(values, str) or not isinstance(values, (tuple, list)):
-        raise ConfigurationError(
-            f"`{key}` of {owner} must be a list of names; got {values!r}."
-        )
+        raise ConfigurationError(f"`{key}` of {owner} must be a list of names; got {values!r}.")
     out = tuple(values)
     if not out and not allow_empty:
         raise ConfigurationError(f"`{key}` of {owner} needs at least one name.")
@@ -57,8 +55,8 @@ def _outputs(owner: str, outputs: Any, states: tuple[str, ...]) -> tuple[tuple[i
                 from adaptive_ftc.errors import did_you_mean
 
                 raise ConfigurationError(
-                    f"`outputs` of {owner}: {what} {name!r} is not a state.{did_you_mean(str(name), states)} "
-                    f"States: {', '.join(states)}."
+                    f"`outputs` of {owner}: {what} {name!r} is not a state."
+                    f"{did_you_mean(str(name), states)} States: {', '.join(states)}."
                 )
         if out == rate:
             raise ConfigurationError(
@@ -143,7 +141,9 @@ class CustomPlant(Plant):
                 f"`equations` of {owner} must take (t, x, u, p, xdot) and write dx/dt into xdot; "
                 f"{getattr(py, '__name__', py)!r} takes {n_args} argument(s)."
             )
-        if not isinstance(self.params, tuple) or (self.params and not hasattr(self.params, "_fields")):
+        if not isinstance(self.params, tuple) or (
+            self.params and not hasattr(self.params, "_fields")
+        ):
             raise ConfigurationError(
                 f"`params` of {owner} must be a typing.NamedTuple instance (read as p.name in "
                 f"the equations); got {type(self.params).__name__}."
@@ -255,7 +255,9 @@ class ExpressionPlant(Plant):
                 f"{self.parameters!r}."
             )
         pnames = _names(owner, "parameters", list(self.parameters), allow_empty=True)
-        clash = sorted(set(states) & set(acts) | set(states) & set(pnames) | set(acts) & set(pnames))
+        clash = sorted(
+            set(states) & set(acts) | set(states) & set(pnames) | set(acts) & set(pnames)
+        )
         if clash:
             raise ConfigurationError(
                 f"{owner}: {', '.join(clash)} used for more than one of states, actuators and "
@@ -404,10 +406,14 @@ def check_plant(p: Plant, *, samples: int = 4, seed: int = 0) -> None:
             bad = [p.state_names[i] for i in range(min(n, f0.size)) if not np.isfinite(f0[i])]
             raise ConfigurationError(
                 f"The equations of {owner} must write a finite dx/dt for every state; "
-                + (f"{', '.join(bad)} not written or not finite" if bad else f"got shape {f0.shape}")
+                + (
+                    f"{', '.join(bad)} not written or not finite"
+                    if bad
+                    else f"got shape {f0.shape}"
+                )
                 + f" at x = {x.round(3).tolist()}, u = {u.round(3).tolist()}."
             )
-        for i, (a, b) in enumerate(zip(p.position_index, p.velocity_index, strict=True)):
+        for a, b in zip(p.position_index, p.velocity_index, strict=True):
             if not math.isclose(f0[a], x[b], rel_tol=1e-9, abs_tol=1e-12):
                 raise ConfigurationError(
                     f"Output '{p.state_names[a]}' of {owner} must have relative degree 2: its "

@@ -107,7 +107,7 @@ def emit_at(
 def template(name: str) -> str:
     """The pasted part of ``templates/<name>.py``."""
     text = (Path(__file__).parent / "templates" / f"{name}.py").read_text()
-    return text.split(_BEGIN, 1)[1].lstrip("\n")
+    return text.split("\n" + _BEGIN + "\n", 1)[1].lstrip("\n")
 
 
 # ----------------------------------------------------------------------------- cache

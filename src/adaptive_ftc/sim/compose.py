@@ -24,45 +24,29 @@ from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.sim import codegen
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["Assembled", "Generator", "LoopData", "Work", "assemble", "source_of"]
+__all__ = ["Assembled", "Generator", "LoopData", "assemble", "generate", "source_of"]
 
 
 class LoopData(NamedTuple):
-    """The numbers of a closed loop (everything a campaign may vary without recompiling)."""
+    """The numbers of a closed loop (everything a campaign may vary without recompiling).
 
-    c: np.ndarray  # constants lifted out of every expression
+    A few flat arrays: the compiled right-hand side receives them on every call, so its cost
+    does not grow with the number of named settings. :attr:`Assembled.layout` names the places
+    in ``c`` (``"c:lam"``, ``"c:k"``, ``"c:R"``, ``"c:centers"``...).
+    """
+
+    c: np.ndarray  # every number: settings, lifted expression constants, failure constants
     fphase: np.ndarray  # failure instance per (phase, actuator); -1 = healthy
-    fshape: np.ndarray  # shape (generated branch) of each failure instance
-    foff: np.ndarray  # offset of each failure instance's constants in ``c``
-    R: np.ndarray  # allocation matrix (p x m), u = R^T u0 (3.14)
-    lam: np.ndarray  # per output
-    k: np.ndarray
-    k0: np.ndarray
-    eps0: float
-    filter_tau: float
-    adapt: float  # 0: adaptation frozen
-    centers: np.ndarray  # fuzzy membership centres, all regressors, flat
-    spread: np.ndarray  # 1 / (2 w^2) per membership
-    pos: np.ndarray  # state index of each output
-    vel: np.ndarray  # state index of each output's rate
+    inst: np.ndarray  # per failure instance: [shape (generated branch), offset in c]
     plant: Any  # the plant's parameters (a NamedTuple, or an array for expression plants)
     gains: Any  # the design's gains (a NamedTuple)
 
 
-class Work(NamedTuple):
-    """Scratch buffers of one run (never shared between threads)."""
-
-    sig: np.ndarray  # controller signals [x, e, edot, s]
-    phi: np.ndarray  # regressor values, all regressors
-    mu: np.ndarray  # membership values
-    u0: np.ndarray
-    u: np.ndarray
-    uf: np.ndarray
-    xdot: np.ndarray
-    ref: np.ndarray  # y_d, y_d', y_d'' per output
-    q: np.ndarray
-    misc: np.ndarray  # [u_f compensation, adaptive gain, s' used, reference valid, reference t]
-    w: np.ndarray  # design basis values (failure estimation)
+#: The work array of one run, as named slices in this order: controller signals
+#: [x, e, e', s], regressor values, memberships, u0, commands, applied outputs, plant
+#: derivative, reference (y_d, y_d', y_d'' per output), q, misc [u_f compensation, adaptive
+#: gain, s' used, reference valid, reference time], design basis values.
+_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb")
 
 
 @dataclass
@@ -145,48 +129,26 @@ class Assembled:
     adaptive_names: tuple[str, ...]
     theta_slices: tuple[slice, ...]
     n_x: int
-    sizes: tuple[int, int, int, int, int]  # (n_sig, n_phi, n_mu, n_w, n_states)
+    layout: dict[str, slice]  # named places: "c:<setting>" in data.c, "w:<buffer>" in work
     source: str = field(repr=False, default="")
 
-    def work(self) -> Work:
-        """Fresh scratch buffers for one run."""
-        n_sig, n_phi, n_mu, n_w, _ = self.sizes
-        p = self.data.lam.size
-        m = self.data.R.shape[1]
-        return Work(
-            np.zeros(n_sig),
-            np.zeros(max(n_phi, 1)),
-            np.zeros(max(n_mu, 1)),
-            np.zeros(p),
-            np.zeros(m),
-            np.zeros(m),
-            np.zeros(self.n_x),
-            np.zeros(3 * p),
-            np.zeros(p),
-            np.zeros(8),
-            np.zeros(max(n_w, 1)),
-        )
+    def work(self) -> np.ndarray:
+        """A fresh work array for one run (never shared between threads)."""
+        return np.zeros(self.layout["w:size"].stop)
 
     def derivative(self, t: float, y: np.ndarray, phase: int) -> np.ndarray:
         """Closed-loop derivative at ``(t, y)`` in failure phase ``phase`` (allocating)."""
         dY = np.zeros(self.y0.size)
-        self.module.rhs(
-            float(t), np.ascontiguousarray(y, dtype=float), int(phase), self.data, self.work(), dY
-        )
+        y = np.ascontiguousarray(y, dtype=float)
+        self.module.rhs(float(t), y, int(phase), self.data, self.work(), dY)
         return dY
 
     def regressor_values(self, t: float, y: np.ndarray, phase: int = 0) -> np.ndarray:
         """All regressor values ``Pi`` at ``(t, y)`` (a copy), e.g. to check a regressor."""
         W = self.work()
-        self.module.rhs(
-            float(t),
-            np.ascontiguousarray(y, dtype=float),
-            int(phase),
-            self.data,
-            W,
-            np.zeros(self.y0.size),
-        )
-        return W.phi[: self.sizes[1]].copy()
+        y = np.ascontiguousarray(y, dtype=float)
+        self.module.rhs(float(t), y, int(phase), self.data, W, np.zeros(self.y0.size))
+        return W[self.layout["w:phi"]].copy()
 
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
         """Recompute the recorded signals (see ``templates/record.py``) into ``out``."""
@@ -251,16 +213,16 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
             "def failure(k, t, x, u, D):",
             '    """Applied output of a failed actuator (pattern of failure instance k)."""',
             "    c = D.c",
-            "    o = D.foff[k]",
-            "    s = D.fshape[k]",
+            "    s = D.inst[k, 0]",
+            "    o = D.inst[k, 1]",
         ],
         [
             "@hot",
             "def dfailure(k, t, x, u, D):",
             '    """d(applied output)/du of failure instance k."""',
             "    c = D.c",
-            "    o = D.foff[k]",
-            "    s = D.fshape[k]",
+            "    s = D.inst[k, 0]",
+            "    o = D.inst[k, 1]",
         ],
     )
     for (text, dtext), s in shapes.items():
@@ -311,7 +273,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     if sdot == "filtered":
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
     ny = filt + (p if sdot == "filtered" else 0)
-    const_static = len(g.consts)
     bps, fphase, fshape, foff, fconsts, fail_src, dfail_src = _failures(g, variables, names)
     # ------------------------------------------------------------ the right-hand side
     pos, vel = plant.position_index, plant.velocity_index
@@ -320,14 +281,14 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "def rhs(t, Y, ph, D, W, dY):",
         f'    """Closed-loop derivative of {plant.name} + {ctrl.design} (in place)."""',
         f"    x = Y[0:{nx}]",
-        "    sig = W.sig",
-        "    ref = W.ref",
+        "    c = D.c",
+        *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
         f"    for i in range({nx}):",
         "        sig[i] = x[i]",
-        "    if not (W.misc[3] == 1.0 and W.misc[4] == t):",
-        "        reference(t, D.c, ref)",
-        "        W.misc[4] = t",
-        "        W.misc[3] = 1.0",
+        "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
+        "        reference(t, c, ref)",
+        "        misc[4] = t",
+        "        misc[3] = 1.0",
         "    # tracking errors e = y_d - y and filtered errors s (2.18)",
     ]
     for i in range(p):
@@ -336,44 +297,44 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             f"    ed = ref[{3 * i + 1}] - x[{vel[i]}]",
             f"    sig[{nx + i}] = e",
             f"    sig[{nx + p + i}] = ed",
-            f"    sig[{nx + 2 * p + i}] = filtered_error(e, ed, D.lam[{i}])",
+            f"    sig[{nx + 2 * p + i}] = filtered_error(e, ed, c[LAM + {i}])",
         ]
     body.append("    # regressors and u0 = Pi^T theta (2.22), per output (3.26)")
     for r, src in enumerate(reg_src):
         o, at, size = blocks[r]
         body += src
-        body.append(f"    W.u0[{r}] = weighted_sum(W.phi, Y, {o}, {at}, {size})")
+        body.append(f"    u0[{r}] = weighted_sum(phi, Y, {o}, {at}, {size})")
     body += control_src
     body += [
         "    # allocation u = R^T u0 (3.14) and actuator failures",
         f"    for j in range({m}):",
         "        acc = 0.0",
         f"        for i in range({p}):",
-        "            acc += D.R[i, j] * W.u0[i]",
-        "        W.u[j] = acc",
+        f"            acc += c[RMAT + i * {m} + j] * u0[i]",
+        "        u[j] = acc",
         "        k = D.fphase[ph, j]",
-        "        W.uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
-        "    plant_dynamics(t, x, W.uf, D.plant, W.xdot)",
+        "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
+        "    plant_dynamics(t, x, uf, D.plant, xdot)",
         f"    for i in range({nx}):",
-        "        dY[i] = W.xdot[i]",
+        "        dY[i] = xdot[i]",
         "    # q = s' + k s + k0 tanh(s/eps0)",
     ]
     for i in range(p):
         s_at = nx + 2 * p + i
         if sdot == "exact":  # s' from the plant derivative (SPEC §1)
             body.append(
-                f"    sd = ref[{3 * i + 2}] - W.xdot[{vel[i]}] + D.lam[{i}] * sig[{nx + p + i}]"
+                f"    sd = ref[{3 * i + 2}] - xdot[{vel[i]}] + c[LAM + {i}] * sig[{nx + p + i}]"
             )
         else:  # dirty-derivative filter of s
             body += [
-                f"    sd = (sig[{s_at}] - Y[{filt + i}]) / D.filter_tau",
+                f"    sd = (sig[{s_at}] - Y[{filt + i}]) / c[FTAU]",
                 f"    dY[{filt + i}] = sd",
             ]
-        body.append(f"    W.q[{i}] = robust_q(sd, sig[{s_at}], D.k[{i}], D.k0[{i}], D.eps0)")
+        body.append(f"    q[{i}] = robust_q(sd, sig[{s_at}], c[K + {i}], c[K0 + {i}], c[EPS0])")
         if i == 0:
-            body.append("    W.misc[2] = sd")
+            body.append("    misc[2] = sd")
     body += [
-        "    if D.adapt == 0.0:  # adaptation frozen",
+        "    if c[ADAPT] == 0.0:  # adaptation frozen",
         f"        for i in range({nx}, {filt}):",
         "            dY[i] = 0.0",
         "        return",
@@ -417,47 +378,93 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         src = f"_py_{name}" if name in g.imports else name
         deco = "_user_part" if name in g.checked else "_part"
         header.append(f"{name} = {deco}({src})")
-    text = (
-        "\n\n".join(
-            [
-                "\n".join(header),
-                ref_src,
-                *([plant_src] if plant_src else []),
-                *g.defs,
-                fail_src,
-                dfail_src,
-                "\n".join(body),
-                codegen.template("rk4"),
-                codegen.template("record"),
-            ]
-        )
-        + "\n"
-    )
-    consts = np.array(g.consts + fconsts, dtype=float)
+    text_parts = [
+        "\n".join(header),
+        ref_src,
+        *([plant_src] if plant_src else []),
+        *g.defs,
+        fail_src,
+        dfail_src,
+        "\n".join(body),
+        codegen.template("rk4"),
+        codegen.template("adaptive"),
+        codegen.template("record"),
+    ]
+    # ------------------------------------------------------------ numbers and layout
+    settings = {
+        "lam": _per_output(ctrl.lam, p, "lam"),
+        "k": _per_output(ctrl.k, p, "k"),
+        "k0": _per_output(ctrl.k0, p, "k0"),
+        "R": tuple(np.ravel(loop.R)),
+        "eps0": (float(ctrl.eps0),),
+        "filter_tau": (0.01,),
+        "adapt": (1.0 if loop.adapt else 0.0,),
+        "centers": tuple(g.centers),
+        "spread": tuple(g.spread),
+    }
+    layout: dict = {}
+    values = list(g.consts)  # expression constants first: their indices are in the text
+    names_c = {
+        "lam": "LAM",
+        "k": "K",
+        "k0": "K0",
+        "R": "RMAT",
+        "eps0": "EPS0",
+        "filter_tau": "FTAU",
+        "adapt": "ADAPT",
+        "centers": "CEN",
+        "spread": "SPREAD",
+    }
+    consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
+    for key, vals in settings.items():
+        layout[f"c:{key}"] = slice(len(values), len(values) + len(vals))
+        consts_lines.append(f"{names_c[key]} = {len(values)}")
+        values.extend(float(v) for v in vals)
+    fail_base = len(values)
+    values.extend(fconsts)
+    sizes = {
+        "sig": nx + 3 * p,
+        "phi": max(n_phi, 1),
+        "mu": max(g.n_mu, 1),
+        "u0": p,
+        "u": m,
+        "uf": m,
+        "xdot": nx,
+        "ref": 3 * p,
+        "q": p,
+        "misc": 8,
+        "wb": max(g.n_w, 1),
+    }
+    consts_lines.append("# places of the buffers in the work array W")
+    at = 0
+    for name in _WORK:
+        layout[f"w:{name}"] = slice(at, at + sizes[name])
+        consts_lines.append(f"{name.upper()} = {at}")
+        consts_lines.append(f"N_{name.upper()} = {sizes[name]}")
+        at += sizes[name]
+    layout["w:size"] = slice(0, at)
+    consts_lines += [
+        f"NX = {nx}",
+        f"P = {p}",
+        f"M = {m}",
+        f"POS = {tuple(pos)!r}",
+        f"VEL = {tuple(vel)!r}",
+    ]
+    text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
+    inst = np.zeros((max(len(fshape), 1), 2), dtype=np.int64)
+    for n_, (sh, of) in enumerate(zip(fshape, foff, strict=True)):
+        inst[n_] = (sh, of + fail_base)
     data = LoopData(
-        c=consts,
+        c=np.array(values, dtype=float),
         fphase=fphase,
-        fshape=np.array(fshape, dtype=np.int64),
-        foff=np.array(foff, dtype=np.int64) + const_static,
-        R=np.ascontiguousarray(loop.R),
-        lam=np.array(_per_output(ctrl.lam, p, "lam")),
-        k=np.array(_per_output(ctrl.k, p, "k")),
-        k0=np.array(_per_output(ctrl.k0, p, "k0")),
-        eps0=float(ctrl.eps0),
-        filter_tau=0.01,
-        adapt=1.0 if loop.adapt else 0.0,
-        centers=np.array(g.centers, dtype=float),
-        spread=np.array(g.spread, dtype=float),
-        pos=np.array(pos, dtype=np.int64),
-        vel=np.array(vel, dtype=np.int64),
+        inst=inst,
         plant=plant.parameter_values(),
         gains=ctrl.gains(),
     )
-    sizes = (nx + 3 * p, n_phi, g.n_mu, g.n_w, ny)
-    layout = dict(
+    layout.update(
         bps=bps, ny=ny, filt=filt, n_phi=n_phi, theta_slices=tuple(theta_slices), mods=mods
     )
-    return text, data, g, sizes, layout
+    return text, data, g, layout
 
 
 def _guarded() -> list[str]:
@@ -477,14 +484,22 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         raise ConfigurationError(f"`sdot` must be 'exact' or 'filtered'; got {sdot!r}.")
     if not filter_tau > 0:
         raise ConfigurationError(f"`filter_tau` must be positive; got {filter_tau}.")
-    text, data, g, sizes, layout = generate(loop, sdot=sdot)
-    data = data._replace(filter_tau=float(filter_tau))
+    text, data, g, layout = generate(loop, sdot=sdot)
+    data.c[layout["c:filter_tau"]] = float(filter_tau)
     module = codegen.load_module(text, imports=layout["mods"], inject=g.inject)
     nx, p = g.nx, g.p
     y0 = np.zeros(layout["ny"])
     y0[:nx] = loop.initial_state
     y0[nx : nx + layout["n_phi"]] = loop.controller.theta0
     y0[nx + layout["n_phi"] : layout["filt"]] = g.y0_extra
+    if loop.adaptive_initial:
+        n_ad = layout["filt"] - nx
+        if len(loop.adaptive_initial) != n_ad:
+            raise ConfigurationError(
+                f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
+                f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
+            )
+        y0[nx : layout["filt"]] = loop.adaptive_initial
     asm = Assembled(
         module=module,
         data=data,
@@ -493,17 +508,18 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         adaptive_names=tuple(g.adaptive_names),
         theta_slices=layout["theta_slices"],
         n_x=nx,
-        sizes=sizes,
+        layout={k: v for k, v in layout.items() if ":" in k},
         source=text,
     )
     if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
         ref = np.zeros(3 * p)
         module.reference(float(loop.t0), data.c, ref)
+        lam = data.c[layout["c:lam"]]
         x0 = y0[:nx]
         for i in range(p):
             e = ref[3 * i] - x0[loop.plant.position_index[i]]
             ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
-            y0[layout["filt"] + i] = ed + data.lam[i] * e
+            y0[layout["filt"] + i] = ed + lam[i] * e
     return asm
 
 

@@ -19,6 +19,9 @@ from adaptive_ftc.sim.system import ClosedLoop
 __all__ = ["SolverOptions", "integrate_only", "simulate"]
 
 _SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+#: Compiled adaptive-step methods (``sim/templates/adaptive.py``; evidence in docs/solvers.md).
+_ADAPTIVE_METHODS = ("dopri5", "rodasp", "auto")
+_METHODS = ("rk4", *_ADAPTIVE_METHODS, "accurate", *_SCIPY_METHODS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -28,12 +31,18 @@ class SolverOptions:
     Parameters
     ----------
     method
-        ``"rk4"`` (fast compiled fixed-step RK4, default), ``"accurate"`` (scipy LSODA with
-        tight tolerances) or any :func:`scipy.integrate.solve_ivp` method name.
+        ``"rk4"``: compiled fixed-step RK4 (default; step ``dt``).
+        ``"dopri5"``: compiled Dormand-Prince 5(4), for non-stiff loops.
+        ``"rodasp"``: compiled Rosenbrock RODASP 4(3), L-stable, for stiff loops (wing rock).
+        ``"auto"``: DOPRI5 switching to RODASP while the loop is stiff.
+        ``"accurate"``: ``"auto"`` (kept for old scenario files); with the default tolerances.
+        Any :func:`scipy.integrate.solve_ivp` method name runs scipy (slow; a cross-check).
+        Every path restarts exactly at each failure time.
     dt
         Step of the fixed-step path (seconds); steps also land on every failure time.
     rtol, atol, max_step
-        Tolerances and largest step of the variable-step path.
+        Tolerances (error control on every state: ``|err_i| <= atol + rtol |y_i|``) and the
+        largest step of the adaptive-step paths.
     record_dt
         Spacing of the recorded samples.
     sdot
@@ -56,13 +65,12 @@ class SolverOptions:
     divergence_bound: float = 1e8
 
     def __post_init__(self) -> None:
-        if self.method not in ("rk4", "accurate", *_SCIPY_METHODS):
+        if self.method not in _METHODS:
             from adaptive_ftc.errors import did_you_mean
 
             raise ConfigurationError(
-                f"Unknown solver method '{self.method}'."
-                f"{did_you_mean(self.method, ('rk4', 'accurate', *_SCIPY_METHODS))} Use 'rk4', "
-                f"'accurate' or one of {', '.join(_SCIPY_METHODS)}."
+                f"Unknown solver method {self.method!r}."
+                f"{did_you_mean(str(self.method), _METHODS)} Use one of {', '.join(_METHODS)}."
             )
         for key in (
             "dt",
@@ -87,9 +95,16 @@ class SolverOptions:
             )
 
     @property
+    def compiled_method(self) -> str | None:
+        """The compiled integrator this setting runs (``None`` for a scipy method)."""
+        if self.method == "accurate":
+            return "auto"
+        return self.method if self.method in ("rk4", *_ADAPTIVE_METHODS) else None
+
+    @property
     def scipy_method(self) -> str:
-        """The solve_ivp method used by the variable-step path."""
-        return "LSODA" if self.method == "accurate" else self.method
+        """The solve_ivp method of the scipy path."""
+        return self.method
 
 
 def _record_times(t0: float, t1: float, dt: float) -> np.ndarray:
@@ -164,30 +179,60 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
     bps = np.array(asm.breakpoints)
     stats = np.zeros(5, dtype=np.int64)
     start = time.perf_counter()
-    if solver.method == "rk4":
+    method = solver.compiled_method
+    if method is not None:
         Y = np.zeros((t_rec.size, asm.y0.size))
         phases = np.zeros(t_rec.size, dtype=np.int64)
         W = asm.work()
+        bound = float(solver.divergence_bound)
+        if method == "rk4":
 
-        def run(stop):
-            return asm.module.integrate_rk4(
-                asm.y0,
-                bps,
-                float(solver.dt),
-                t_rec,
-                asm.data,
-                W,
-                float(solver.divergence_bound),
-                stop,
-                Y,
-                phases,
-                stats,
-            )
+            def run(stop):
+                return asm.module.integrate_rk4(
+                    asm.y0,
+                    bps,
+                    float(solver.dt),
+                    t_rec,
+                    asm.data,
+                    W,
+                    bound,
+                    stop,
+                    Y,
+                    phases,
+                    stats,
+                )
+        else:
+            integrator = getattr(asm.module, f"integrate_{method}")
+            h_max = float(min(solver.max_step, 1e300))
+
+            def run(stop):
+                return integrator(
+                    asm.y0,
+                    bps,
+                    t_rec,
+                    asm.data,
+                    W,
+                    float(solver.rtol),
+                    float(solver.atol),
+                    h_max,
+                    bound,
+                    stop,
+                    Y,
+                    phases,
+                    stats,
+                )
 
         nrec, status, t_stop, bad = _compiled_call(loop, run)
         nrec = int(nrec)
         if status == 0:
             message = ""
+        elif status == 2:
+            message = (
+                f"Simulation {_run_label(loop)} stopped at t = {float(t_stop):.6g} s: the "
+                f"'{method}' step size fell below what the tolerances allow (or the step count "
+                "limit was reached). The loop may be too stiff for this method: try "
+                "method = 'rodasp' or 'auto', or looser rtol/atol."
+            )
         elif status == 3:
             message = (
                 f"Interrupted at t = {float(t_stop):.6g} s; the result keeps the samples before "
@@ -213,9 +258,12 @@ def _compiled_call(loop: ClosedLoop, run):
             "xdot has one entry per state."
         ) from None
     except Exception as exc:
-        import numba
+        import numba.core.errors
 
-        if not isinstance(exc, numba.core.errors.NumbaError):
+        if not (
+            isinstance(exc, numba.core.errors.NumbaError)
+            or type(exc).__module__.startswith("numba.")
+        ):
             raise
         first = next((ln for ln in str(exc).splitlines() if ln.strip()), str(exc))
         where = [ln.strip() for ln in str(exc).splitlines() if ln.strip().startswith("File ")]
@@ -237,21 +285,27 @@ def _interruptible(run):
     if threading.current_thread() is not threading.main_thread():
         return run(stop)
     box: dict[str, object] = {}
+    done = threading.Event()
 
     def target():
         try:
             box["value"] = run(stop)
-        except BaseException as exc:  # pragma: no cover - re-raised below
+        except BaseException as exc:  # re-raised in the calling thread
             box["error"] = exc
+        finally:
+            done.set()
 
     worker = threading.Thread(target=target, name="adaptive-ftc-integrate", daemon=True)
     worker.start()
+    # wait on an Event, not Thread.join: an interrupted join can leave the thread's state
+    # inconsistent (join then returns while the thread still runs)
     try:
-        while worker.is_alive():
-            worker.join(0.05)
+        while not done.wait(0.05):
+            pass
     except KeyboardInterrupt:
-        stop[0] = 1
-        worker.join()
+        stop[0] = 1  # the compiled loop sees it at its next step
+        while not done.wait(0.05):
+            pass
     if "error" in box:
         raise box["error"]  # type: ignore[misc]
     return box["value"]
@@ -262,16 +316,19 @@ def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
     return names[index] if 0 <= index < len(names) else f"state {index}"
 
 
+def _run_label(loop: ClosedLoop) -> str:
+    return f"'{loop.name}'" if loop.name else "(unnamed loop)"
+
+
 def _diverged_message(
     loop: ClosedLoop, asm: Assembled, t: float, index: int, solver: SolverOptions
 ) -> str:
     label = _state_label(loop, asm, index)
-    run = f"'{loop.name}'" if loop.name else "the run"
     return (
-        f"Simulation {run} diverged at t = {t:.6g} s: signal '{label}' became non-finite or "
-        f"exceeded {solver.divergence_bound:g}. The result keeps the samples before that "
-        "time. Check the gains and failure values, or try a smaller `dt` / the 'accurate' "
-        "solver."
+        f"Simulation {_run_label(loop)} diverged at t = {t:.6g} s: signal '{label}' became "
+        f"non-finite or exceeded {solver.divergence_bound:g}. The result keeps the samples "
+        "before that time. Check the gains and failure values, or try a smaller `dt` or an "
+        "adaptive-step method ('rodasp', 'auto')."
     )
 
 

@@ -47,6 +47,11 @@ class ClosedLoop:
         ``False`` freezes every adaptive parameter at its initial value (non-adaptive baseline).
     name
         Label carried into the result.
+    adaptive_initial
+        Initial values of every adaptive state (theta, then the design's own states, in the
+        order of ``SimResult.adaptive_names``); empty: ``theta0`` and the design's defaults.
+        With ``adapt=False`` this gives a fixed-gain controller (e.g. the parameters reached
+        at the end of a failure-free run).
     """
 
     plant: Plant
@@ -59,6 +64,7 @@ class ClosedLoop:
     adapt: bool = True
     name: str = ""
     t0: float = field(default=0.0)
+    adaptive_initial: tuple = ()
 
     def __post_init__(self) -> None:
         plant = self.plant
@@ -116,6 +122,15 @@ class ClosedLoop:
                 f"actuators but plant '{plant.name}' has {m}."
             )
         object.__setattr__(self, "failures", fails)
+        try:
+            init = tuple(float(v) for v in self.adaptive_initial)
+        except (TypeError, ValueError):
+            raise ConfigurationError(
+                f"`adaptive_initial` must be a list of numbers; got {self.adaptive_initial!r}."
+            ) from None
+        if not all(math.isfinite(v) for v in init):
+            raise ConfigurationError("`adaptive_initial` must contain finite numbers.")
+        object.__setattr__(self, "adaptive_initial", init)
         if not (
             isinstance(self.t_final, (int, float))
             and math.isfinite(self.t_final)

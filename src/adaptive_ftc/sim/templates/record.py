@@ -20,6 +20,12 @@ def dfailure(k, t, x, u, D):
     raise NotImplementedError
 
 
+# module constants of every generated loop (sizes and places in the work array)
+NX = P = M = SIG = N_SIG = REF = N_REF = XDOT = N_XDOT = Q = N_Q = U0 = N_U0 = U = N_U = 0
+UF = N_UF = MISC = N_MISC = LAM = RMAT = 0
+POS = VEL = (0,)
+
+
 # --- template: begin ---
 @jit
 def signals(T, Ys, phases, D, W, out):
@@ -27,50 +33,54 @@ def signals(T, Ys, phases, D, W, out):
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used."""
-    nx = W.xdot.size
-    p = D.lam.size
-    m = D.R.shape[1]
+    c = D.c
     dY = np.zeros(Ys.shape[1])
-    zero = np.zeros(m)
-    unit = np.zeros(m)
-    x0dot = np.zeros(nx)
-    x1dot = np.zeros(nx)
-    v0 = D.vel[0]
+    zero = np.zeros(M)
+    unit = np.zeros(M)
+    x0dot = np.zeros(NX)
+    x1dot = np.zeros(NX)
+    v0 = VEL[0]
+    sig = W[SIG : SIG + N_SIG]
+    ref = W[REF : REF + N_REF]
+    xdot = W[XDOT : XDOT + N_XDOT]
+    q = W[Q : Q + N_Q]
+    u0 = W[U0 : U0 + N_U0]
+    u = W[U : U + N_U]
+    uf = W[UF : UF + N_UF]
+    misc = W[MISC : MISC + N_MISC]
     for n in range(T.size):
         t = T[n]
         Y = Ys[n]
         ph = phases[n]
-        W.misc[3] = 0.0  # the reference cache must not carry over between rows
+        misc[3] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
-        sig = W.sig
-        ref = W.ref
-        for i in range(p):
-            out[n, i] = Y[D.pos[i]]
-            out[n, p + i] = ref[3 * i]
-            out[n, 2 * p + i] = ref[3 * i + 1]
-            out[n, 3 * p + i] = sig[nx + i]
-            out[n, 4 * p + i] = sig[nx + p + i]
-            out[n, 5 * p + i] = sig[nx + 2 * p + i]
-            out[n, 6 * p + i] = ref[3 * i + 2] - W.xdot[D.vel[i]] + D.lam[i] * sig[nx + p + i]
-            out[n, 7 * p + i] = W.q[i]
-            out[n, 8 * p + i] = W.u0[i]
-        c = 9 * p
-        for j in range(m):
-            out[n, c + j] = W.u[j]
-            out[n, c + m + j] = W.uf[j]
-        c += 2 * m
-        out[n, c] = W.misc[0]
-        out[n, c + 1] = W.misc[1]
-        x = Y[:nx]
+        for i in range(P):
+            out[n, i] = Y[POS[i]]
+            out[n, P + i] = ref[3 * i]
+            out[n, 2 * P + i] = ref[3 * i + 1]
+            out[n, 3 * P + i] = sig[NX + i]
+            out[n, 4 * P + i] = sig[NX + P + i]
+            out[n, 5 * P + i] = sig[NX + 2 * P + i]
+            out[n, 6 * P + i] = ref[3 * i + 2] - xdot[VEL[i]] + c[LAM + i] * sig[NX + P + i]
+            out[n, 7 * P + i] = q[i]
+            out[n, 8 * P + i] = u0[i]
+        col = 9 * P
+        for j in range(M):
+            out[n, col + j] = u[j]
+            out[n, col + M + j] = uf[j]
+        col += 2 * M
+        out[n, col] = misc[0]
+        out[n, col + 1] = misc[1]
+        x = Y[:NX]
         plant_dynamics(t, x, zero, D.plant, x0dot)
         gain = 0.0
-        for j in range(m):
+        for j in range(M):
             unit[:] = 0.0
             unit[j] = 1.0
             plant_dynamics(t, x, unit, D.plant, x1dot)
             gj = x1dot[v0] - x0dot[v0]
             k = D.fphase[ph, j]
-            df = 1.0 if k < 0 else dfailure(k, t, x, W.u[j], D)
-            gain += gj * D.R[0, j] * df
-        out[n, c + 2] = gain
-        out[n, c + 3] = W.misc[2]
+            df = 1.0 if k < 0 else dfailure(k, t, x, u[j], D)
+            gain += gj * c[RMAT + j] * df
+        out[n, col + 2] = gain
+        out[n, col + 3] = misc[2]

@@ -7,8 +7,8 @@ The placeholders above the marker exist only so this file imports and lints on i
 import math
 
 import numpy as np
-from numba import njit as jit
 from numba import njit as hot
+from numba import njit as jit
 
 
 def rhs(t, Y, ph, D, W, dY):  # placeholder: every generated module defines its own
