@@ -28,36 +28,10 @@ from adaptive_ftc import load_scenario
 
 
 def _python_integration_only(loop, solver):
-    """Integrate ``loop`` with ``solver`` without building the SimResult (issue 10's
-    "integration alone").
+    """Integrate ``loop`` without building the SimResult (issue 10's "integration alone")."""
+    from adaptive_ftc.sim.engine import integrate_only
 
-    The rewritten engine exposes ``adaptive_ftc.sim.engine.integrate_only(loop, solver)``. Until it
-    lands this falls back to what ``simulate()`` does before building its result: assemble the
-    loop and run the compiled ``kernel.integrate_rk4`` (states recorded, no signals). Delete the
-    fallback once the old kernel is gone.
-    """
-    try:
-        from adaptive_ftc.sim.engine import integrate_only
-    except ImportError:
-        pass
-    else:
-        return integrate_only(loop, solver)
-    from adaptive_ftc.sim import kernel
-    from adaptive_ftc.sim.assemble import assemble
-
-    asm = assemble(
-        loop, sdot=solver.sdot, filter_tau=solver.filter_tau, bound=solver.divergence_bound
-    )
-    n = int(math.floor((loop.t_final - loop.t0) / solver.record_dt + 1e-9))
-    t_rec = loop.t0 + solver.record_dt * np.arange(n + 1)
-    if loop.t_final - t_rec[-1] > 1e-9 * max(1.0, abs(loop.t_final)):
-        t_rec = np.append(t_rec, loop.t_final)
-    Y = np.zeros((t_rec.size, asm.y0.size))
-    phases = np.zeros(t_rec.size, dtype=np.int64)
-    nrec, _status, _t, _bad = kernel.integrate_rk4(
-        asm.model, asm.y0, np.array(asm.breakpoints), float(solver.dt), t_rec, Y, phases
-    )
-    return Y[: int(nrec)]
+    return integrate_only(loop, solver)
 
 
 SCENARIO = "hypersonic-direct-s1"

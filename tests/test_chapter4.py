@@ -92,7 +92,8 @@ def test_every_thesis_claim_of_the_scenario_holds(name):
     assert all(c["threshold"] <= TRACKING_THRESHOLD and c["window"] == 20.0 for c in tracking)
     assert res.status == "completed"
     verdicts = evaluate_claims(sc.claims, res)
-    failed = [f"{v.kind}: {v.detail}" for v in verdicts if not v.passed]
+    # a claim marked not_reproduced (documented with its reason) may come out NOT REPRODUCED
+    failed = [f"{v.kind}: {v.detail}" for v in verdicts if v.status == "FAIL"]
     assert not failed, failed
 
 

@@ -312,6 +312,16 @@ def check_claim(name: str, claim: dict[str, Any]) -> tuple[bool, float]:
         ref = r.u_f[_before(r, time, 1.0)][-1]
         moved = float(np.max(np.abs(r.u_f[between(r, time, time + window)] - ref)))
         return moved >= claim["threshold"], moved
+    if kind == "rate_tracking":
+        window = float(claim.get("window", 20.0))
+        m = between(r, t_end - window, t_end)
+        measured = float(np.max(np.sqrt(np.mean(r.edot[m] ** 2, axis=0))))
+        return r.status == "completed" and measured <= claim["threshold"], measured
+    if kind == "parameter_bounded":
+        prefixes = tuple(claim.get("parameters", ()))
+        cols = [i for i, n in enumerate(r.adaptive_names) if not prefixes or n.startswith(prefixes)]
+        measured = float(np.max(np.abs(r.adaptive[:, cols])))
+        return r.status == "completed" and measured <= claim["bound"], measured
     raise AssertionError(f"claim kind {kind!r} of {name} is not one of docs/claims.md")
 
 

@@ -70,6 +70,20 @@ def _outputs(owner: str, outputs: Any, states: tuple[str, ...]) -> tuple[tuple[i
     return tuple(pos), tuple(vel)
 
 
+def _set_names(p: Plant, owner: str, states, acts, pos, vel) -> None:
+    """Check the units and store the validated names and output indices on plant ``p``."""
+    if p.units and len(p.units) != len(states):
+        raise ConfigurationError(
+            f"`units` of {owner} needs one unit per state ({len(states)}); got {len(p.units)}."
+        )
+    object.__setattr__(p, "state_names", states)
+    object.__setattr__(p, "actuators", acts)
+    object.__setattr__(p, "output_names", tuple(states[i] for i in pos))
+    object.__setattr__(p, "position_index", pos)
+    object.__setattr__(p, "velocity_index", vel)
+    object.__setattr__(p, "outputs", dict(p.outputs))
+
+
 @dataclass(frozen=True, kw_only=True)
 class CustomPlant(Plant):
     """A plant given by your own Python function.
@@ -153,17 +167,7 @@ class CustomPlant(Plant):
                 raise ConfigurationError(
                     f"parameter `{k}` of {owner} must be a finite number; got {v!r}."
                 )
-        if self.units and len(self.units) != len(states):
-            raise ConfigurationError(
-                f"`units` of {owner} needs one unit per state ({len(states)}); got "
-                f"{len(self.units)}."
-            )
-        object.__setattr__(self, "state_names", states)
-        object.__setattr__(self, "actuators", acts)
-        object.__setattr__(self, "output_names", tuple(states[i] for i in pos))
-        object.__setattr__(self, "position_index", pos)
-        object.__setattr__(self, "velocity_index", vel)
-        object.__setattr__(self, "outputs", dict(self.outputs))
+        _set_names(self, owner, states, acts, pos, vel)
         check_plant(self)
 
     @property
@@ -293,17 +297,7 @@ class ExpressionPlant(Plant):
                 )
             except ExpressionError as exc:
                 raise ConfigurationError(str(exc)) from None
-        if self.units and len(self.units) != len(states):
-            raise ConfigurationError(
-                f"`units` of {owner} needs one unit per state ({len(states)}); got "
-                f"{len(self.units)}."
-            )
-        object.__setattr__(self, "state_names", states)
-        object.__setattr__(self, "actuators", acts)
-        object.__setattr__(self, "output_names", tuple(states[i] for i in pos))
-        object.__setattr__(self, "position_index", pos)
-        object.__setattr__(self, "velocity_index", vel)
-        object.__setattr__(self, "outputs", dict(self.outputs))
+        _set_names(self, owner, states, acts, pos, vel)
         object.__setattr__(self, "parameters", {k: float(v) for k, v in self.parameters.items()})
         object.__setattr__(self, "_exprs", exprs)
         check_plant(self)

@@ -10,7 +10,7 @@ A parsed :class:`Expression` can be
 
 * evaluated with numpy (broadcasting over any batch shape),
 * differentiated symbolically (``d/dt`` of a reference, ``d/du`` of a failure),
-* compiled once into a postfix program run by the compiled simulation kernel.
+* compiled into native code of the closed loop (:func:`adaptive_ftc.sim.codegen.emit`).
 """
 
 from __future__ import annotations
@@ -25,42 +25,7 @@ import numpy as np
 
 from adaptive_ftc.errors import ExpressionError, did_you_mean
 
-__all__ = ["Expression", "FUNCTIONS", "OP", "parse"]
-
-# ----------------------------------------------------------------------------- opcodes
-# Postfix program opcodes understood by ``adaptive_ftc.sim.kernel.eval_program``.
-OP = {
-    "const": 0,
-    "t": 1,
-    "x": 2,
-    "u": 3,
-    "+": 4,
-    "-": 5,
-    "*": 6,
-    "/": 7,
-    "**": 8,
-    "neg": 9,
-    "sin": 10,
-    "cos": 11,
-    "tan": 12,
-    "exp": 13,
-    "log": 14,
-    "sqrt": 15,
-    "tanh": 16,
-    "abs": 17,
-    "sign": 18,
-    "atan": 19,
-    "asin": 20,
-    "acos": 21,
-    "sinh": 22,
-    "cosh": 23,
-    "min": 30,
-    "max": 31,
-    "clip": 32,
-    "atan2": 33,
-    "_lt": 34,  # internal: 1.0 if a < b else 0.0 (derivatives of min/max)
-    "_inside": 35,  # internal: 1.0 if lo < a < hi else 0.0 (derivative of clip)
-}
+__all__ = ["Expression", "FUNCTIONS", "parse"]
 
 #: Functions a user may call, with their number of arguments.
 FUNCTIONS: dict[str, int] = {
@@ -495,37 +460,6 @@ def _variables(n: Node, out: set[str]) -> set[str]:
     return out
 
 
-def _emit(n: Node, slots: Mapping[str, tuple[int, float]], ops: list, vals: list) -> int:
-    """Append the postfix code of ``n``; return the stack depth it needs."""
-    kind = n[0]
-    if kind == "const":
-        ops.append(OP["const"])
-        vals.append(float(n[1]))
-        return 1
-    if kind == "var":
-        code, val = slots[n[1]]
-        ops.append(code)
-        vals.append(val)
-        return 1
-    if kind == "neg":
-        d = _emit(n[1], slots, ops, vals)
-        ops.append(OP["neg"])
-        vals.append(0.0)
-        return d
-    if kind == "bin":
-        d1 = _emit(n[2], slots, ops, vals)
-        d2 = _emit(n[3], slots, ops, vals)
-        ops.append(OP[n[1]])
-        vals.append(0.0)
-        return max(d1, d2 + 1)
-    depth = 0
-    for i, a in enumerate(n[2]):
-        depth = max(depth, _emit(a, slots, ops, vals) + i)
-    ops.append(OP[n[1]])
-    vals.append(0.0)
-    return depth
-
-
 @dataclass(frozen=True)
 class Expression:
     """A parsed, validated expression of ``t``, ``u`` and the plant states ``x1..xn``.
@@ -613,15 +547,3 @@ class Expression:
             raise ExpressionError(f"Expression '{self}' needs values for {sorted(missing)}.")
         with np.errstate(all="ignore"):
             return np.asarray(_eval(self.node, env), dtype=float) + 0.0
-
-    def program(self, slots: Mapping[str, tuple[int, float]]) -> tuple[list[int], list[float]]:
-        """Compile to postfix code; ``slots`` maps each variable to ``(opcode, operand)``."""
-        ops: list[int] = []
-        vals: list[float] = []
-        depth = _emit(self.node, slots, ops, vals)
-        if depth > 32:
-            raise ExpressionError(
-                f"Expression '{self.text}' nests too deeply (needs a stack of {depth} > 32); "
-                "split it or simplify it."
-            )
-        return ops, vals

@@ -13,6 +13,7 @@ What a loop *is* decides the text; its numbers go into :class:`LoopData`. Set
 
 from __future__ import annotations
 
+import importlib
 import re
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -91,12 +92,15 @@ class Generator:
         func = getattr(func, "py_func", func)  # accept numba dispatchers too
         modname = getattr(func, "__module__", None)
         qual = getattr(func, "__qualname__", "")
-        importable = (
-            modname not in (None, "__main__")
-            and "<" not in qual
-            and "." not in qual
-            and getattr(__import__(modname, fromlist=["_"]), func.__name__, None) is func
-        )
+        importable = False
+        if modname not in (None, "__main__") and "<" not in qual and "." not in qual:
+            try:
+                module = importlib.import_module(modname)
+            except Exception:  # noqa: BLE001 - e.g. code executed from a string
+                module = None
+            importable = getattr(module, func.__name__, None) is func and bool(
+                getattr(module, "__file__", None)
+            )
         if importable:
             self.imports[alias] = f"{modname}:{func.__name__}"
         else:
