@@ -47,7 +47,8 @@ SOURCE = Path(__file__).resolve().parent / "c" / "hypersonic_loop.c"
 FLAGS = ("-O3", "-march=native")
 LIBS = ("-lm", "-pthread")
 N_STATE = 27  # alpha, q, theta_1..theta_25
-#: Columns of the C's recorded signals (the order of the generated ``signals`` in ``sim/templates/record.py``).
+#: Columns of the C's recorded signals (the order of the generated ``signals``,
+#: ``sim/templates/record.py``).
 SIGNAL_COLUMNS = (
     "y",
     "yd",
