@@ -8,7 +8,7 @@ For every catalogue scenario (or ``--only NAME``), integrates the closed loop wi
 
 and compares every recorded state with an independent reference: scipy ``solve_ivp`` (DOP853,
 or Radau for the stiff wing-rock loops) at ``rtol = 1e-11``, integrated piecewise across the
-failure break times with the allocating ``kernel.derivative``. The error of a setting is the
+failure break times with the loop's allocating ``derivative``. The error of a setting is the
 largest over states of ``max_t |y_i - y_ref_i| / scale_i`` with ``scale_i = max(max_t
 |y_ref_i|, 1e-6)``. Per scenario it prints the fastest setting whose error is below 1e-6 and
 its speed-up over RK4 at the scenario's ``dt``.
@@ -36,6 +36,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from adaptive_ftc import load_scenario
+from adaptive_ftc.sim.compose import assemble as compose
 from adaptive_ftc.sim.templates import adaptive as template
 
 TARGET = 1e-6
@@ -53,54 +54,29 @@ def _namespace(loop):
     state, the break times, an allocating ``f(t, y, ph)`` for scipy, ``rk4(dt, t_rec, out_Y,
     out_phase[, breaks])`` running the fixed-step RK4 on the same rhs, and the state names.
 
-    Uses the generated module of ``adaptive_ftc.sim.compose`` when it exists (its own
-    ``integrate_rodasp`` once the code generator pastes the template, else the template bound
-    to its ``rhs``), otherwise the interpreter kernel of ``adaptive_ftc.sim.kernel``.
+    Uses the loop's generated module (``adaptive_ftc.sim.compose``), whose integrators are
+    the template pasted by the code generator.
     """
-    try:
-        from adaptive_ftc.sim.compose import assemble as compose
-    except ImportError:
-        compose = None
-    if compose is not None:
-        asm = compose(loop)
-        gen = asm.module
-        if hasattr(gen, "integrate_rodasp"):
-            mod = gen
-        else:
-            if id(gen) not in _BOUND:
-                _BOUND[id(gen)] = template.bind(gen.rhs, None, name=f"bench_{id(gen)}")
-            mod = _BOUND[id(gen)]
-        D = asm.data
-        breaks = np.array(asm.breakpoints, dtype=float)
-
-        def rk4(dt, t_rec, out_Y, out_phase, breaks=breaks):
-            stop = np.zeros(1, dtype=np.int64)
-            stats = np.zeros(5, dtype=np.int64)
-            return gen.integrate_rk4(
-                asm.y0, breaks, dt, t_rec, D, asm.work(), BOUND, stop, out_Y, out_phase, stats
-            )
-
-        names = list(loop.plant.state_names) + list(asm.adaptive_names)
-        return mod, D, asm.work(), asm.y0, breaks, asm.derivative, rk4, names
-
-    from adaptive_ftc.sim.assemble import assemble
-
-    from adaptive_ftc.sim import kernel as K  # the interpreter kernel (before the rewrite)
-
-    if "kernel" not in _BOUND:
-        _BOUND["kernel"] = template.bind(K.closed_loop, K.make_work, name="bench_kernel")
-    asm = assemble(loop)
-    M = asm.model
+    asm = compose(loop)
+    gen = asm.module
+    if hasattr(gen, "integrate_rodasp"):
+        mod = gen
+    else:  # a generated module without the adaptive template: bind it to the module's rhs
+        if id(gen) not in _BOUND:
+            _BOUND[id(gen)] = template.bind(gen.rhs, None, name=f"bench_{id(gen)}")
+        mod = _BOUND[id(gen)]
+    D = asm.data
     breaks = np.array(asm.breakpoints, dtype=float)
 
-    def f(t, y, ph):
-        return K.derivative(t, y, ph, M)
-
     def rk4(dt, t_rec, out_Y, out_phase, breaks=breaks):
-        return K.integrate_rk4(M, asm.y0, breaks, dt, t_rec, out_Y, out_phase)
+        stop = np.zeros(1, dtype=np.int64)
+        stats = np.zeros(5, dtype=np.int64)
+        return gen.integrate_rk4(
+            asm.y0, breaks, dt, t_rec, D, asm.work(), BOUND, stop, out_Y, out_phase, stats
+        )
 
     names = list(loop.plant.state_names) + list(asm.adaptive_names)
-    return _BOUND["kernel"], M, K.make_work(M), asm.y0, breaks, f, rk4, names
+    return mod, D, asm.work(), asm.y0, breaks, asm.derivative, rk4, names
 
 
 def record_times(t0: float, t1: float, dt: float) -> np.ndarray:
