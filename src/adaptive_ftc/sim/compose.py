@@ -197,12 +197,20 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
             if id(f) not in seen:
                 ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
                 e = f.expression(variables, context=ctx)
-                local: list[float] = []
-                text = codegen.emit(e.node, names, local)
-                dlocal: list[float] = []
-                dtext = codegen.emit(e.derivative("u").node, names, dlocal)
-                # the derivative's numbers follow the pattern's
-                dtext = _shift(dtext, len(local))
+                de = e.derivative("u")
+                if e.used <= {"u"} and de.is_constant:
+                    # a*u + b with constant a, b (loss of effectiveness, stuck, bias, affine,
+                    # reversal): one shared shape, so failures of these models never change
+                    # the compiled structure, only the numbers
+                    a_, b_ = float(de.node[1]), float(e(u=0.0))
+                    text, dtext, local, dlocal = "c[o + 0] * u + c[o + 1]", "c[o + 0]", [a_, b_], []
+                else:
+                    local = []
+                    text = codegen.emit(e.node, names, local)
+                    dlocal = []
+                    dtext = codegen.emit(de.node, names, dlocal)
+                    # the derivative's numbers follow the pattern's
+                    dtext = _shift(dtext, len(local))
                 key = (text, dtext)
                 if key not in shapes:
                     shapes[key] = len(shapes)
