@@ -194,7 +194,8 @@ def test_recorded_gain_is_the_default_nussbaum_function_of_tau(name):
     _, res = run(name)
     tau = res.adaptive_state("tau")
     assert_close(res.gain, tau**2 * np.cos(tau), atol=1e-9, what="N(tau) = tau^2 cos(tau)")
-    assert np.all(np.diff(tau) >= 0)  # (4.26): tau' = alpha1 q^2 >= 0
+    # (4.26): tau' = alpha1 q^2 >= 0 (up to the rounding of the solver's dense output)
+    assert np.all(np.diff(tau) >= -1e-12)
 
 
 @pytest.mark.parametrize("name", ["hypersonic-nussbaum-s1-pos", "hypersonic-nussbaum-s1-neg"])

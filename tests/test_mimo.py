@@ -176,27 +176,21 @@ def test_spacecraft_attitude_modes_and_wheel_torques_stay_small(name):
 
 
 # ------------------------------------------------------------------ integrator choice
-def test_spacecraft_rk4_step_agrees_with_the_accurate_solver():
+def test_spacecraft_catalogue_solver_agrees_with_a_tighter_one():
     sc, res, _ = runs("spacecraft-mimo-s2")
-    ref = sc.run(
-        solver=SolverOptions(
-            method="accurate", rtol=1e-7, atol=1e-10, record_dt=sc.solver.record_dt
-        )
-    )
-    assert sc.solver.method == "rk4" and sc.solver.dt == 2e-3
+    assert sc.solver.method == "dopri5" and sc.solver.rtol == 1e-7
+    ref = sc.run(solver=replace(sc.solver, rtol=1e-10, atol=1e-13))
     assert np.abs(res.y - ref.y).max() < 1e-7
     assert np.abs(res.u_applied - ref.u_applied).max() < 1e-2
     assert_close(res.rms_error(130.0), ref.rms_error(130.0), atol=1e-7)
 
 
-def test_manipulator_rk4_step_is_converged():
-    # The 'accurate' path takes about a minute on this run (checked once: 5e-7 rad in y);
-    # here RK4 at dt is compared with RK4 at dt/2.
+def test_manipulator_catalogue_solver_agrees_with_fine_rk4():
     sc, res, _ = runs("manipulator-mimo-s2")
-    half = sc.run(solver=replace(sc.solver, dt=sc.solver.dt / 2))
-    assert sc.solver.dt == 1e-3
-    assert np.abs(res.y - half.y).max() < 1e-6
-    assert np.abs(res.u_applied - half.u_applied).max() < 1e-2
+    fine = sc.run(solver=SolverOptions(method="rk4", dt=2.5e-4, record_dt=sc.solver.record_dt))
+    assert sc.solver.method == "dopri5"
+    assert np.abs(res.y - fine.y).max() < 1e-6
+    assert np.abs(res.u_applied - fine.u_applied).max() < 1e-2
 
 
 # ------------------------------------------------------------------ figures
