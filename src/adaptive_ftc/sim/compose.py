@@ -189,36 +189,37 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
     inst_off: list[int] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
+    # every failure of the schedule, active in this window or not: a shortened run (quick
+    # mode, a test) shares the compiled structure of the full one
+    for f in loop.failures.failures:
+        ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
+        e = f.expression(variables, context=ctx)
+        de = e.derivative("u")
+        if e.used <= {"u"} and de.is_constant:
+            # a*u + b with constant a, b (loss of effectiveness, stuck, bias, affine,
+            # reversal): one shared shape, so failures of these models never change
+            # the compiled structure, only the numbers
+            a_, b_ = float(de.node[1]), float(e(u=0.0))
+            text, dtext, local, dlocal = "c[o + 0] * u + c[o + 1]", "c[o + 0]", [a_, b_], []
+        else:
+            local = []
+            text = codegen.emit(e.node, names, local)
+            dlocal = []
+            dtext = codegen.emit(de.node, names, dlocal)
+            # the derivative's numbers follow the pattern's
+            dtext = _shift(dtext, len(local))
+        key = (text, dtext)
+        if key not in shapes:
+            shapes[key] = len(shapes)
+        seen[id(f)] = len(inst_shape)
+        inst_shape.append(shapes[key])
+        inst_off.append(len(consts))
+        consts.extend(local + dlocal)
     for k in range(nph):
         mid = 0.5 * (bps[k] + bps[k + 1])
         for j, f in enumerate(loop.failures.active(mid)):
-            if f is None:
-                continue
-            if id(f) not in seen:
-                ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
-                e = f.expression(variables, context=ctx)
-                de = e.derivative("u")
-                if e.used <= {"u"} and de.is_constant:
-                    # a*u + b with constant a, b (loss of effectiveness, stuck, bias, affine,
-                    # reversal): one shared shape, so failures of these models never change
-                    # the compiled structure, only the numbers
-                    a_, b_ = float(de.node[1]), float(e(u=0.0))
-                    text, dtext, local, dlocal = "c[o + 0] * u + c[o + 1]", "c[o + 0]", [a_, b_], []
-                else:
-                    local = []
-                    text = codegen.emit(e.node, names, local)
-                    dlocal = []
-                    dtext = codegen.emit(de.node, names, dlocal)
-                    # the derivative's numbers follow the pattern's
-                    dtext = _shift(dtext, len(local))
-                key = (text, dtext)
-                if key not in shapes:
-                    shapes[key] = len(shapes)
-                seen[id(f)] = len(inst_shape)
-                inst_shape.append(shapes[key])
-                inst_off.append(len(consts))
-                consts.extend(local + dlocal)
-            fphase[k, j] = seen[id(f)]
+            if f is not None:
+                fphase[k, j] = seen[id(f)]
     fn, dfn = (
         [
             "@hot",
