@@ -274,3 +274,14 @@ def run_batch(
         stdout = _run(cmd)
         rows = np.fromfile(out, dtype=np.float64).reshape(len(runs), 2 + N_STATE)
     return _elapsed(stdout)[0], rows
+
+
+def rk4_scenario(name: str = "hypersonic-direct-s1"):
+    """The catalogue scenario on the path the C implements: RK4, dt 1e-3, record_dt 0.01 (the
+    catalogue itself now runs the compiled DOPRI5, see docs/solvers.md)."""
+    from dataclasses import replace
+
+    from adaptive_ftc import SolverOptions, load_scenario
+
+    sc = load_scenario(name)
+    return replace(sc, solver=SolverOptions(method="rk4", dt=1e-3, record_dt=0.01))

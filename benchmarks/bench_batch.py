@@ -23,9 +23,9 @@ import warnings
 from dataclasses import replace
 
 import numpy as np
-from _cref import N_STATE, CReferenceError, build, failure_records, run_batch
+from _cref import N_STATE, CReferenceError, build, failure_records, rk4_scenario, run_batch
 
-from adaptive_ftc import load_scenario, simulate_many
+from adaptive_ftc import simulate_many
 from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
 
 SCENARIO = "hypersonic-direct-s1"
@@ -97,7 +97,7 @@ def main() -> int:
     except CReferenceError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    sc = load_scenario(SCENARIO)
+    sc = rk4_scenario(SCENARIO)
     loop, solver = sc.loop, sc.solver
     rng = np.random.default_rng(args.seed)
     loops, runs = [], []

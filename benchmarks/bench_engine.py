@@ -22,9 +22,7 @@ import sys
 import time
 
 import numpy as np
-from _cref import CReferenceError, build, run_single
-
-from adaptive_ftc import load_scenario
+from _cref import CReferenceError, build, rk4_scenario, run_single
 
 
 def _python_integration_only(loop, solver):
@@ -79,7 +77,7 @@ def main() -> int:
     except CReferenceError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    sc = load_scenario(SCENARIO)
+    sc = rk4_scenario(SCENARIO)
     loop, solver = sc.loop, sc.solver
     t0 = time.perf_counter()
     sc.run()  # compile or load the cached engine

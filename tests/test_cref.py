@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import assert_close
 
-from adaptive_ftc import load_scenario, simulate
+from adaptive_ftc import simulate
 from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, NonAffine, Stuck
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -34,7 +34,7 @@ def exe():
 
 @pytest.fixture(scope="module")
 def scenario():
-    return load_scenario("hypersonic-direct-s1")
+    return _cref.rk4_scenario("hypersonic-direct-s1")
 
 
 def _python(loop, solver):
