@@ -409,3 +409,22 @@ def test_ctrl_c_returns_the_partial_result_quickly():
     assert time.perf_counter() - sent < 5.0
     status, partial, _ = out.split()
     assert (status, partial) == ("interrupted", "True")
+
+
+def test_a_wrong_control_direction_is_reported_as_divergence_not_completed():
+    """Regression (issue 11): a wrong sign used to end 'completed' with alpha at 3.18 rad."""
+    from adaptive_ftc import DivergenceWarning
+
+    sc = load_scenario("hypersonic-direct-s1")
+    with pytest.warns(DivergenceWarning, match="envelope"):
+        r = simulate(replace(sc.loop, allocation=(-1.0, -2.0)), sc.solver)
+    assert r.status == "diverged"
+    assert np.all(np.abs(r.states[:, 0]) <= math.pi / 2)
+
+
+def test_simulate_refuses_a_run_that_cannot_fit_before_allocating():
+    from adaptive_ftc import SolverOptions
+
+    sc = load_scenario("hypersonic-direct-s1")
+    with pytest.raises(ConfigurationError, match="steps"):
+        simulate(replace(sc.loop, t_final=1e9), SolverOptions(dt=1e-3))

@@ -60,6 +60,9 @@ class Plant(ABC):
     units: ClassVar[tuple[str, ...]] = ()
     #: Unit of the actuator outputs.
     actuator_units: ClassVar[str] = "1"
+    #: Physical envelope: largest plausible ``|x_i|`` per state (``inf``: none). A run whose
+    #: recorded state leaves it is reported as diverged, as a non-finite state is.
+    envelope: ClassVar[tuple[float, ...]] = ()
 
     def dynamics_source(self, g) -> str:
         """Code generation hook: make ``plant_dynamics`` available in the generated loop.

@@ -63,6 +63,7 @@ class HypersonicAngleOfAttack(Plant):
     units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
     actuator_units: ClassVar[str] = "rad"
     equations = staticmethod(dynamics)
+    envelope: ClassVar[tuple[float, ...]] = (1.5707963267948966, float("inf"))  # |alpha| <= 90 deg
     state_names: ClassVar[tuple[str, ...]] = ("alpha", "q")
     output_names: ClassVar[tuple[str, ...]] = ("alpha",)
     position_index: ClassVar[tuple[int, ...]] = (0,)

@@ -147,6 +147,10 @@ class FlexibleSpacecraft(Plant):
     units: ClassVar[tuple[str, ...]] = ("rad", "rad/s") * 3 + ("1",) * 6 + ("N m s",) * 6
     actuator_units: ClassVar[str] = "N m"
     equations = staticmethod(dynamics)
+    # the small-angle kinematics (3.66) mean nothing beyond 90 degrees
+    envelope: ClassVar[tuple[float, ...]] = (1.5707963267948966, float("inf")) * 3 + (
+        float("inf"),
+    ) * 12
     state_names: ClassVar[tuple[str, ...]] = (
         "phi",
         "phi_dot",

@@ -50,6 +50,7 @@ class WingRock(Plant):
     units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
     actuator_units: ClassVar[str] = "rad"
     equations = staticmethod(dynamics)
+    envelope: ClassVar[tuple[float, ...]] = (3.141592653589793, float("inf"))  # |phi| <= 180 deg
     state_names: ClassVar[tuple[str, ...]] = ("phi", "phi_dot")
     output_names: ClassVar[tuple[str, ...]] = ("phi",)
     position_index: ClassVar[tuple[int, ...]] = (0,)

@@ -174,6 +174,9 @@ def integrate_only(loop: ClosedLoop, solver: SolverOptions | None = None):
 def _integrate(loop: ClosedLoop, solver: SolverOptions):
     if not isinstance(loop, ClosedLoop):
         raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
+    from adaptive_ftc.sim.budget import check_run_size
+
+    check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
     asm = assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
     t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
     bps = np.array(asm.breakpoints)
@@ -243,7 +246,28 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
     else:
         Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
     wall = time.perf_counter() - start
+    nrec, message = _check_envelope(loop, Y, t_rec, nrec, message)
     return asm, t_rec, Y, phases, nrec, message, wall, stats
+
+
+def _check_envelope(loop: ClosedLoop, Y: np.ndarray, t_rec: np.ndarray, nrec: int, message: str):
+    """Cut the run at the first recorded sample outside the plant's physical envelope."""
+    env = tuple(getattr(loop.plant, "envelope", ()) or ())
+    if not env or nrec == 0:
+        return nrec, message
+    bound = np.asarray(env, dtype=float)
+    out = np.abs(Y[:nrec, : bound.size]) > bound
+    if not out.any():
+        return nrec, message
+    row = int(np.argmax(out.any(axis=1)))
+    i = int(np.argmax(out[row]))
+    name = loop.plant.state_names[i]
+    return row, (
+        f"Simulation {_run_label(loop)} diverged at t = {t_rec[row]:.6g} s: state '{name}' "
+        f"= {Y[row, i]:.4g} left the plant's envelope |{name}| <= {bound[i]:.4g} (a physically "
+        "meaningless value: a wrong control direction, or gains too high). The result keeps "
+        "the samples before that time."
+    )
 
 
 def _compiled_call(loop: ClosedLoop, run):
