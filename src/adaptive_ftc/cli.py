@@ -240,6 +240,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if not args.no_baselines:
         variants["frozen"] = sc.loop.frozen()
         variants["failure_free"] = sc.loop.without_failures()
+    from adaptive_ftc.sim.compose import is_compiled
+
+    if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot):
+        print(
+            "compiling this closed loop (first run of its structure only; a few seconds)...",
+            file=sys.stderr,
+        )
     stage = staging_dir(out)
     try:
         results = {}
@@ -295,10 +302,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise
     commit_staged(stage, out)
     m = summary["adaptive"]
+    plant = sc.loop.plant
+    units = tuple(getattr(plant, "units", ()) or ())
+    y_unit = units[plant.position_index[0]] if units else "output units"
+    u_unit = getattr(plant, "actuator_units", "") or "actuator units"
     print(
-        f"{sc.name}: {main.status}; RMS error {m['rms_error']:.3g}, last "
-        f"{m['final_window_s']:.3g} s {m['rms_error_final']:.3g}; peak command "
-        f"{m['peak_command']:.3g}"
+        f"{sc.name}: {main.status}; RMS error {m['rms_error']:.3g} {y_unit}, last "
+        f"{m['final_window_s']:.3g} s {m['rms_error_final']:.3g} {y_unit}; peak command "
+        f"{m['peak_command']:.3g} {u_unit}"
     )
     for key in ("frozen", "failure_free"):
         if key in summary:

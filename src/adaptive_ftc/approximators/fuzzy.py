@@ -32,21 +32,22 @@ class FuzzyBasis:
         Gaussian width ``w``: one number for all inputs, or one per input (inputs of different
         scales).
     normalised
-        Normalise the firing strengths (default) or use raw products.
+        Normalise the firing strengths, or use raw products (default: the convention that
+        reproduces the thesis's claims, see the README).
 
     Examples
     --------
     >>> fls = FuzzyBasis(inputs=("x1", "x2"), centers=(-1.0, 0.0, 1.0), width=0.7071)
     >>> fls.size
     9
-    >>> round(float(fls([0.0, 0.0]).sum()), 12)
+    >>> round(float(fls([0.0, 0.0]).max()), 12)  # the rule centred at the origin fires fully
     1.0
     """
 
     inputs: tuple[str, ...]
     centers: tuple[tuple[float, ...], ...] | tuple[float, ...]
     width: float | tuple[float, ...] = 2**-0.5
-    normalised: bool = True
+    normalised: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "inputs", tuple(str(i) for i in self.inputs))

@@ -134,6 +134,7 @@ class CustomPlant(Plant):
     equations: Callable = None  # type: ignore[assignment]
     params: tuple = ()
     units: tuple[str, ...] = ()
+    actuator_units: str = "1"
 
     def __post_init__(self) -> None:
         owner = f"plant '{self.name}'"
@@ -245,6 +246,7 @@ class ExpressionPlant(Plant):
     parameters: dict[str, float] = field(default_factory=dict)
     dynamics: dict[str, str] = field(default_factory=dict)
     units: tuple[str, ...] = ()
+    actuator_units: str = "1"
 
     def __post_init__(self) -> None:
         from adaptive_ftc.scenarios.expressions import Expression

@@ -152,6 +152,24 @@ def _source_hash(modules: list[str]) -> str:
     return h.hexdigest()
 
 
+def _key(source: str, imports: list[str]) -> str:
+    import numba
+
+    key_src = "\n".join(
+        [source, _source_hash(imports), numba.__version__, __version__, sys.version]
+    )
+    return hashlib.sha256(key_src.encode()).hexdigest()[:24]
+
+
+def is_cached(source: str, imports: list[str]) -> bool:
+    """Whether the module ``source`` is loaded in this process or compiled in the disk cache."""
+    key = _key(source, imports)
+    if key in _modules:
+        return True
+    folder = cache_dir()
+    return folder is not None and any((folder / "__pycache__").glob(f"loop_{key}*.nbi"))
+
+
 def load_module(
     source: str,
     *,
@@ -170,12 +188,7 @@ def load_module(
         Objects to place in the module before it runs (parts that cannot be imported, such as
         functions defined in ``__main__``); such modules are compiled in memory only.
     """
-    import numba
-
-    key_src = "\n".join(
-        [source, _source_hash(imports), numba.__version__, __version__, sys.version]
-    )
-    key = hashlib.sha256(key_src.encode()).hexdigest()[:24]
+    key = _key(source, imports)
     with _lock:
         if key in _modules and not inject:
             return _modules[key]

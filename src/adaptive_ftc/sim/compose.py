@@ -486,6 +486,12 @@ def _guarded() -> list[str]:
     return list(GUARDED)
 
 
+def is_compiled(loop: ClosedLoop, *, sdot: str = "exact") -> bool:
+    """Whether ``loop``'s structure is already compiled (in this process or the disk cache)."""
+    text, _, g, layout = generate(loop, sdot=sdot)
+    return not g.inject and codegen.is_cached(text, layout["mods"])
+
+
 def source_of(loop: ClosedLoop, *, sdot: str = "exact") -> str:
     """The generated module text of ``loop`` (to read, or to step through without JIT)."""
     return generate(loop, sdot=sdot)[0]

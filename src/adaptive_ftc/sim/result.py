@@ -167,6 +167,17 @@ class SimResult:
             actuator_units=_declared_units(plant, ("actuator_units",), m),
         )
 
+    def __repr__(self) -> str:
+        """A one-line summary (the arrays are in the fields; ``.to_xarray()`` shows them all)."""
+        name = self.meta.get("scenario") or self.meta.get("name") or "run"
+        span = f"{self.time[0]:g}-{self.time[-1]:g} s" if self.time.size else "no samples"
+        return (
+            f"<SimResult {name!r}: {self.status}, {span}, {self.time.size} samples, "
+            f"{len(self.state_names)} states, {len(self.adaptive_names)} adaptive states, "
+            f"outputs {', '.join(self.output_names)}; actuators "
+            f"{', '.join(self.actuator_names)}>"
+        )
+
     # ------------------------------------------------------------------ access
     @property
     def theta(self) -> np.ndarray:

@@ -184,9 +184,9 @@ class ClosedLoop:
         return names
 
     def describe_failures(self) -> list[str]:
-        """One line per failure, for reports."""
+        """One line per failure, in time order, for reports."""
         out = []
-        for f in self.failures.failures:
+        for f in sorted(self.failures.failures, key=lambda f: (f.onset, f.actuator)):
             rec = f" until {f.recovery:g} s" if f.recovery is not None else ""
             out.append(
                 f"t={f.onset:g} s{rec}: {self.plant.actuator_names[f.actuator - 1]} "
