@@ -263,7 +263,7 @@ def _check_envelope(loop: ClosedLoop, Y: np.ndarray, t_rec: np.ndarray, nrec: in
     i = int(np.argmax(out[row]))
     name = loop.plant.state_names[i]
     return row, (
-        f"Simulation {_run_label(loop)} diverged at t = {t_rec[row]:.6g} s: state '{name}' "
+        f"Simulation {_run_label(loop)} diverged at t = {t_rec[row]:.6g} s: signal '{name}' "
         f"= {Y[row, i]:.4g} left the plant's envelope |{name}| <= {bound[i]:.4g} (a physically "
         "meaningless value: a wrong control direction, or gains too high). The result keeps "
         "the samples before that time."
