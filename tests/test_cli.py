@@ -48,3 +48,9 @@ def test_run_writes_data_figures_and_metrics(tmp_path, capsys):
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["runs"]["adaptive"]["status"] == "completed"
     assert "short: completed" in capsys.readouterr().out
+
+
+def test_reproduce_refuses_an_unknown_figure_format_before_running(tmp_path, capsys):
+    assert main(["reproduce", "--out", str(tmp_path / "r"), "--formats", "png,gif"]) == 2
+    assert "gif" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

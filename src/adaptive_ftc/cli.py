@@ -134,6 +134,17 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--quick", action="store_true", help="shortened runs (for CI)")
     rep.add_argument("--jobs", type=_count(1, 1024), default=None, help="parallel processes")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
+    rep.add_argument(
+        "--baselines",
+        action="store_true",
+        help="overlay the frozen-adaptation and failure-free runs on the figures",
+    )
+    rep.add_argument(
+        "--formats",
+        default="png,pdf",
+        help="figure formats, comma-separated (png, pdf, svg; default png,pdf)",
+    )
+    rep.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
     s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     s.add_argument("--out", help="write it to this file instead of printing it")
     try:
@@ -331,12 +342,28 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
+    formats = tuple(f.strip().lower() for f in args.formats.split(",") if f.strip())
+    bad = [f for f in formats if f not in ("png", "pdf", "svg")]
+    if bad or not formats:
+        raise ConfigurationError(
+            f"--formats: unknown figure format(s) {', '.join(bad) or '(none)'}; use png, pdf, svg."
+        )
     check_output_dir(args.out)
-    summary = run_reproduction(args.out, quick=args.quick, jobs=args.jobs, progress=not args.quiet)
+    summary = run_reproduction(
+        args.out,
+        quick=args.quick,
+        jobs=args.jobs,
+        progress=not args.quiet,
+        baselines=args.baselines,
+        formats=formats,
+        dpi=args.dpi,
+    )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
-        f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS; report: "
-        f"{summary['report']}"
+        f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS"
+        f" ({summary.get('n_not_reproduced', 0)} NOT REPRODUCED, "
+        f"{summary.get('n_not_evaluated', 0)} NOT EVALUATED, {summary.get('n_fail', 0)} FAIL); "
+        f"report: {summary['report']}"
     )
     n_fail = int(summary.get("n_fail", 0))
     n_errors = int(summary.get("n_errors", 0))
