@@ -67,7 +67,7 @@ def test_the_tracking_recovery_bounded_and_modal_checks_fail_on_the_frozen_basel
 
 # ------------------------------------------------------------------ measured numbers
 # RMS tracking error per output over the last 5 s / last 20 s (rad), recorded with the catalogue
-# settings (RK4, scenario dt); frozen-adaptation RMS over the last 5 s is > 20 rad in every case.
+# settings of the time; frozen adaptation loses the attitude in every case.
 RECORDED = {
     "manipulator-mimo-s1": ([1.08e-4, 3.36e-5], [1.07e-4, 3.54e-5]),
     "manipulator-mimo-s2": ([1.11e-4, 5.17e-5], [9.14e-5, 4.39e-5]),
@@ -84,7 +84,9 @@ def test_final_tracking_errors_match_the_recorded_numbers(name):
     # regression guard: the same run reproduces to 2 % (changes in the kernel show up here)
     assert_close(res.rms_error(t_end - 5), last5, atol=0.0, rtol=0.02, what=name)
     assert_close(res.rms_error(t_end - 20), last20, atol=0.0, rtol=0.02, what=name)
-    assert np.all(frozen.rms_error(t_end - 5) > 20.0)
+    # frozen adaptation loses the attitude: past 20 rad (manipulator) or out of the small-angle
+    # envelope of the spacecraft model (reported as a divergence)
+    assert frozen.status == "diverged" or np.all(frozen.rms_error(t_end - 5) > 20.0)
 
 
 def test_printed_manipulator_gain_eta_0_001_does_not_adapt():
