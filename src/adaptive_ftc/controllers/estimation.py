@@ -83,7 +83,8 @@ class FailureEstimation(AdaptiveController):
         for j, bj in enumerate(basis):
             for l, text in enumerate(bj):
                 e = Expression(text, ("t",), context=f"basis function {l + 1} of actuator {j + 1}")
-                lines.append(f"    w[{i}] = {g.constant_block(e.node, {'t': 't'})}  # {e}")
+                text = g.constant_block(e.node, {"t": "t"})
+                lines.append(f"    w[{i}] = {text}  # actuator {j + 1}, function {l + 1}")
                 g.adaptive_names.append(f"kappa{j + 1}_{l + 1}")
                 g.y0_extra.append(float(self.kappa0))
                 i += 1

@@ -72,7 +72,7 @@ class NussbaumAdaptive(AdaptiveController):
         text = g.constant_block(self.nussbaum_expression().node, {"tau": "tau"})
         g.defs.append(
             "@hot\ndef nussbaum(tau, c):\n"
-            f'    """Nussbaum function N(tau) = {self.nussbaum_expression()} (4.15)."""\n'
+            '    """The Nussbaum function N(tau) (4.15); its numbers are in c."""\n'
             f"    return {text}"
         )
         g.use("theta_law", theta_law)

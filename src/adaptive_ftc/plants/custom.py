@@ -324,7 +324,7 @@ class ExpressionPlant(Plant):
         lines = []
         for i, s in enumerate(self.state_names):
             text = codegen.emit_at(self._exprs[s].node, names, consts)
-            lines.append(f"    xdot[{i}] = {text}  # {s}' = {self._exprs[s]}")
+            lines.append(f"    xdot[{i}] = {text}  # d{s}/dt")
         return lines, consts
 
     def parameter_values(self) -> np.ndarray:

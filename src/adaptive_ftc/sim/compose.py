@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
+from adaptive_ftc.faults.models import Failure
 from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.sim import codegen
 from adaptive_ftc.sim.system import ClosedLoop
@@ -169,7 +170,7 @@ def _reference(g: Generator) -> str:
     for i, text in enumerate(g.loop.reference):
         name = g.loop.plant.output_names[i]
         e = Expression(text, ("t",), context=f"reference of output '{name}'")
-        lines.append(f"    # {name}: y_d = {e}")
+        lines.append(f"    # output {name!r}: y_d and its derivatives (numbers in c)")
         start = len(g.consts)
         for d in range(3):
             text = g.constant_block(e.node, {"t": "t"}, share_from=start)
@@ -184,37 +185,44 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
     bps = loop.failures.breakpoints(loop.t0, loop.t_final)
     nph = len(bps) - 1
     fphase = -np.ones((nph, g.m), dtype=np.int64)
-    shapes: dict[tuple[str, str], int] = {}
     inst_shape: list[int] = []
     inst_off: list[int] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
+    drawn: list[tuple[Failure, tuple[str, str], list[float]]] = []
     # every failure of the schedule, active in this window or not: a shortened run (quick
     # mode, a test) shares the compiled structure of the full one
     for f in loop.failures.failures:
         ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
         e = f.expression(variables, context=ctx)
-        de = e.derivative("u")
-        if e.used <= {"u"} and de.is_constant:
+        raw = Expression(f.pattern(), variables, context=ctx) if f.ramp > 0 else e
+        draw = raw.derivative("u")
+        if raw.used <= {"u"} and draw.is_constant:
             # a*u + b with constant a, b (loss of effectiveness, stuck, bias, affine,
-            # reversal): one shared shape, so failures of these models never change
-            # the compiled structure, only the numbers
-            a_, b_ = float(de.node[1]), float(e(u=0.0))
-            text, dtext, local, dlocal = "c[o + 0] * u + c[o + 1]", "c[o + 0]", [a_, b_], []
+            # reversal), abrupt or incipient: two shapes present in every loop, so failures
+            # of these models never change the compiled structure, only the numbers
+            a_, b_ = float(draw.node[1]), float(raw(u=0.0))
+            if f.ramp > 0:
+                key, numbers = _AFFINE_RAMPED, [float(f.onset), float(f.ramp), 1.0, a_, b_]
+            else:
+                key, numbers = _AFFINE, [a_, b_]
         else:
-            local = []
+            local: list[float] = []
             text = codegen.emit(e.node, names, local)
-            dlocal = []
-            dtext = codegen.emit(de.node, names, dlocal)
+            dlocal: list[float] = []
+            dtext = codegen.emit(e.derivative("u").node, names, dlocal)
             # the derivative's numbers follow the pattern's
-            dtext = _shift(dtext, len(local))
-        key = (text, dtext)
-        if key not in shapes:
-            shapes[key] = len(shapes)
+            key, numbers = (text, _shift(dtext, len(local))), local + dlocal
+        drawn.append((f, key, numbers))
+    # shape numbers: the two affine shapes first, the others sorted (a set of shapes gives
+    # the same code whatever the order of the failures)
+    others = sorted({key for _, key, _ in drawn} - {_AFFINE, _AFFINE_RAMPED})
+    shapes = {key: n for n, key in enumerate([_AFFINE, _AFFINE_RAMPED, *others])}
+    for f, key, numbers in drawn:
         seen[id(f)] = len(inst_shape)
         inst_shape.append(shapes[key])
         inst_off.append(len(consts))
-        consts.extend(local + dlocal)
+        consts.extend(numbers)
     for k in range(nph):
         mid = 0.5 * (bps[k] + bps[k + 1])
         for j, f in enumerate(loop.failures.active(mid)):
@@ -244,6 +252,14 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
     fn.append("    return u")
     dfn.append("    return 1.0")
     return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn)
+
+
+#: ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) - u)``.
+_AFFINE = ("c[o + 0] * u + c[o + 1]", "c[o + 0]")
+_AFFINE_RAMPED = (
+    "(u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))",
+    "(1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))",
+)
 
 
 def _shift(text: str, by: int) -> str:
