@@ -84,8 +84,22 @@ def _set_names(p: Plant, owner: str, states, acts, pos, vel) -> None:
     object.__setattr__(p, "outputs", dict(p.outputs))
 
 
+class _NamedPlant(Plant):
+    """Shared by the user plants: actuators are given by name."""
+
+    actuators: tuple[str, ...]
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.actuators)
+
+    @property
+    def actuator_names(self) -> tuple[str, ...]:
+        return self.actuators
+
+
 @dataclass(frozen=True, kw_only=True)
-class CustomPlant(Plant):
+class CustomPlant(_NamedPlant):
     """A plant given by your own Python function.
 
     Parameters
@@ -171,14 +185,6 @@ class CustomPlant(Plant):
         _set_names(self, owner, states, acts, pos, vel)
         check_plant(self)
 
-    @property
-    def n_actuators(self) -> int:
-        return len(self.actuators)
-
-    @property
-    def actuator_names(self) -> tuple[str, ...]:
-        return self.actuators
-
     def parameter_values(self) -> tuple:
         return self.params
 
@@ -222,7 +228,7 @@ def plant(
 
 
 @dataclass(frozen=True, kw_only=True)
-class ExpressionPlant(Plant):
+class ExpressionPlant(_NamedPlant):
     """A plant whose equations are expressions of the safe language (scenario files).
 
     ``dynamics`` maps every state to its derivative, written with the state names, the
@@ -303,14 +309,6 @@ class ExpressionPlant(Plant):
         object.__setattr__(self, "parameters", {k: float(v) for k, v in self.parameters.items()})
         object.__setattr__(self, "_exprs", exprs)
         check_plant(self)
-
-    @property
-    def n_actuators(self) -> int:
-        return len(self.actuators)
-
-    @property
-    def actuator_names(self) -> tuple[str, ...]:
-        return self.actuators
 
     def _layout(self) -> tuple[list[str], list[float]]:
         """Generated assignments and the numbers they read (parameters, then literals)."""
