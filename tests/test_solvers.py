@@ -200,6 +200,7 @@ def _rk4_module():
     # the names its header stands in for (decorators, imports), with our rhs
     ns = {k: v for k, v in vars(importlib.import_module(f"{adaptive.__package__}.rk4")).items()}
     ns["rhs"] = _rhs
+    ns["jump"] = numba.njit(adaptive._no_jump)
     exec(compile(text, str(path), "exec"), ns)  # noqa: S102
     return ns
 

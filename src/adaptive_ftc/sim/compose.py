@@ -369,6 +369,13 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "        return",
     ]
     body += adapt_src
+    jump_src = "\n".join(
+        [
+            "@hot",
+            "def jump(t, Y, ph, D, W):",
+            '    """State update at the start of interval ``ph`` (none: a continuous loop)."""',
+        ]
+    )
     # ------------------------------------------------------------ imports and module
     imports = [
         "import math",
@@ -415,6 +422,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         fail_src,
         dfail_src,
         "\n".join(body),
+        jump_src,
         codegen.template("rk4"),
         codegen.template("adaptive"),
         codegen.template("record"),

@@ -74,6 +74,15 @@ def rhs(t, Y, ph, D, W, dY):  # pragma: no cover - stand-in, replaced by the gen
     raise NotImplementedError("the template's rhs is a stand-in; use bind() or a generated module")
 
 
+def jump(t, Y, ph, D, W):  # pragma: no cover - stand-in, replaced by the generated module
+    """Stand-in for the generated state update at the start of each interval."""
+    raise NotImplementedError("the template's jump is a stand-in")
+
+
+def _no_jump(t, Y, ph, D, W):
+    """A continuous loop's ``jump``: nothing happens at interval starts."""
+
+
 def make_work(D):  # pragma: no cover - stand-in, replaced by the generated module
     """Stand-in for the generated work-array factory."""
     raise NotImplementedError("the template's make_work is a stand-in")
@@ -85,7 +94,7 @@ def template_text() -> str:
     return text.split(TEMPLATE_MARKER + "\n", 1)[1]
 
 
-def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators"):
+def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators", jump=None):
     """Execute the template against a jitted ``rhs`` (for tests and benchmarks).
 
     Parameters
@@ -99,6 +108,8 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators")
         error_model="numpy")`` (in memory: code executed from a string cannot be disk-cached).
     name
         Name of the returned module object.
+    jump
+        A jitted ``jump(t, Y, ph, D, W)`` run at the start of every interval (default: none).
 
     Returns
     -------
@@ -108,6 +119,7 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators")
     mod = types.ModuleType(name)
     mod.__dict__.update(
         rhs=rhs,
+        jump=jump if jump is not None else numba.njit(_no_jump),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
     )
@@ -351,6 +363,7 @@ def _solve(
         a = t_breaks[ph]
         b = t_breaks[ph + 1]
         tol = 1e-9 * max(1.0, abs(b))
+        jump(a, Y, ph, D, W)  # e.g. a sampled controller's new command (no-op if continuous)
         while r < nrec and t_rec[r] <= a + tol:
             out_Y[r, :] = Y
             out_phase[r] = ph

@@ -15,6 +15,10 @@ def rhs(t, Y, ph, D, W, dY):  # placeholder: every generated module defines its 
     raise NotImplementedError
 
 
+def jump(t, Y, ph, D, W):  # placeholder: state update at the start of each interval
+    raise NotImplementedError
+
+
 # --- template: begin ---
 @hot
 def first_bad(Y, bound):
@@ -70,6 +74,7 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
         tol = 1e-9 * max(1.0, abs(b))
         nsteps = max(1, int(math.ceil((b - a) / dt - 1e-9)))
         h = (b - a) / nsteps
+        jump(a, Y, ph, D, W)  # e.g. a sampled controller's new command (no-op if continuous)
         while r < nrec and t_rec[r] <= a + tol:
             out_Y[r, :] = Y
             out_phase[r] = ph
