@@ -6,9 +6,19 @@ non-adaptive baseline of issue 14: a controller of the *same structure* whose pa
 those the adaptive law reached at the end of a failure-free run of the same loop (tuned on the
 healthy plant), then frozen. It is what a designer would fly without adaptation.
 
-Campaigns can compare it under the design name ``"fixed-gain"``::
+Two more baselines replace the adaptive design by feedback linearisation
+(:mod:`adaptive_ftc.controllers.nominal`), with the same targets ``lam``, ``k``, ``k0``,
+``eps0``: :func:`nominal_inverse` inverts the *healthy* plant model (what a designer without
+fault tolerance would fly) and :func:`oracle` inverts the model *with the true failure* of each
+interval (a bound, not a fair competitor: claims never compare with it, reports show it).
 
-    designs = ["adaptive", "fixed-gain", "frozen"]
+Campaigns compare them under the design names ``"fixed-gain"``, ``"nominal-inverse"`` and
+``"oracle"``::
+
+    designs = ["adaptive", "fixed-gain", "nominal-inverse", "oracle", "frozen"]
+
+:data:`FAIR_BASELINES` names the non-oracle baselines a claim's ``baseline_ratio`` is held
+against (the best of them, see :mod:`adaptive_ftc.claims`).
 """
 
 from __future__ import annotations
@@ -20,9 +30,25 @@ import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.engine import SolverOptions, simulate
+from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["CAMPAIGN_SOLVER", "fixed_gain", "healthy_parameters"]
+__all__ = [
+    "BASELINES",
+    "CAMPAIGN_SOLVER",
+    "FAIR_BASELINES",
+    "baseline_loop",
+    "fixed_gain",
+    "healthy_parameters",
+    "nominal_inverse",
+    "oracle",
+    "run_baselines",
+]
+
+#: Every baseline, in report order; ``"oracle"`` knows the true failure.
+BASELINES: tuple[str, ...] = ("fixed-gain", "nominal-inverse", "oracle", "frozen")
+#: The baselines a controller can be fairly compared with (all but the oracle).
+FAIR_BASELINES: tuple[str, ...] = ("fixed-gain", "nominal-inverse", "frozen")
 
 #: Solver of the failure-free tuning run when a campaign asks for ``"fixed-gain"`` (a campaign
 #: design variant receives only the loop): adaptive-step DOPRI5/RODASP, so stiff loops work too.
@@ -131,6 +157,145 @@ def fixed_gain(loop: ClosedLoop, solver: SolverOptions | None = None) -> ClosedL
     return replace(loop, adapt=False, adaptive_initial=params, name=name)
 
 
+def _inverse(loop: ClosedLoop, cls, label: str, **settings) -> ClosedLoop:
+    if not isinstance(loop, ClosedLoop):
+        raise ConfigurationError(
+            f"{label}() needs a ClosedLoop (e.g. load_scenario(name).loop); "
+            f"got {type(loop).__name__}."
+        )
+    c = loop.controller
+    ctrl = cls(lam=c.lam, k=c.k, k0=c.k0, eps0=c.eps0, **settings)
+    name = f"{loop.name} ({ctrl.design})" if loop.name else ctrl.design
+    return replace(loop, controller=ctrl, adaptive_initial=(), adapt=False, name=name)
+
+
+def nominal_inverse(loop: ClosedLoop, **settings) -> ClosedLoop:
+    """The nominal-inverse baseline of ``loop``: feedback linearisation with the healthy model.
+
+    The controller of ``loop`` is replaced by :class:`~adaptive_ftc.controllers.NominalInverse`
+    with the same ``lam``, ``k``, ``k0`` and ``eps0`` (so it aims at the same error dynamics
+    ``s' = -k s - k0 tanh(s/eps0)``); allocation, failures, reference and initial state are
+    kept. It has no adaptive state.
+
+    Parameters
+    ----------
+    loop
+        The closed loop (any design).
+    **settings
+        ``gmin`` and ``probe`` of :class:`~adaptive_ftc.controllers.NominalInverse`.
+
+    Returns
+    -------
+    ClosedLoop
+        Named ``"<name> (nominal-inverse)"``.
+
+    Examples
+    --------
+    >>> from adaptive_ftc import load_scenario
+    >>> nominal_inverse(load_scenario("hypersonic-direct-s1").loop).controller.design
+    'nominal-inverse'
+    """
+    from adaptive_ftc.controllers.nominal import NominalInverse
+
+    return _inverse(loop, NominalInverse, "nominal_inverse", **settings)
+
+
+def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
+    """The oracle baseline of ``loop``: feedback linearisation knowing the true failure.
+
+    As :func:`nominal_inverse`, with :class:`~adaptive_ftc.controllers.OracleInverse`: the
+    model includes the failed actuators' true outputs on every interval (exact for ``a u + b``
+    failures). An upper bound on what a controller of this form can achieve; not a fair
+    competitor (claims never compare with it).
+
+    Examples
+    --------
+    >>> from adaptive_ftc import load_scenario
+    >>> oracle(load_scenario("hypersonic-direct-s1").loop).name
+    'hypersonic-direct-s1 (oracle)'
+    """
+    from adaptive_ftc.controllers.nominal import OracleInverse
+
+    return _inverse(loop, OracleInverse, "oracle", **settings)
+
+
+def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = None) -> ClosedLoop:
+    """The baseline ``name`` (one of :data:`BASELINES`) of ``loop``.
+
+    ``solver`` is used by ``"fixed-gain"`` only (its failure-free tuning run).
+
+    Raises
+    ------
+    ConfigurationError
+        For an unknown name (the message lists :data:`BASELINES`).
+    """
+    if name == "fixed-gain":
+        return fixed_gain(loop, solver)
+    if name == "nominal-inverse":
+        return nominal_inverse(loop)
+    if name == "oracle":
+        return oracle(loop)
+    if name == "frozen":
+        return loop.frozen()
+    from adaptive_ftc.errors import did_you_mean
+
+    raise ConfigurationError(
+        f"Unknown baseline {name!r}.{did_you_mean(str(name), BASELINES)} "
+        f"Available: {', '.join(BASELINES)}."
+    )
+
+
+def run_baselines(
+    scenario,
+    names: tuple[str, ...] = BASELINES,
+    *,
+    failures: bool = True,
+    solver: SolverOptions | None = None,
+) -> dict[str, SimResult | None]:
+    """Simulate the baselines ``names`` of a scenario (what claims with ``baseline_ratio`` and
+    the report compare with).
+
+    Parameters
+    ----------
+    scenario
+        A :class:`~adaptive_ftc.scenarios.loader.Scenario` (its loop and solver are used).
+    names
+        Baselines to run (default every one of :data:`BASELINES`).
+    failures
+        Keep the scenario's failures (default) or run the failure-free loop.
+    solver
+        Integration settings (default: the scenario's).
+
+    Returns
+    -------
+    dict
+        ``{name: SimResult}``; ``None`` for a baseline that cannot be built (a fixed-gain
+        baseline whose failure-free tuning run diverged). Diverged runs are returned as they
+        are (claims count them as infinitely worse).
+    """
+    import warnings
+
+    solver = solver or scenario.solver
+    loop = scenario.loop if failures else scenario.loop.without_failures()
+    out: dict[str, SimResult | None] = {}
+    for name in names:
+        try:
+            base = baseline_loop(loop, name, solver)
+        except ConfigurationError:
+            if name != "fixed-gain":
+                raise
+            out[name] = None
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a diverged baseline is a result
+            result = simulate(base, solver)
+        if hasattr(scenario, "stamp"):
+            scenario.stamp(result)
+        result.meta["variant"] = name
+        out[name] = result
+    return out
+
+
 def _campaign_fixed_gain(loop: ClosedLoop) -> ClosedLoop:
     return fixed_gain(loop, CAMPAIGN_SOLVER)
 
@@ -139,6 +304,8 @@ def _register() -> None:
     from adaptive_ftc.campaigns.spec import register_design
 
     register_design("fixed-gain", _campaign_fixed_gain)
+    register_design("nominal-inverse", nominal_inverse)
+    register_design("oracle", oracle)
 
 
 _register()

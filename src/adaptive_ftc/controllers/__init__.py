@@ -4,6 +4,7 @@ from adaptive_ftc.controllers.base import AdaptiveController
 from adaptive_ftc.controllers.direct import DirectAdaptive
 from adaptive_ftc.controllers.estimation import FailureEstimation
 from adaptive_ftc.controllers.mimo import MimoDirectAdaptive
+from adaptive_ftc.controllers.nominal import NominalInverse, OracleInverse
 from adaptive_ftc.controllers.nussbaum import NUSSBAUM_FUNCTIONS, NussbaumAdaptive
 from adaptive_ftc.controllers.sign_estimation import SignEstimation
 
@@ -14,6 +15,8 @@ DESIGNS: dict[str, type[AdaptiveController]] = {
     "mimo": MimoDirectAdaptive,
     "nussbaum": NussbaumAdaptive,
     "sign": SignEstimation,
+    "nominal-inverse": NominalInverse,
+    "oracle": OracleInverse,
 }
 
 __all__ = [
@@ -23,6 +26,8 @@ __all__ = [
     "DirectAdaptive",
     "FailureEstimation",
     "MimoDirectAdaptive",
+    "NominalInverse",
     "NussbaumAdaptive",
+    "OracleInverse",
     "SignEstimation",
 ]

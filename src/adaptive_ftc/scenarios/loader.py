@@ -514,6 +514,11 @@ def _build(cls: type, kwargs: dict[str, Any], ctx: _Ctx, where: str):
     raise _Problems
 
 
+def _has_regressor(cls: type) -> bool:
+    """Whether design ``cls`` takes a ``regressor`` (the non-adaptive baselines do not)."""
+    return any(f.name == "regressor" for f in dataclasses.fields(cls))
+
+
 def _component(cls: type, table: dict[str, Any], ctx: _Ctx, where: str, skip=frozenset()):
     """Check keys and types of ``table`` against ``cls``'s fields, then build it."""
     schema = _class_schema(cls, set(skip))
@@ -657,14 +662,20 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 if not isinstance(adapt, bool):
                     ctx.add("controller", f"`adapt`: expected true or false, got {_show(adapt)}.")
                     adapt = True
-                if "regressor" not in ctab:
+                if not _has_regressor(dcls):  # e.g. the nominal-inverse / oracle baselines
+                    ctrl = _component(dcls, ctab, ctx, "controller")
+                    regs = None
+                elif "regressor" not in ctab:
                     ctx.add(
                         "controller",
                         "missing table [controller.regressor] (type = 'fuzzy' or 'linear').",
                     )
                     raise _Problems
-                regs = ctab.pop("regressor")
-                if isinstance(regs, list):
+                else:
+                    regs = ctab.pop("regressor")
+                if regs is None:
+                    pass
+                elif isinstance(regs, list):
                     if dcls is not MimoDirectAdaptive:
                         ctx.add(
                             "controller.regressor",
@@ -686,9 +697,10 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                     reg = tuple(reg)
                 else:
                     reg = _regressor(regs, ctx, "controller.regressor")
-                ctrl = _component(
-                    dcls, {**ctab, "regressor": reg}, ctx, "controller", {"regressor"}
-                )
+                if regs is not None:
+                    ctrl = _component(
+                        dcls, {**ctab, "regressor": reg}, ctx, "controller", {"regressor"}
+                    )
             if allocation is None and ctrl is not None:
                 ctx.add(
                     "controller",
@@ -771,9 +783,9 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         except ImportError:  # the engine before the code-generation rewrite
             from adaptive_ftc.sim.assemble import assemble
 
-            assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+            assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
         else:
-            generate(loop, sdot=solver.sdot)  # checks every part without compiling
+            generate(loop, sdot=solver.sdot_for(loop))  # checks every part without compiling
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
         raise _Problems from None
@@ -870,16 +882,17 @@ def scenario_schema() -> dict[str, Any]:
             if cls is MimoDirectAdaptive
             else reg_schema
         )
+        has_reg = _has_regressor(cls)  # the nominal-inverse / oracle baselines have none
         designs.append(
             obj(
                 {
                     "design": {"const": key},
                     "allocation": _ALLOCATION,
                     "adapt": {"type": "boolean", "default": True},
-                    "regressor": regressor,
+                    **({"regressor": regressor} if has_reg else {}),
                     **sch["properties"],
                 },
-                ["design", "allocation", "regressor", *sch["required"]],
+                ["design", "allocation", *(["regressor"] if has_reg else []), *sch["required"]],
                 {"title": f"design '{key}'"},
             )
         )

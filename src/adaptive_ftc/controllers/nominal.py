@@ -1,0 +1,208 @@
+"""Non-adaptive baselines: the nominal inverse and the oracle (issue 14, "fair baselines").
+
+Both are feedback linearisation along the allocation ``u = R^T u0`` (3.14). Per output ``i``
+the model gives the output acceleration
+
+    ``y_i'' = f_i(x) + sum_k G_ik(x) u0_k``
+
+(``y_i'' = x'[vel_i]``), and the control ``u0`` solves ``G u0 = v - f`` for the target
+
+    ``v_i = y_di'' + lambda_i e_i' + k_i s_i + k0_i tanh(s_i / eps0)``
+
+with ``e = y_d - y`` and ``s = e' + lambda e`` (2.18). With an exact model the closed loop then
+obeys ``s_i' = -k_i s_i - k0_i tanh(s_i / eps0)`` (``q = 0`` in the notation of the adaptive
+laws), so ``s_i -> 0`` exponentially and ``e_i' = -lambda_i e_i + s_i``: with ``k0 = 0`` the
+error is ``e(t) = e0 exp(-lambda t) + s0 (exp(-k t) - exp(-lambda t)) / (lambda - k)``.
+The targets and gains (``lam``, ``k``, ``k0``, ``eps0``) are those of the adaptive designs,
+so a baseline built from an adaptive loop aims at the same error dynamics.
+
+:class:`NominalInverse` (design ``"nominal-inverse"``)
+    takes ``f`` and ``G`` from the *healthy* plant model: the plant's own ``dynamics`` at
+    ``u = 0`` and at ``u = probe R_k`` (row ``k`` of ``R``), ``G_ik = (y_i''(probe R_k) -
+    f_i) / probe``. It knows nothing of the failures, which act on the applied outputs as in
+    every loop; it is what a designer without fault tolerance would fly.
+:class:`OracleInverse` (design ``"oracle"``)
+    evaluates the same two model calls through the failure functions of the current interval
+    (``failure(D.fphase[ph, j], t, x, u_j, D)``; a healthy actuator passes ``u_j``), so ``f``
+    includes the stuck/bias outputs and ``G`` the lost effectiveness: exact for the failures
+    ``a u + b`` (loss, stuck, bias, affine, reversal, incipient) of plants affine in ``u``. It
+    is the best any controller of this form could do and is not a fair competitor: reports
+    show it, claims never compare with it.
+
+Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
+failure) that is not, ``G`` is the forward-difference slope at ``u0 = 0`` over ``probe``: the
+local linearisation there, not at the current command.
+
+Guard: ``G`` is factorised by Gaussian elimination with partial pivoting; a pivot smaller than
+``gmin`` in magnitude is replaced by ``gmin`` with its sign (``+gmin`` for an exact zero), so
+that ``|u0|`` stays bounded by ``|v - f| / gmin`` (single output: ``g`` is replaced by
+``copysign(gmin, g)`` when ``|g| < gmin``). Neither design has an adaptive state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, NamedTuple
+
+from adaptive_ftc.controllers.base import AdaptiveController, _positive
+
+__all__ = ["NominalInverse", "OracleInverse", "solve_guarded"]
+
+
+class NominalGains(NamedTuple):
+    """Numbers of the inverse: the pivot floor and the probe step of the model slope."""
+
+    gmin: float
+    probe: float
+
+
+def solve_guarded(a, at, n, gmin, out):
+    """Solve ``G u0 = v`` for the nominal inverse (plain Python, compiled in the loop).
+
+    ``G`` is stored row-major at ``a[at : at + n*n]`` and ``v`` right after it, at
+    ``a[at + n*n : at + n*n + n]``; both are overwritten. Gaussian elimination with partial
+    pivoting; a pivot ``d`` with ``|d| < gmin`` is replaced by ``gmin`` with the sign of ``d``
+    (``+gmin`` for ``d = 0``). The solution is written to ``out[0:n]``.
+    """
+    v = at + n * n
+    for k in range(n):
+        piv = k
+        amax = abs(a[at + k * n + k])
+        for i in range(k + 1, n):
+            val = abs(a[at + i * n + k])
+            if val > amax:
+                amax = val
+                piv = i
+        if piv != k:
+            for j in range(n):
+                tmp = a[at + k * n + j]
+                a[at + k * n + j] = a[at + piv * n + j]
+                a[at + piv * n + j] = tmp
+            tmp = a[v + k]
+            a[v + k] = a[v + piv]
+            a[v + piv] = tmp
+        d = a[at + k * n + k]
+        if abs(d) < gmin:
+            d = gmin if d >= 0.0 else -gmin
+            a[at + k * n + k] = d
+        for i in range(k + 1, n):
+            factor = a[at + i * n + k] / d
+            if factor != 0.0:
+                for j in range(k, n):
+                    a[at + i * n + j] -= factor * a[at + k * n + j]
+                a[v + i] -= factor * a[v + k]
+    for i in range(n - 1, -1, -1):
+        acc = a[v + i]
+        for j in range(i + 1, n):
+            acc -= a[at + i * n + j] * out[j]
+        out[i] = acc / a[at + i * n + i]
+
+
+@dataclass(frozen=True, kw_only=True)
+class NominalInverse(AdaptiveController):
+    """Feedback linearisation with the healthy model, no adaptation (module docstring).
+
+    ``u0`` solves ``G u0 = y_d'' + lambda e' + k s + k0 tanh(s/eps0) - f`` with ``f``, ``G``
+    from the plant's dynamics along ``u = R^T u0``; the closed loop with an exact model obeys
+    ``s' = -k s - k0 tanh(s/eps0)``. Works for any number of outputs.
+
+    Parameters
+    ----------
+    lam, k, k0, eps0
+        As in the adaptive designs: filtered error (2.18) and robust term (2.20).
+    gmin
+        Smallest pivot magnitude of ``G`` (units of ``y''`` per unit ``u0``); smaller pivots
+        are replaced by ``gmin`` with their sign.
+    probe
+        Step in ``u0`` of the forward difference giving ``G`` (exact for plants affine in
+        ``u``; the local slope at ``u0 = 0`` otherwise).
+    """
+
+    design: ClassVar[str] = "nominal-inverse"
+    equation: ClassVar[str] = "feedback linearisation with the healthy model (baseline)"
+    oracle: ClassVar[bool] = False
+
+    gmin: float = 1e-6
+    probe: float = 1e-3
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _positive(type(self).__name__, gmin=self.gmin, probe=self.probe)
+
+    @property
+    def single_output(self) -> bool:
+        return False
+
+    def regressors(self) -> tuple:
+        return ()
+
+    def regressors_for(self, p: int) -> tuple:
+        return ()
+
+    def gains(self) -> NominalGains:
+        return NominalGains(float(self.gmin), float(self.probe))
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        nx, p, m = g.nx, g.p, g.m
+        plant = g.loop.plant
+        vel = plant.velocity_index
+        g.use("nominal_solve", solve_guarded)
+        g.n_w = max(g.n_w, p * p + 2 * p)
+        f_at = p * p + p  # wb: [G (p*p, row-major) | v (p) | f (p)]
+        v_at = p * p
+        if self.oracle:  # through the failure functions of the current interval
+            zero = [
+                "        k = D.fphase[ph, j]",
+                "        uf[j] = 0.0 if k < 0 else failure(k, t, xs, 0.0, D)",
+            ]
+            step = [
+                "            k = D.fphase[ph, j]",
+                "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
+            ]
+            what = "the failed actuators' true outputs (oracle)"
+        else:
+            zero = ["        uf[j] = 0.0"]
+            step = ["            uf[j] = a"]
+            what = "the healthy model"
+        lines = [
+            f"    # u0 from y'' = f + G u0 along u = R^T u0, with {what} (controllers/nominal.py)",
+            f"    xs = sig[0:{nx}]",
+            f"    for j in range({m}):",
+            *zero,
+            "    plant_dynamics(t, xs, uf, D.plant, xdot)",
+            *[f"    wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
+            f"    for kk in range({p}):",
+            f"        for j in range({m}):",
+            f"            a = c[RMAT + kk * {m} + j] * D.gains.probe",
+            *step,
+            "        plant_dynamics(t, xs, uf, D.plant, xdot)",
+            *[
+                f"        wb[{i * p} + kk] = (xdot[{vel[i]}] - wb[{f_at + i}]) / D.gains.probe"
+                for i in range(p)
+            ],
+            "    # target y'' = y_d'' + lambda e' + k s + k0 tanh(s/eps0), so that with an exact",
+            "    # model s' = -k s - k0 tanh(s/eps0)",
+        ]
+        for i in range(p):
+            ed, s = f"sig[{nx + p + i}]", f"sig[{nx + 2 * p + i}]"
+            lines.append(
+                f"    wb[{v_at + i}] = (ref[{3 * i + 2}] + c[LAM + {i}] * {ed} + c[K + {i}] * {s}"
+                f" + c[K0 + {i}] * math.tanh({s} / c[EPS0])) - wb[{f_at + i}]"
+            )
+        lines.append(f"    nominal_solve(wb, 0, {p}, D.gains.gmin, u0)")
+        return lines
+
+    def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
+        return []
+
+
+@dataclass(frozen=True, kw_only=True)
+class OracleInverse(NominalInverse):
+    """:class:`NominalInverse` that knows the true failure of the current interval: the model
+    calls go through the loop's failure functions, so ``f`` and ``G`` include the failed
+    actuators' outputs (exact for ``a u + b`` failures of a plant affine in ``u``). A bound on
+    what a controller of this form can achieve, not a fair competitor."""
+
+    design: ClassVar[str] = "oracle"
+    equation: ClassVar[str] = "feedback linearisation knowing the true failure (oracle baseline)"
+    oracle: ClassVar[bool] = True
