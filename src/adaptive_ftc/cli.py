@@ -253,7 +253,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         variants["failure_free"] = sc.loop.without_failures()
     from adaptive_ftc.sim.compose import is_compiled
 
-    if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot):
+    if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot_for(sc.loop)):
         print(
             "compiling this closed loop (first run of its structure only; a few seconds)...",
             file=sys.stderr,

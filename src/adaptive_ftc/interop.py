@@ -49,6 +49,12 @@ def _assembled(loop: ClosedLoop, sdot: str, filter_tau: float):
             f"to_control() needs a ClosedLoop (e.g. load_scenario(name).loop); "
             f"got {type(loop).__name__}."
         )
+    if loop.sample_time > 0 or (loop.sensors is not None and loop.sensors.has_noise):
+        raise ConfigurationError(
+            f"Loop '{loop.name}' has a digital controller or sampled sensor noise: its state "
+            "jumps at every sample, which python-control's continuous-time systems cannot "
+            "express. Export the loop without `sample_time` and sensor noise."
+        )
     from adaptive_ftc.sim.compose import assemble
 
     return assemble(loop, sdot=sdot, filter_tau=filter_tau)

@@ -9,7 +9,9 @@ from adaptive_ftc.faults.models import (
     NonAffine,
     ParameterisedStuck,
     PositionLimit,
+    RateLimited,
     Reversal,
+    Sluggish,
     Stuck,
 )
 from adaptive_ftc.faults.schedule import (
@@ -31,7 +33,9 @@ __all__ = [
     "NonAffine",
     "ParameterisedStuck",
     "PositionLimit",
+    "RateLimited",
     "Reversal",
+    "Sluggish",
     "Stuck",
     "check_compensability",
 ]

@@ -26,7 +26,9 @@ __all__ = [
     "NonAffine",
     "ParameterisedStuck",
     "PositionLimit",
+    "RateLimited",
     "Reversal",
+    "Sluggish",
     "Stuck",
 ]
 
@@ -297,6 +299,75 @@ class PositionLimit(Failure):
         return f"clip(u, {lo}, {hi})"
 
 
+@dataclass(frozen=True, kw_only=True)
+class _DynamicsFailure(Failure):
+    """A failure of the actuator's dynamics, not of its static output map: the actuator
+    delivers its deflection unchanged but moves differently (see :mod:`adaptive_ftc.hardware`).
+    A loop with such a failure has actuator states even without declared ``Actuators``."""
+
+    def __post_init__(self) -> None:
+        if self.ramp:
+            raise ConfigurationError(
+                f"{type(self).__name__} changes the actuator's dynamics at its onset; it has no "
+                "incipient form: remove `ramp`."
+            )
+        super().__post_init__()
+
+    def pattern(self) -> str:
+        return "u"
+
+    def dynamics(self) -> dict[str, float]:
+        """The entries of the actuator table it replaces (``tau``, ``rate``)."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, kw_only=True)
+class RateLimited(_DynamicsFailure):
+    """The actuator cannot move faster than ``rate`` (units/s): a jammed or weakened drive
+    (GUAM's rate-limit failure). Without a declared lag it uses
+    :data:`adaptive_ftc.hardware.RATE_ONLY_TAU`."""
+
+    model: ClassVar[str] = "rate_limited"
+    rate: float = math.inf
+
+    def __post_init__(self) -> None:
+        if (
+            isinstance(self.rate, bool)
+            or not isinstance(self.rate, (int, float))
+            or not self.rate > 0
+        ):
+            raise ConfigurationError(
+                f"`rate` of RateLimited must be a positive rate limit; got {self.rate!r}."
+            )
+        super().__post_init__()
+
+    def dynamics(self) -> dict[str, float]:
+        return {"rate": float(self.rate)}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sluggish(_DynamicsFailure):
+    """The actuator follows its command with the first-order lag ``tau`` (s): lost bandwidth
+    (GUAM's bandwidth failure)."""
+
+    model: ClassVar[str] = "sluggish"
+    tau: float = 0.0
+
+    def __post_init__(self) -> None:
+        if (
+            isinstance(self.tau, bool)
+            or not isinstance(self.tau, (int, float))
+            or not (math.isfinite(self.tau) and self.tau > 0)
+        ):
+            raise ConfigurationError(
+                f"`tau` of Sluggish must be a positive time constant in seconds; got {self.tau!r}."
+            )
+        super().__post_init__()
+
+    def dynamics(self) -> dict[str, float]:
+        return {"tau": float(self.tau)}
+
+
 #: Failure models by the name used in scenario files.
 FAILURE_MODELS: dict[str, type[Failure]] = {
     cls.model: cls
@@ -309,5 +380,7 @@ FAILURE_MODELS: dict[str, type[Failure]] = {
         NonAffine,
         Reversal,
         PositionLimit,
+        RateLimited,
+        Sluggish,
     )
 }

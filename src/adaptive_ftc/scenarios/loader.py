@@ -783,9 +783,9 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         except ImportError:  # the engine before the code-generation rewrite
             from adaptive_ftc.sim.assemble import assemble
 
-            assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+            assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
         else:
-            generate(loop, sdot=solver.sdot)  # checks every part without compiling
+            generate(loop, sdot=solver.sdot_for(loop))  # checks every part without compiling
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
         raise _Problems from None

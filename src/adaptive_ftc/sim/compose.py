@@ -14,6 +14,7 @@ What a loop *is* decides the text; its numbers go into :class:`LoopData`. Set
 from __future__ import annotations
 
 import importlib
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -42,13 +43,17 @@ class LoopData(NamedTuple):
     inst: np.ndarray  # per failure instance: [shape (generated branch), offset in c]
     plant: Any  # the plant's parameters (a NamedTuple, or an array for expression plants)
     gains: Any  # the design's gains (a NamedTuple)
+    act: np.ndarray  # per (interval, actuator): [tau, rate, lower, upper] (actuator dynamics)
+    meas: np.ndarray  # per (interval, state): measurement offset, bias + noise (sensors)
+    samp: np.ndarray  # per interval: 1 where it starts at a controller sample (digital)
 
 
 #: The work array of one run, as named slices in this order: controller signals
 #: [x, e, e', s], regressor values, memberships, u0, commands, applied outputs, plant
 #: derivative, reference (y_d, y_d', y_d'' per output), q, misc [u_f compensation, adaptive
-#: gain, s' used, reference valid, reference time], design basis values.
-_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb")
+#: gain, s' used, reference valid, reference time, computing a sample], design basis values,
+#: scratch derivative (for ``jump``).
+_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb", "scr")
 
 
 @dataclass
@@ -136,6 +141,9 @@ class Assembled:
     n_x: int
     layout: dict[str, slice]  # named places: "c:<setting>" in data.c, "w:<buffer>" in work
     source: str = field(repr=False, default="")
+    #: names of the states after the controller's: actuator positions, held command and held
+    #: controller derivatives (digital control)
+    extra_names: tuple[str, ...] = ()
 
     def work(self) -> np.ndarray:
         """A fresh work array for one run (never shared between threads)."""
@@ -179,10 +187,42 @@ def _reference(g: Generator) -> str:
     return "\n".join(lines)
 
 
-def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str]):
-    """Failure dispatch functions and the per-phase instance table."""
+def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndarray]:
+    """Break times of the integration, whether each interval starts at a controller/sensor
+    sample, and the sample index of each interval.
+
+    The failure times always break the integration; a digital controller (or noise held at the
+    sensor rate) adds the sample instants ``t0 + k T``.
+    """
+    t0, t1 = float(loop.t0), float(loop.t_final)
+    fail = loop.failures.breakpoints(t0, t1)
+    period = loop.sample_time
+    if not period and loop.sensors is not None and loop.sensors.has_noise:
+        period = 1.0 / float(loop.sensors.rate)
+    if not period:
+        nph = len(fail) - 1
+        return fail, np.zeros(nph, dtype=np.int64), np.zeros(nph, dtype=np.int64)
+    n = int(math.floor((t1 - t0) / period + 1e-9))
+    grid = t0 + period * np.arange(n + 1)
+    tol = 1e-9 * max(1.0, abs(t1))
+    times = sorted(set(fail) | {float(t) for t in grid if t < t1 - tol})
+    merged: list[float] = []
+    for t in times:  # a failure time within rounding of a sample instant is that instant
+        if merged and t - merged[-1] <= tol:
+            if t in fail:
+                merged[-1] = t
+            continue
+        merged.append(t)
+    bps = tuple(merged)
+    starts = np.asarray(bps[:-1])
+    k = np.floor((starts - t0) / period + 1e-9).astype(np.int64)
+    on_grid = np.abs(starts - (t0 + k * period)) <= tol
+    return bps, on_grid.astype(np.int64), k
+
+
+def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], bps):
+    """Failure dispatch functions and the per-interval instance table."""
     loop = g.loop
-    bps = loop.failures.breakpoints(loop.t0, loop.t_final)
     nph = len(bps) - 1
     fphase = -np.ones((nph, g.m), dtype=np.int64)
     inst_shape: list[int] = []
@@ -302,7 +342,16 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     if sdot == "filtered":
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
     ny = filt + (p if sdot == "filtered" else 0)
-    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src = _failures(g, variables, names)
+    bps, samp, sample_index = _intervals(loop)
+    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src = _failures(g, variables, names, bps)
+    # actuator, sensor and sampling parts (beyond the thesis): states after the controller's
+    has_act = loop.has_actuator_dynamics
+    sampled = loop.sample_time > 0
+    has_meas = loop.sensors is not None
+    at_act = ny
+    at_hu = at_act + (m if has_act else 0)
+    at_hd = at_hu + (m if sampled else 0)
+    ny_all = at_hd + ((ny - nx) if sampled else 0)
     # ------------------------------------------------------------ the right-hand side
     pos, vel = plant.position_index, plant.velocity_index
     body = [
@@ -313,7 +362,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "    c = D.c",
         *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
         f"    for i in range({nx}):",
-        "        sig[i] = x[i]",
+        "        sig[i] = x[i] + D.meas[ph, i]  # what the sensors give"
+        if has_meas
+        else "        sig[i] = x[i]",
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
         "        reference(t, c, ref)",
         "        misc[4] = t",
@@ -321,9 +372,10 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "    # tracking errors e = y_d - y and filtered errors s (2.18)",
     ]
     for i in range(p):
+        seen = "sig" if has_meas else "x"  # the controller's errors use the measurements
         body += [
-            f"    e = ref[{3 * i}] - x[{pos[i]}]",
-            f"    ed = ref[{3 * i + 1}] - x[{vel[i]}]",
+            f"    e = ref[{3 * i}] - {seen}[{pos[i]}]",
+            f"    ed = ref[{3 * i + 1}] - {seen}[{vel[i]}]",
             f"    sig[{nx + i}] = e",
             f"    sig[{nx + p + i}] = ed",
             f"    sig[{nx + 2 * p + i}] = filtered_error(e, ed, c[LAM + {i}])",
@@ -340,14 +392,57 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "        acc = 0.0",
         f"        for i in range({p}):",
         f"            acc += c[RMAT + i * {m} + j] * u0[i]",
+        *(
+            [
+                "        if misc[5] == 0.0:  # between samples: the held command",
+                f"            acc = Y[{at_hu} + j]",
+            ]
+            if sampled
+            else []
+        ),
         "        u[j] = acc",
+        *(
+            [
+                "        if D.act[ph, j, 0] > 0.0:  # actuator position (a state)",
+                f"            acc = Y[{at_act} + j]",
+                "        else:  # an ideal actuator within its position limits",
+                "            acc = min(max(acc, D.act[ph, j, 2]), D.act[ph, j, 3])",
+            ]
+            if has_act
+            else []
+        ),
         "        k = D.fphase[ph, j]",
         "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
         "    plant_dynamics(t, x, uf, D.plant, xdot)",
         f"    for i in range({nx}):",
         "        dY[i] = xdot[i]",
-        "    # q = s' + k s + k0 tanh(s/eps0)",
     ]
+    if has_act:
+        body += [
+            "    # actuators: a' = clip((clip(u, lower, upper) - a) / tau, -rate, rate)",
+            f"    for j in range({m}):",
+            "        tau = D.act[ph, j, 0]",
+            "        if tau > 0.0:",
+            "            target = min(max(u[j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+            "            rate = D.act[ph, j, 1]",
+            f"            da = (target - Y[{at_act} + j]) / tau",
+            f"            dY[{at_act} + j] = min(max(da, -rate), rate)",
+            "        else:",
+            f"            dY[{at_act} + j] = 0.0",
+        ]
+    held = []
+    if sampled:
+        body += [
+            "    # held command and held controller derivatives change only at samples",
+            f"    for i in range({at_hu}, {ny_all}):",
+            "        dY[i] = 0.0",
+        ]
+        held = [
+            "    if misc[5] == 0.0:  # between samples: the derivatives computed at the sample",
+            f"        for i in range({nx}, {ny}):",
+            f"            dY[i] = Y[{at_hd - nx} + i]",
+        ]
+    body.append("    # q = s' + k s + k0 tanh(s/eps0)")
     for i in range(p):
         s_at = nx + 2 * p + i
         if sdot == "exact":  # s' from the plant derivative (SPEC §1)
@@ -366,16 +461,46 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "    if c[ADAPT] == 0.0:  # adaptation frozen",
         f"        for i in range({nx}, {filt}):",
         "            dY[i] = 0.0",
+        *["    " + ln for ln in held],
         "        return",
     ]
     body += adapt_src
-    jump_src = "\n".join(
-        [
-            "@hot",
-            "def jump(t, Y, ph, D, W):",
-            '    """State update at the start of interval ``ph`` (none: a continuous loop)."""',
+    body += held
+    jump_src = [
+        "@hot",
+        "def jump(t, Y, ph, D, W):",
+        '    """State update at the start of interval ``ph`` (none: a continuous loop)."""',
+    ]
+    if sampled or has_act:
+        jump_src += [
+            "    scratch = W[SCR:SCR + N_SCR]",
+            "    misc = W[MISC:MISC + N_MISC]",
         ]
-    )
+    if sampled:
+        jump_src += [
+            "    if D.samp[ph] != 0:  # a controller sample: new command and derivatives, held",
+            "        misc[5] = 1.0",
+            "        rhs(t, Y, ph, D, W, scratch)",
+            "        misc[5] = 0.0",
+            f"        for j in range({m}):",
+            f"            Y[{at_hu} + j] = W[U + j]",
+            f"        for i in range({nx}, {ny}):",
+            f"            Y[{at_hd - nx} + i] = scratch[i]",
+        ]
+    if has_act:
+        jump_src += [
+            "    # an actuator that was ideal (or starts at its first command) is where its",
+            "    # command puts it when it becomes a dynamic one",
+            "    rhs(t, Y, ph, D, W, scratch)",
+            f"    for j in range({m}):",
+            "        if ph == 0:",
+            "            was_ideal = D.c[ACT0] != 0.0",
+            "        else:",
+            "            was_ideal = D.act[ph - 1, j, 0] == 0.0",
+            "        if was_ideal:",
+            f"            Y[{at_act} + j] = min(max(W[U + j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+        ]
+    jump_src = "\n".join(jump_src)
     # ------------------------------------------------------------ imports and module
     imports = [
         "import math",
@@ -438,6 +563,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "adapt": (1.0 if loop.adapt else 0.0,),
         "centers": tuple(g.centers),
         "spread": tuple(g.spread),
+        "act0": (1.0 if has_act and not (loop.actuators and loop.actuators.initial) else 0.0,),
     }
     layout: dict = {}
     values = list(g.consts)  # expression constants first: their indices are in the text
@@ -451,6 +577,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "adapt": "ADAPT",
         "centers": "CEN",
         "spread": "SPREAD",
+        "act0": "ACT0",
     }
     consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
     for key, vals in settings.items():
@@ -471,6 +598,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "q": p,
         "misc": 8,
         "wb": max(g.n_w, 1),
+        "scr": ny_all if (sampled or has_act) else 1,
     }
     consts_lines.append("# places of the buffers in the work array W")
     at = 0
@@ -497,11 +625,66 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         inst=inst,
         plant=plant.parameter_values(),
         gains=ctrl.gains(),
+        act=_actuator_table(loop, bps) if has_act else np.zeros((1, 1, 4)),
+        meas=_measurements(loop, sample_index) if has_meas else np.zeros((1, 1)),
+        samp=samp if sampled else np.zeros(1, dtype=np.int64),
     )
+    extra = []
+    if has_act:
+        extra += [f"position of {a}" for a in plant.actuator_names]
+    if sampled:
+        extra += [f"held command of {a}" for a in plant.actuator_names]
+        extra += [f"held derivative of {n}" for n in g.adaptive_names]
     layout.update(
-        bps=bps, ny=ny, filt=filt, n_phi=n_phi, theta_slices=tuple(theta_slices), mods=mods
+        bps=bps,
+        ny=ny,
+        ny_all=ny_all,
+        at_act=at_act,
+        extra_names=tuple(extra),
+        filt=filt,
+        n_phi=n_phi,
+        theta_slices=tuple(theta_slices),
+        mods=mods,
     )
     return text, data, g, layout
+
+
+def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
+    """``[tau, rate, lower, upper]`` per (interval, actuator): the declared actuators, changed
+    by the dynamics failures (:class:`~adaptive_ftc.faults.models.RateLimited`,
+    :class:`~adaptive_ftc.faults.models.Sluggish`) in their windows."""
+    from adaptive_ftc.hardware import RATE_ONLY_TAU, Actuators
+
+    m = loop.plant.n_actuators
+    base = (loop.actuators or Actuators()).table(m)
+    out = np.repeat(base[None, :, :], len(bps) - 1, axis=0)
+    for k in range(len(bps) - 1):
+        mid = 0.5 * (bps[k] + bps[k + 1])
+        for j, f in enumerate(loop.failures.active(mid)):
+            change = getattr(f, "dynamics", None)
+            if change is None:
+                continue
+            row = out[k, j]
+            for key, v in change().items():
+                row[0 if key == "tau" else 1] = v
+            if row[0] == 0.0 and math.isfinite(row[1]):
+                row[0] = RATE_ONLY_TAU
+    return out
+
+
+def _measurements(loop: ClosedLoop, sample_index: np.ndarray) -> np.ndarray:
+    """Measurement offset ``bias + noise`` per (interval, state); noise sample ``k`` holds on
+    sample interval ``k`` (drawn in time order, so a shorter run sees the same noise)."""
+    sensors = loop.sensors
+    n = loop.plant.n_states
+    std, bias = sensors.per_state(loop.plant.aliases(), n)
+    n_rows = len(sample_index)
+    out = np.repeat(bias[None, :], n_rows, axis=0)
+    if sensors.has_noise:
+        rng = np.random.default_rng(sensors.seed)
+        z = rng.standard_normal((int(sample_index.max()) + 1, n))
+        out += z[sample_index] * std[None, :]
+    return out
 
 
 def _guarded() -> list[str]:
@@ -531,7 +714,7 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     data.c[layout["c:filter_tau"]] = float(filter_tau)
     module = codegen.load_module(text, imports=layout["mods"], inject=g.inject)
     nx, p = g.nx, g.p
-    y0 = np.zeros(layout["ny"])
+    y0 = np.zeros(layout["ny_all"])
     y0[:nx] = loop.initial_state
     y0[nx : nx + layout["n_phi"]] = loop.controller.theta0
     y0[nx + layout["n_phi"] : layout["filt"]] = g.y0_extra
@@ -543,6 +726,15 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
                 f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
             )
         y0[nx : layout["filt"]] = loop.adaptive_initial
+    if loop.actuators is not None and loop.actuators.initial:
+        at = layout["at_act"]
+        y0[at : at + g.m] = loop.actuators.initial
+    if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
+        raise ConfigurationError(
+            f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "
+            f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
+            f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
+        )
     asm = Assembled(
         module=module,
         data=data,
@@ -553,6 +745,7 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         n_x=nx,
         layout={k: v for k, v in layout.items() if ":" in k},
         source=text,
+        extra_names=layout["extra_names"],
     )
     if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
         ref = np.zeros(3 * p)

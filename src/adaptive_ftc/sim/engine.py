@@ -48,7 +48,8 @@ class SolverOptions:
     sdot
         ``"exact"``: ``s'`` from the plant derivative inside the right-hand side (SPEC §1);
         ``"filtered"``: a first-order dirty-derivative filter of ``s`` with time constant
-        ``filter_tau`` (what a real system could measure).
+        ``filter_tau`` (what a real system could measure); ``"auto"`` (default): ``"filtered"``
+        when the loop has measurement noise or a digital controller, else ``"exact"``.
     divergence_bound
         A run stops (keeping its partial result) when any state leaves ``|y| < bound`` or
         becomes non-finite.
@@ -60,7 +61,7 @@ class SolverOptions:
     atol: float = 1e-10
     max_step: float = math.inf
     record_dt: float = 0.01
-    sdot: str = "exact"
+    sdot: str = "auto"
     filter_tau: float = 0.01
     divergence_bound: float = 1e8
 
@@ -89,10 +90,16 @@ class SolverOptions:
                 or (math.isnan(v))
             ):
                 raise ConfigurationError(f"`{key}` of SolverOptions must be positive; got {v!r}.")
-        if self.sdot not in ("exact", "filtered"):
+        if self.sdot not in ("auto", "exact", "filtered"):
             raise ConfigurationError(
-                f"`sdot` of SolverOptions must be 'exact' or 'filtered'; got {self.sdot!r}."
+                f"`sdot` of SolverOptions must be 'auto', 'exact' or 'filtered'; got {self.sdot!r}."
             )
+
+    def sdot_for(self, loop: ClosedLoop) -> str:
+        """The ``s'`` this setting uses on ``loop`` (``"auto"`` resolved)."""
+        if self.sdot != "auto":
+            return self.sdot
+        return "filtered" if loop.measured_with_noise else "exact"
 
     @property
     def compiled_method(self) -> str | None:
@@ -177,7 +184,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
     from adaptive_ftc.sim.budget import check_run_size
 
     check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
-    asm = assemble(loop, sdot=solver.sdot, filter_tau=solver.filter_tau)
+    asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
     t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
     bps = np.array(asm.breakpoints)
     stats = np.zeros(5, dtype=np.int64)
@@ -336,7 +343,7 @@ def _interruptible(run):
 
 
 def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
-    names = list(loop.plant.state_names) + list(asm.adaptive_names)
+    names = list(loop.plant.state_names) + list(asm.adaptive_names) + list(asm.extra_names)
     return names[index] if 0 <= index < len(names) else f"state {index}"
 
 
@@ -375,6 +382,7 @@ def _integrate_scipy(
     blowup.terminal = True
     for ph in range(nph):
         a, b = float(bps[ph]), float(bps[ph + 1])
+        asm.module.jump(a, y, ph, asm.data, W)  # e.g. a digital controller's sample
         last = ph == nph - 1
         tol = 1e-9 * max(1.0, abs(b))
         sel = (t_rec >= a - tol) & ((t_rec <= b + tol) if last else (t_rec < b - tol))

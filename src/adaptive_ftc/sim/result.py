@@ -127,7 +127,7 @@ class SimResult:
             "adapt": loop.adapt,
             "solver": solver.method,
             "dt": solver.dt,
-            "sdot": solver.sdot,
+            "sdot": solver.sdot_for(loop),
             "t_final": loop.t_final,
             "wall_time_s": wall_time,
             "solver_settings": _solver_settings(solver),
@@ -137,7 +137,7 @@ class SimResult:
         return cls(
             time=T.copy(),
             states=Y[:, :n].copy(),
-            adaptive=Y[:, n:].copy(),
+            adaptive=Y[:, n : n + len(asm.adaptive_names)].copy(),
             y=cols[0],
             yd=cols[1],
             yd_dot=cols[2],

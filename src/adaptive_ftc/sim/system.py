@@ -15,6 +15,7 @@ from adaptive_ftc.faults.schedule import (
     FailureSchedule,
     check_compensability,
 )
+from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.plants.base import Plant
 
 __all__ = ["ClosedLoop"]
@@ -52,6 +53,14 @@ class ClosedLoop:
         order of ``SimResult.adaptive_names``); empty: ``theta0`` and the design's defaults.
         With ``adapt=False`` this gives a fixed-gain controller (e.g. the parameters reached
         at the end of a failure-free run).
+    actuators
+        Actuator dynamics (:class:`~adaptive_ftc.hardware.Actuators`: lag, rate and position
+        limits); ``None``: the thesis's ideal actuators.
+    sensors
+        Measurement noise and bias (:class:`~adaptive_ftc.hardware.Sensors`); ``None``: the
+        controller sees the exact state.
+    sample_time
+        Period (s) of a digital, sample-and-hold controller; 0: continuous-time controller.
     """
 
     plant: Plant
@@ -65,6 +74,9 @@ class ClosedLoop:
     name: str = ""
     t0: float = field(default=0.0)
     adaptive_initial: tuple = ()
+    actuators: Actuators | None = None
+    sensors: Sensors | None = None
+    sample_time: float = 0.0
 
     def __post_init__(self) -> None:
         plant = self.plant
@@ -139,11 +151,50 @@ class ClosedLoop:
             raise ConfigurationError(
                 f"`t_final` must be a finite time after t0 = {self.t0}; got {self.t_final!r}."
             )
+        if self.actuators is not None:
+            if not isinstance(self.actuators, Actuators):
+                raise ConfigurationError(
+                    "`actuators` must be an adaptive_ftc.hardware.Actuators; got "
+                    f"{self.actuators!r}."
+                )
+            self.actuators.table(m)  # checks every value against the plant's actuators
+        if self.sensors is not None:
+            if not isinstance(self.sensors, Sensors):
+                raise ConfigurationError(
+                    f"`sensors` must be an adaptive_ftc.hardware.Sensors; got {self.sensors!r}."
+                )
+            self.sensors.per_state(plant.aliases(), n)  # checks the state names
+        ts = self.sample_time
+        if (
+            isinstance(ts, bool)
+            or not isinstance(ts, (int, float))
+            or not math.isfinite(ts)
+            or ts < 0
+            or (ts > 0 and ts > self.t_final - self.t0)
+        ):
+            raise ConfigurationError(
+                f"`sample_time` must be 0 (continuous controller) or a period in seconds shorter "
+                f"than the run ({self.t_final - self.t0:g} s); got {ts!r}."
+            )
+        object.__setattr__(self, "sample_time", float(ts))
         if self.controller.single_output and p != 1:
             raise ConfigurationError(
                 f"Design '{self.controller.design}' is single-output but plant '{plant.name}' "
                 f"has {p} outputs; use the 'mimo' design."
             )
+
+    @property
+    def has_actuator_dynamics(self) -> bool:
+        """Whether the actuators have states (declared dynamics or a dynamics failure)."""
+        return self.actuators is not None or any(
+            hasattr(f, "dynamics") for f in self.failures.failures
+        )
+
+    @property
+    def measured_with_noise(self) -> bool:
+        """Whether the controller sees noisy measurements or runs sampled (then the honest
+        ``s'`` is the filtered one)."""
+        return self.sample_time > 0 or (self.sensors is not None and self.sensors.has_noise)
 
     @property
     def R(self) -> np.ndarray:

@@ -20,6 +20,10 @@ def dfailure(k, t, x, u, D):
     raise NotImplementedError
 
 
+def filtered_error(e, edot, lam):
+    raise NotImplementedError
+
+
 # module constants of every generated loop (sizes and places in the work array)
 NX = P = M = SIG = N_SIG = REF = N_REF = XDOT = N_XDOT = Q = N_Q = U0 = N_U0 = U = N_U = 0
 UF = N_UF = MISC = N_MISC = LAM = RMAT = 0
@@ -55,12 +59,15 @@ def signals(T, Ys, phases, D, W, out):
         misc[3] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
         for i in range(P):
+            # the true tracking errors (the controller's own, in sig, may be measured ones)
+            e = ref[3 * i] - Y[POS[i]]
+            ed = ref[3 * i + 1] - Y[VEL[i]]
             out[n, i] = Y[POS[i]]
             out[n, P + i] = ref[3 * i]
             out[n, 2 * P + i] = ref[3 * i + 1]
-            out[n, 3 * P + i] = sig[NX + i]
-            out[n, 4 * P + i] = sig[NX + P + i]
-            out[n, 5 * P + i] = sig[NX + 2 * P + i]
+            out[n, 3 * P + i] = e
+            out[n, 4 * P + i] = ed
+            out[n, 5 * P + i] = filtered_error(e, ed, c[LAM + i])
             out[n, 6 * P + i] = ref[3 * i + 2] - xdot[VEL[i]] + c[LAM + i] * sig[NX + P + i]
             out[n, 7 * P + i] = q[i]
             out[n, 8 * P + i] = u0[i]
