@@ -226,3 +226,38 @@ def test_loss_of_effectiveness_acts_on_the_actuator_position():
     exact = 1.0 - np.exp(-r.time / 0.1)
     np.testing.assert_allclose(r.u_applied[:, 0], 0.5 * exact, atol=1e-9)
     np.testing.assert_allclose(r.u_applied[:, 1], exact, atol=1e-9)
+
+
+def test_scenario_files_declare_actuators_sensors_and_digital_control(tmp_path):
+    from adaptive_ftc.errors import ScenarioError
+    from adaptive_ftc.scenarios import load_scenario
+
+    text = """
+extends = "hypersonic-direct-s1"
+name = "hw"
+[actuators]
+tau = [0.05, 0.02]
+rate = 20.0
+upper = 1.0
+[sensors]
+noise = {alpha = 1e-4, q = 1e-3}
+bias = {alpha = 1e-5}
+seed = 3
+[digital]
+sample_time = 0.005
+"""
+    path = tmp_path / "hw.toml"
+    path.write_text(text)
+    loop = load_scenario(path).loop
+    assert loop.actuators == Actuators(tau=(0.05, 0.02), rate=20.0, upper=1.0)
+    assert loop.sensors.noise == {"alpha": 1e-4, "q": 1e-3} and loop.sensors.seed == 3
+    assert loop.sample_time == 0.005
+    path.write_text(text.replace("seed = 3", "sead = 3"))
+    with pytest.raises(ScenarioError, match="sensors.*unknown key 'sead'"):
+        load_scenario(path)
+    path.write_text(text.replace("alpha = 1e-4", "alfa = 1e-4"))
+    with pytest.raises(ScenarioError, match="unknown state 'alfa'"):
+        load_scenario(path)
+    path.write_text(text.replace("sample_time = 0.005", "sample_time = -1"))
+    with pytest.raises(ScenarioError, match="digital"):
+        load_scenario(path)

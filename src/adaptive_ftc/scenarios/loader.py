@@ -20,6 +20,7 @@ from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
+from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.plants import PLANTS
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.engine import SolverOptions, simulate
@@ -44,6 +45,9 @@ _TOP = {
     "reference",
     "controller",
     "failures",
+    "actuators",
+    "sensors",
+    "digital",
     "solver",
     "claims",
     "figure",
@@ -733,6 +737,27 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             failures.append(_component(FAILURE_MODELS[fmodel], ft, ctx, where))
         except _Problems:
             failures_ok = False
+    # ---------------------------------------------------------------- hardware
+    hardware: dict[str, Any] = {}
+    for key, cls in (("actuators", Actuators), ("sensors", Sensors)):
+        if key in data:
+            tab = ctx.table(data[key], key)
+            if tab is not None:
+                try:
+                    hardware[key] = _component(cls, dict(tab), ctx, key)
+                except _Problems:
+                    pass
+    if "digital" in data:
+        dtab = ctx.table(data["digital"], "digital")
+        if dtab is not None and ctx.keys(dtab, {"sample_time"}, "digital"):
+            ts = dtab.get("sample_time")
+            if isinstance(ts, bool) or not isinstance(ts, (int, float)) or not ts > 0:
+                ctx.add(
+                    "digital",
+                    f"`sample_time`: the controller's period in seconds (> 0); got {_show(ts)}.",
+                )
+            else:
+                hardware["sample_time"] = float(ts)
     # ---------------------------------------------------------------- solver
     solver = None
     stab = ctx.table(data.get("solver", {}), "solver")
@@ -764,6 +789,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             t_final=duration,
             adapt=adapt,
             name=name,
+            **hardware,
         ),
         ctx,
         "",
@@ -835,7 +861,7 @@ def scenario_schema() -> dict[str, Any]:
     Examples
     --------
     >>> sorted(scenario_schema()["propertyNames"]["enum"])[:3]
-    ['claims', 'controller', 'description']
+    ['actuators', 'claims', 'controller']
     """
     from adaptive_ftc._version import __version__
 
@@ -914,6 +940,19 @@ def scenario_schema() -> dict[str, Any]:
         "controller": {"oneOf": designs},
         "failures": {"type": "array", "items": {"oneOf": fails}, "maxItems": MAX_FAILURES},
         "solver": obj(solver["properties"]),
+        "actuators": obj(
+            _class_schema(Actuators)["properties"],
+            extra={"description": "actuator lag, rate and position limits (per actuator)"},
+        ),
+        "sensors": obj(
+            _class_schema(Sensors)["properties"],
+            extra={"description": "measurement noise (std) and bias by state name, seed"},
+        ),
+        "digital": obj(
+            {"sample_time": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_NUMBER}},
+            ["sample_time"],
+            {"description": "sample-and-hold controller period in seconds"},
+        ),
     }
     props = dict(sorted(props.items()))
     partial = {k: _without_required(v) for k, v in props.items()}
