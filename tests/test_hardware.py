@@ -261,3 +261,11 @@ sample_time = 0.005
     path.write_text(text.replace("sample_time = 0.005", "sample_time = -1"))
     with pytest.raises(ScenarioError, match="digital"):
         load_scenario(path)
+
+
+def test_too_many_samples_are_refused_before_anything_is_allocated():
+    with pytest.raises(ConfigurationError, match="samples, more than the limit"):
+        simulate(replace(_loop((0.0,), sample_time=1e-9), t_final=100.0))
+    with pytest.raises(ConfigurationError, match="noise `rate`"):
+        loop = _loop((0.0,), sensors=Sensors(noise=(0.1, 0.0), rate=1e9), t_final=100.0)
+        simulate(loop)

@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "MAX_RECORDED_BYTES",
+    "MAX_INTERVALS",
     "MAX_SAMPLES",
     "MAX_STEPS",
     "RunSize",
@@ -36,6 +37,9 @@ MAX_RECORDED_BYTES: int = 2 * 1024**3
 MAX_STEPS: float = 5e8
 #: Most recorded samples of one run.
 MAX_SAMPLES: float = 5e7
+#: Most controller (or sensor-noise) sample intervals of one run: each is an integration
+#: restart with its own row of the failure, actuator and measurement tables.
+MAX_INTERVALS: float = 2e7
 
 
 @dataclass(frozen=True)
@@ -135,6 +139,17 @@ def check_run_size(loop: ClosedLoop, solver: SolverOptions) -> RunSize:
         raise ConfigurationError(
             f"{what} needs more than {MAX_STEPS:.3g} integration steps. Increase `solver.dt` "
             f"(now {solver.dt:g} s; >= {span / MAX_STEPS:.3g} s fits) or shorten `duration`."
+        )
+    period = float(getattr(loop, "sample_time", 0.0) or 0.0)
+    sensors = getattr(loop, "sensors", None)
+    if not period and sensors is not None and sensors.has_noise:
+        period = 1.0 / float(sensors.rate)
+    if period and span / period > MAX_INTERVALS:
+        what_t = "`sample_time`" if loop.sample_time else "the sensors' noise `rate`"
+        raise ConfigurationError(
+            f"{what} has {span / period:.3g} controller/sensor samples, more than the limit of "
+            f"{MAX_INTERVALS:.3g}. Make {what_t} coarser (a period >= {span / MAX_INTERVALS:.3g} "
+            "s fits) or shorten `duration`."
         )
     if size.samples > MAX_SAMPLES or size.nbytes > MAX_RECORDED_BYTES:
         fit = span * size.columns * 8.0 / MAX_RECORDED_BYTES
