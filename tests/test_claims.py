@@ -131,6 +131,38 @@ def test_tracking_with_baseline_ratio_needs_the_frozen_run():
         evaluate_claim(claim, make_result())
 
 
+def test_baseline_ratio_is_held_against_the_best_non_oracle_baseline():
+    """Truth by construction: frozen 50x, fixed-gain 10x, nominal inverse 2x worse than the
+    adaptive run, the oracle 10x better. The claim (3x) is judged against the nominal inverse
+    (2x: FAIL) and the oracle never counts, though every ratio is reported."""
+    r = make_result(e=error_after(0.01))
+    claim = {"kind": "tracking", "text": "t", "threshold": 0.01, "baseline_ratio": 3.0}
+    runs = {
+        "fixed-gain": make_result(e=error_after(0.1)),
+        "nominal-inverse": make_result(e=error_after(0.02)),
+        "oracle": make_result(e=error_after(0.001)),
+    }
+    c = evaluate_claim(claim, r, frozen=make_result(e=error_after(0.5)), baselines=runs)
+    assert not c.passed and "best non-oracle baseline: nominal-inverse, 2 x adaptive" in c.detail
+    got = {name: ratio for name, _, ratio in c.baselines}
+    assert set(got) == {"fixed-gain", "nominal-inverse", "oracle", "frozen"}
+    for name, want in (("fixed-gain", 10), ("nominal-inverse", 2), ("oracle", 0.1), ("frozen", 50)):
+        assert_close(got[name], want, atol=0, rtol=1e-9)
+    # without the nominal inverse the best fair baseline is 10x worse: PASS
+    del runs["nominal-inverse"]
+    c = evaluate_claim(claim, r, baselines=runs)
+    assert c.passed and "best non-oracle baseline: fixed-gain" in c.detail
+    # a baseline that could not be run is named, not counted
+    c = evaluate_claim(claim, r, baselines={**runs, "nominal-inverse": None})
+    assert c.passed and "nominal-inverse baseline not run" in c.detail
+
+
+def test_oracle_alone_cannot_judge_a_baseline_ratio():
+    claim = {"kind": "tracking", "text": "t", "threshold": 0.01, "baseline_ratio": 3.0}
+    with pytest.raises(ClaimError, match="non-oracle baseline"):
+        evaluate_claim(claim, make_result(), baselines={"oracle": make_result()})
+
+
 def test_tracking_fails_for_a_diverged_run_even_with_small_error():
     r = truncated(make_result(), 90.0)  # stops inside the last window
     c = evaluate_claim({"kind": "tracking", "text": "t", "threshold": 1.0}, r)

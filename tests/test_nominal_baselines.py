@@ -269,3 +269,36 @@ def test_campaigns_accept_the_names():
     for name, cls in (("nominal-inverse", NominalInverse), ("oracle", OracleInverse)):
         loop = member.design_loop(name)
         assert type(loop.controller) is cls and loop.failures == member.loop.failures
+
+
+def test_report_shows_every_baseline_and_marks_the_oracle():
+    from adaptive_ftc.claims import ClaimResult
+    from adaptive_ftc.report import ScenarioEntry, render_report
+
+    claim = ClaimResult(
+        kind="tracking",
+        text="tracking kept",
+        passed=False,
+        measured=1e-3,
+        threshold=2.5e-3,
+        detail="...",
+        unit="rad",
+        baselines=(
+            ("nominal-inverse", 1e-5, 0.01),
+            ("oracle", 1e-14, 1e-11),
+            ("frozen", math.inf, math.inf),
+        ),
+    )
+    entry = ScenarioEntry(
+        name="sc",
+        title="Sc",
+        claims=[claim],
+        error_ratio=math.inf,
+        baseline_ratios={"fixed-gain": math.inf, "nominal-inverse": 0.0125, "oracle": 1e-11},
+    )
+    assert entry.best_fair_ratio == ("nominal-inverse", 0.0125)
+    page = render_report([entry])
+    assert "<td>0.0125 (nominal-inverse)</td>" in page  # summary: best fair baseline
+    assert "oracle (knows the failure; not compared with)" in page  # scenario table
+    assert "oracle (oracle: shown, not compared with): RMS 1e-14 rad = <b>1e-11</b>" in page
+    assert "nominal-inverse: RMS 1e-05 rad = <b>0.01</b> × adaptive" in page

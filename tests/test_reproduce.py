@@ -13,7 +13,7 @@ import xarray as xr
 from adaptive_ftc import load_scenario
 from adaptive_ftc.claims import VERDICTS, ClaimResult
 from adaptive_ftc.report import FigureEntry, ScenarioEntry, render_report
-from adaptive_ftc.reproduce import quick_duration, run_reproduction
+from adaptive_ftc.reproduce import VARIANTS, quick_duration, run_reproduction
 
 NAMES = ["hypersonic-direct-s1", "hypersonic-direct-s2"]
 
@@ -32,7 +32,9 @@ def test_quick_mode_keeps_the_first_failure_inside_the_run():
 
 def test_reproduction_writes_figures_data_tables_and_report(reproduction):
     out, summary = reproduction
-    assert summary["n_scenarios"] == 2 and summary["n_runs"] == 6
+    # adaptive, frozen, failure-free + the fixed-gain, nominal-inverse and oracle baselines
+    # (both scenarios have a baseline_ratio claim)
+    assert summary["n_scenarios"] == 2 and summary["n_runs"] == 12
     assert (
         summary["n_claims"]
         == summary["n_pass"]
@@ -47,7 +49,14 @@ def test_reproduction_writes_figures_data_tables_and_report(reproduction):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert (out / "figures" / f"fig_{number}.pdf").read_bytes()[:5] == b"%PDF-"
     for name in NAMES:
-        for suffix in ("", "_frozen", "_failure_free"):
+        for suffix in (
+            "",
+            "_frozen",
+            "_failure_free",
+            "_fixed-gain",
+            "_nominal-inverse",
+            "_oracle",
+        ):
             ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="h5netcdf")
             assert ds.sizes["time"] > 100
             ds.close()
@@ -58,7 +67,7 @@ def test_metrics_csv_has_one_row_per_run_and_the_adaptation_ratio(reproduction):
     with (out / "metrics.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["scenario"], r["variant"]) for r in rows] == [
-        (n, v) for n in NAMES for v in ("adaptive", "frozen", "failure_free")
+        (n, v) for n in NAMES for v in VARIANTS
     ]
     for r in rows:
         assert r["status"] == "completed"
@@ -70,8 +79,12 @@ def test_metrics_csv_has_one_row_per_run_and_the_adaptation_ratio(reproduction):
         assert float(r["t_end"]) == pytest.approx(52.0)  # quick duration
     for r in rows:
         if r["variant"] == "adaptive":
-            # frozen adaptation leaves a much larger error than the adaptive design
+            # frozen adaptation leaves a much larger error than the adaptive design, and so
+            # does the best fair baseline (the nominal inverse); the oracle does better
             assert float(r["error_ratio_frozen_over_adaptive"]) > 10
+            assert float(r["error_ratio_best_fair_baseline_over_adaptive"]) > 10
+            assert r["best_fair_baseline"] == "nominal-inverse"
+            assert float(r["error_ratio_oracle_over_adaptive"]) < 1
         else:
             assert r["error_ratio_frozen_over_adaptive"] == ""
 

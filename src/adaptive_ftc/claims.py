@@ -26,18 +26,23 @@ Conventions
 - Tracking errors are judged per output; the measured number is the worst output.
 - A window ``[a, b)`` "before ``time``" excludes ``time`` itself (the recorded sample at a
   failure time already shows the failed actuator).
+- ``baseline_ratio`` is held against the *best* (smallest RMS error) non-oracle baseline run
+  given (fixed-gain, nominal inverse, frozen adaptation; :mod:`adaptive_ftc.baselines`); a
+  diverged baseline counts as infinitely worse. The oracle's ratio is reported, not judged.
 
 Examples
 --------
 >>> from adaptive_ftc import load_scenario                                 # doctest: +SKIP
 >>> sc = load_scenario("hypersonic-direct-s1")                             # doctest: +SKIP
->>> r, frozen = sc.run(), sc.run(adapt=False)                              # doctest: +SKIP
->>> for c in evaluate_claims(sc.claims, r, frozen=frozen):                 # doctest: +SKIP
+>>> from adaptive_ftc.baselines import run_baselines                       # doctest: +SKIP
+>>> r, base = sc.run(), run_baselines(sc)                                  # doctest: +SKIP
+>>> for c in evaluate_claims(sc.claims, r, baselines=base):                # doctest: +SKIP
 ...     print(c.verdict, c.kind, c.measured, c.unit, c.threshold)
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -95,6 +100,9 @@ class ClaimResult:
         One of :data:`VERDICTS`; derived from ``passed`` when left empty.
     unit
         SI unit of ``measured`` and ``threshold`` (``""`` for ratios and fractions).
+    baselines
+        For a claim with ``baseline_ratio``: ``(baseline, RMS error, RMS error / measured)``
+        of every baseline run given, the oracle included (``inf`` for a diverged run).
     """
 
     kind: str
@@ -105,6 +113,7 @@ class ClaimResult:
     detail: str
     status: str = ""
     unit: str = ""
+    baselines: tuple[tuple[str, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         status = self.status or (PASS if self.passed else FAIL)
@@ -350,7 +359,32 @@ def _last_window(c: Mapping[str, Any], r: SimResult) -> tuple[float, float]:
 
 
 # ---------------------------------------------------------------------------- kinds
-def _error_claim(c, r, frozen, signal: np.ndarray, what: str, unit: str) -> ClaimResult:
+#: Baselines a ``baseline_ratio`` is never held against (they know the true failure).
+ORACLES: frozenset[str] = frozenset({"oracle"})
+
+
+def _baseline_rows(c, r, baselines, start: float, end: float, worst: float):
+    """``(name, RMS error, RMS / worst)`` of every baseline run, in the given order; a run
+    that diverged, or has no samples in the window, counts as infinitely worse. Also returns
+    notes on the runs that could not be judged."""
+    rows, notes = [], []
+    for name, b in baselines.items():
+        if b is None:
+            notes.append(f"{name} baseline not run")
+            continue
+        if _diverged(b):
+            rms, why = math.inf, "diverged"
+        elif (brms := _window_rms(b.e, b, start, end)) is None:
+            rms, why = math.inf, "no samples in the window"
+        else:
+            rms, why = float(np.max(brms)), ""
+        if why:
+            notes.append(f"{name} baseline {why} (infinitely worse)")
+        rows.append((name, rms, rms / worst if worst > 0 else math.inf))
+    return tuple(rows), notes
+
+
+def _error_claim(c, r, baselines, signal: np.ndarray, what: str, unit: str) -> ClaimResult:
     thr = float(c["threshold"])
     start, end = _last_window(c, r)
     if why := _uncovered(c, r, end):
@@ -363,35 +397,42 @@ def _error_claim(c, r, frozen, signal: np.ndarray, what: str, unit: str) -> Clai
     names = ", ".join(f"{n} {_fmt(v, unit)}" for n, v in zip(r.output_names, rms, strict=True))
     detail = f"RMS {what} over [{start:g}, {end:g}] s: {names} (<= {_fmt(thr, unit)} required)"
     ratio_req = c.get("baseline_ratio")
+    rows: tuple = ()
     if ratio_req is not None:
-        if frozen is None or _diverged(frozen):
-            ratio = math.inf
-            detail += "; frozen-adaptation baseline diverged (infinitely worse)"
-        elif (frms := _window_rms(frozen.e, frozen, start, end)) is None:
-            ratio = math.inf
-            detail += "; frozen-adaptation baseline has no samples there"
-        else:
-            f_worst = float(np.max(frms))
-            ratio = f_worst / worst if worst > 0 else math.inf
+        rows, notes = _baseline_rows(c, r, baselines, start, end, worst)
+        fair = [row for row in rows if row[0] not in ORACLES]
+        if notes:
+            detail += "; " + "; ".join(notes)
+        detail += "; baseline RMS: " + ", ".join(
+            f"{n} {_fmt(v, unit)} = {_fmt(q)} x adaptive" for n, v, q in rows
+        )
+        if fair:
+            name, _, ratio = min(fair, key=lambda row: row[1])
             detail += (
-                f"; frozen-adaptation RMS {_fmt(f_worst, unit)} = {_fmt(ratio)} x adaptive "
+                f"; best non-oracle baseline: {name}, {_fmt(ratio)} x adaptive "
                 f"(>= {_fmt(float(ratio_req))} x required)"
             )
+        else:  # only an oracle was run (or nothing could be judged)
+            ratio = math.inf
+            detail += "; no non-oracle baseline was run"
         ok = ok and ratio >= float(ratio_req)
-    return _result(c, ok, worst, thr, detail, unit)
+    res = _result(c, ok, worst, thr, detail, unit)
+    return dataclasses.replace(res, baselines=rows) if rows else res
 
 
-def _tracking(c, r, frozen):
-    if c["baseline_ratio"] is not None and frozen is None:
+def _tracking(c, r, baselines):
+    if c["baseline_ratio"] is not None and not any(
+        b is not None and n not in ORACLES for n, b in baselines.items()
+    ):
         raise ClaimError(
-            f"{_name(c)} has 'baseline_ratio' and needs the frozen-adaptation run: "
-            "pass frozen=scenario.run(adapt=False)."
+            f"{_name(c)} has 'baseline_ratio' and needs a non-oracle baseline run: pass "
+            "baselines=run_baselines(scenario) (or at least frozen=scenario.run(adapt=False))."
         )
-    return _error_claim(c, r, frozen, r.e, "tracking error", output_unit(r.meta))
+    return _error_claim(c, r, baselines, r.e, "tracking error", output_unit(r.meta))
 
 
 def _rate_tracking(c, r, frozen):
-    return _error_claim(c, r, frozen, r.edot, "rate error e'", rate_unit(r.meta))
+    return _error_claim(c, r, {}, r.edot, "rate error e'", rate_unit(r.meta))
 
 
 def _recovery(c, r, frozen):
@@ -699,6 +740,7 @@ def evaluate_claim(
     result: SimResult,
     *,
     frozen: SimResult | None = None,
+    baselines: Mapping[str, SimResult | None] | None = None,
     duration: float | None = None,
 ) -> ClaimResult:
     """Evaluate one ``[[claims]]`` table on a recorded run.
@@ -710,8 +752,15 @@ def evaluate_claim(
     result
         The adaptive run with failures.
     frozen
-        The same scenario with adaptation frozen; needed by ``tracking`` claims with
-        ``baseline_ratio``.
+        The same scenario with adaptation frozen (shorthand for ``baselines={"frozen": ...}``).
+    baselines
+        Baseline runs of the same scenario by name (:data:`adaptive_ftc.baselines.BASELINES`:
+        ``"fixed-gain"``, ``"nominal-inverse"``, ``"oracle"``, ``"frozen"``; see
+        :func:`adaptive_ftc.baselines.run_baselines`); ``None`` marks a run that failed. A
+        ``tracking`` claim with ``baseline_ratio`` needs at least one non-oracle baseline: the
+        adaptive RMS error must be ``baseline_ratio`` times smaller than that of the *best*
+        non-oracle baseline given (the oracle, which knows the true failure, is reported in
+        :attr:`ClaimResult.baselines` but never compared with).
     duration
         End time of the scenario as the thesis ran it (s). Windows "at the end" end there; a
         completed run that was shortened below it (quick mode) gives ``NOT EVALUATED`` for every
@@ -727,11 +776,14 @@ def evaluate_claim(
     ------
     ClaimError
         Unknown kind, missing/unknown/invalid key (the message names the claim and the key), or
-        a ``baseline_ratio`` claim evaluated without ``frozen``.
+        a ``baseline_ratio`` claim evaluated without a non-oracle baseline.
     """
     params = _params(claim)
     params["_end"] = _run_end(result) if duration is None else float(duration)
-    return _EVALUATORS[params["kind"]](params, result, frozen)
+    runs = dict(baselines or {})
+    if frozen is not None:
+        runs.setdefault("frozen", frozen)
+    return _EVALUATORS[params["kind"]](params, result, runs)
 
 
 def evaluate_claims(
@@ -739,6 +791,7 @@ def evaluate_claims(
     result: SimResult,
     *,
     frozen: SimResult | None = None,
+    baselines: Mapping[str, SimResult | None] | None = None,
     duration: float | None = None,
 ) -> list[ClaimResult]:
     """Evaluate every claim of a scenario (see :func:`evaluate_claim`); order is kept.
@@ -751,7 +804,9 @@ def evaluate_claims(
     out = []
     for i, claim in enumerate(claims):
         try:
-            out.append(evaluate_claim(claim, result, frozen=frozen, duration=duration))
+            out.append(
+                evaluate_claim(claim, result, frozen=frozen, baselines=baselines, duration=duration)
+            )
         except ClaimError as exc:
             raise ClaimError(f"[[claims]] #{i + 1}: {exc}") from None
     return out

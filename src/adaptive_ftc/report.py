@@ -7,10 +7,13 @@ base64 instead, for a single file that can be mailed. It is readable from phone 
 (viewport tag; cards stack and the summary table scrolls on narrow screens).
 
 It opens with the verdict totals and a summary table (scenario, thesis section, figures, claims
-passed, frozen/adaptive error ratio), then one section per scenario: its description, failure
-list and run status, and its figures beside the thesis's claims with the verdict (PASS, FAIL,
-NOT EVALUATED, NOT REPRODUCED) and the measured number with its unit against the threshold. A
-FAIL is shown as such, with its number.
+passed, frozen/adaptive and best-fair-baseline/adaptive error ratios), then one section per
+scenario: its description, failure list and run status, the error ratio of every baseline run
+(fixed-gain, nominal inverse, oracle, frozen; :mod:`adaptive_ftc.baselines`), and its figures
+beside the thesis's claims with the verdict (PASS, FAIL, NOT EVALUATED, NOT REPRODUCED) and the
+measured number with its unit against the threshold; a ``baseline_ratio`` claim lists every
+baseline's ratio, the oracle's included (shown, never compared with). A FAIL is shown as such,
+with its number.
 """
 
 from __future__ import annotations
@@ -64,6 +67,20 @@ class ScenarioEntry:
     claim_error: str = ""
     error_ratio: float = math.nan
     statuses: dict[str, str] = field(default_factory=dict)
+    #: baseline name -> its RMS error over the adaptive run's (last 10 % of the run)
+    baseline_ratios: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def best_fair_ratio(self) -> tuple[str, float]:
+        """The non-oracle baseline closest to the adaptive run and its error ratio
+        (``("", nan)`` when none was run)."""
+        fair = {
+            k: v for k, v in self.baseline_ratios.items() if k != "oracle" and not math.isnan(v)
+        }
+        if not fair:
+            return "", math.nan
+        best = min(fair, key=fair.__getitem__)
+        return best, fair[best]
 
     @property
     def n_pass(self) -> int:
@@ -199,16 +216,40 @@ def _summary(entries: Sequence[ScenarioEntry]) -> str:
             f"<td>{_e(', '.join(s.thesis_figures)) or '—'}</td>"
             f"<td>{_claims_cell(s)}</td>"
             f'<td class="num">{_num(s.error_ratio)}</td>'
+            f"<td>{_best_cell(s)}</td>"
             f"<td>{_e(_status_text(s.statuses))}</td>"
             "</tr>"
         )
     return (
         '<div class="scroll"><table><thead><tr><th>scenario</th><th>thesis section</th>'
         "<th>figures</th><th>claims passed / judged</th><th>frozen / adaptive error</th>"
+        "<th>best fair baseline / adaptive error</th>"
         f"<th>runs</th></tr></thead><tbody>{''.join(rows)}</tbody></table></div>"
         '<p class="meta">frozen / adaptive error: RMS tracking error of the run with adaptation '
         "frozen divided by that of the adaptive run, over the last 10 % of the run (what "
-        "adaptation buys; ∞ = the frozen run diverged).</p>"
+        "adaptation buys; ∞ = the frozen run diverged). Best fair baseline: the smallest such "
+        "ratio over the fixed-gain, nominal-inverse and frozen runs (the oracle, which knows the "
+        "true failure, is not a fair competitor and is shown per scenario only); below 1 the "
+        "baseline tracks better than the adaptive design.</p>"
+    )
+
+
+def _best_cell(s: ScenarioEntry) -> str:
+    name, ratio = s.best_fair_ratio
+    return f"{_num(ratio)} ({_e(name)})" if name else "—"
+
+
+def _baseline_table(s: ScenarioEntry) -> str:
+    if not s.baseline_ratios:
+        return ""
+    cells = "".join(
+        f"<tr><td>{_e(k)}{' (knows the failure; not compared with)' if k == 'oracle' else ''}"
+        f'</td><td class="num">{_num(v)}</td></tr>'
+        for k, v in s.baseline_ratios.items()
+    )
+    return (
+        "<h3>Baselines</h3><table><thead><tr><th>baseline</th><th>baseline / adaptive RMS "
+        f"error (last 10 % of the run)</th></tr></thead><tbody>{cells}</tbody></table>"
     )
 
 
@@ -226,8 +267,20 @@ def _claim_html(c: ClaimResult) -> str:
         f'<div class="quote">“{_e(" ".join(c.text.split()))}”</div>'
         f'<div class="measure">measured <b>{_with_unit(c.measured, unit)}</b> vs threshold '
         f"<b>{_with_unit(c.threshold, unit)}</b></div>"
-        f'<div class="detail">{_e(c.detail)}</div></div>'
+        f'<div class="detail">{_e(c.detail)}</div>{_claim_baselines(c)}</div>'
     )
+
+
+def _claim_baselines(c: ClaimResult) -> str:
+    rows = getattr(c, "baselines", ())
+    if not rows:
+        return ""
+    items = "".join(
+        f"<li>{_e(name)}{' (oracle: shown, not compared with)' if name == 'oracle' else ''}: "
+        f"RMS {_with_unit(rms, getattr(c, 'unit', ''))} = <b>{_num(ratio)}</b> × adaptive</li>"
+        for name, rms, ratio in rows
+    )
+    return f'<ul class="baselines">{items}</ul>'
 
 
 def _figure_html(f: FigureEntry, embed: bool = False) -> str:
@@ -273,7 +326,7 @@ def _scenario(s: ScenarioEntry, embed: bool = False) -> str:
         f'<section class="sc" id="{_anchor(s.name)}"><h2>{_e(s.title)}</h2>'
         f'<div class="meta">{meta}</div>'
         f"{_paragraphs(s.description, 'desc')}{notes}"
-        f"<h3>Failures</h3>{failures}"
+        f"<h3>Failures</h3>{failures}{_baseline_table(s)}"
         f'<div class="cols"><div class="figs">{figs}</div>'
         f'<div class="claims"><h3>Thesis claims ({_claim_counts(s)})</h3>'
         f"{claims}</div></div></section>"

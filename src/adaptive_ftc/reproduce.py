@@ -7,7 +7,12 @@ For every catalogue scenario (or the ones named) three runs are made, in paralle
 ``frozen``
     adaptation frozen at the initial parameters (what the failures do without adaptation);
 ``failure_free``
-    adaptation on, no failures (the nominal behaviour).
+    adaptation on, no failures (the nominal behaviour);
+``fixed-gain``, ``nominal-inverse``, ``oracle``
+    the fair baselines of :mod:`adaptive_ftc.baselines` (with the failures), for every scenario
+    with a ``baseline_ratio`` claim (every adaptive scenario with ``baselines=True``): the
+    claim is held against the best of fixed-gain, nominal inverse and frozen; the oracle,
+    which knows the true failure, is shown but never compared with.
 
 Variants that would repeat the adaptive run are skipped: ``frozen`` when the scenario has no
 adaptation (open-loop runs), ``failure_free`` when it has no failures.
@@ -16,8 +21,8 @@ Everything is written into ``out_dir``::
 
     figures/fig_<number>.png    every [[figure]] table (+ .pdf/.svg beside it, see ``formats``);
                                 with ``baselines=True`` the frozen/failure-free runs are overlaid
-    data/<scenario>[_frozen|_failure_free].nc
-    metrics.csv                 one row per run (+ frozen/adaptive error ratio per scenario)
+    data/<scenario>[_frozen|_failure_free|_fixed-gain|_nominal-inverse|_oracle].nc
+    metrics.csv                 one row per run (+ baseline/adaptive error ratios per scenario)
     claims.csv                  one row per [[claims]] table: verdict, measured number and unit
     report.html                 the report (links the figure files; keep it beside figures/)
 
@@ -51,6 +56,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from adaptive_ftc.baselines import BASELINES, FAIR_BASELINES, baseline_loop
 from adaptive_ftc.claims import (
     FAIL,
     NOT_EVALUATED,
@@ -67,9 +73,24 @@ from adaptive_ftc.sim.result import SimResult
 __all__ = ["VARIANTS", "quick_duration", "run_reproduction"]
 
 #: Run variants per scenario, in report order.
-VARIANTS: tuple[str, ...] = ("adaptive", "frozen", "failure_free")
+VARIANTS: tuple[str, ...] = (
+    "adaptive",
+    "frozen",
+    "failure_free",
+    "fixed-gain",
+    "nominal-inverse",
+    "oracle",
+)
+#: The variants that are :mod:`adaptive_ftc.baselines` designs (besides ``frozen``).
+_DESIGN_BASELINES = tuple(b for b in BASELINES if b != "frozen")
 
-_BASELINE_LABELS = {"frozen": "frozen adaptation", "failure_free": "failure-free"}
+_BASELINE_LABELS = {
+    "frozen": "frozen adaptation",
+    "failure_free": "failure-free",
+    "fixed-gain": "fixed-gain",
+    "nominal-inverse": "nominal inverse",
+    "oracle": "oracle (knows the failure)",
+}
 
 
 # ---------------------------------------------------------------------------- scenario set-up
@@ -94,12 +115,18 @@ def _prepare(name: str, quick: bool) -> Scenario:
     return sc
 
 
-def _variants(sc: Scenario) -> list[str]:
+def _has_baseline_claim(sc: Scenario) -> bool:
+    return any(c.get("baseline_ratio") is not None for c in sc.claims)
+
+
+def _variants(sc: Scenario, all_baselines: bool = False) -> list[str]:
     out = ["adaptive"]
     if sc.loop.adapt:
         out.append("frozen")
     if _failures_of(sc):
         out.append("failure_free")
+    if sc.loop.adapt and (_has_baseline_claim(sc) or (all_baselines and _failures_of(sc))):
+        out += list(_DESIGN_BASELINES)
     return out
 
 
@@ -116,7 +143,18 @@ def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[s
         sc = _prepare(name, quick)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # divergence is recorded in the result's status
-            result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
+            if variant in _DESIGN_BASELINES:
+                from adaptive_ftc.errors import ConfigurationError
+                from adaptive_ftc.sim.engine import simulate
+
+                try:
+                    loop = baseline_loop(sc.loop, variant, sc.solver)
+                except ConfigurationError as exc:  # e.g. a fixed-gain tuning run diverged:
+                    # no such baseline exists; reported, not counted as an error
+                    return {"result": None, "error": str(exc), "wall": 0.0, "skipped": True}
+                result = sc.stamp(simulate(loop, sc.solver))
+            else:
+                result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
         result.meta["variant"] = variant
         result.to_netcdf(
             _data_path(Path(out_dir), name, variant),
@@ -198,8 +236,9 @@ def _metrics_row(name: str, variant: str, result: SimResult | None, err: str, wa
 
 
 def _error_ratio(adaptive: SimResult | None, frozen: SimResult | None) -> float:
-    """RMS error of the frozen run over that of the adaptive run, in the adaptive run's final
-    window (10 % of the duration); ``inf`` when the frozen run diverged, ``nan`` if unknown."""
+    """RMS error of a baseline run (e.g. frozen) over that of the adaptive run, in the adaptive
+    run's final window (10 % of the duration); ``inf`` when the baseline diverged, ``nan`` if
+    unknown."""
     if adaptive is None or frozen is None or adaptive.status != "completed":
         return math.nan
     t_end = float(adaptive.meta.get("t_final", adaptive.time[-1]))
@@ -226,6 +265,9 @@ _METRIC_FIELDS = [
     "peak_applied",
     "wall_time_s",
     "error_ratio_frozen_over_adaptive",
+    "error_ratio_best_fair_baseline_over_adaptive",
+    "best_fair_baseline",
+    "error_ratio_oracle_over_adaptive",
 ]
 
 
@@ -325,6 +367,7 @@ def run_reproduction(
     baselines: bool = False,
     formats: Sequence[str] = ("png", "pdf"),
     dpi: int | None = None,
+    fair_baselines: bool = True,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -341,13 +384,18 @@ def run_reproduction(
     names
         Scenario names (default: the whole catalogue).
     baselines
-        Overlay the frozen-adaptation and failure-free runs on the tracking figures (they are
-        always run, for the metrics and the claims).
+        Overlay the baseline and failure-free runs on the tracking figures (they are run
+        anyway, for the metrics and the claims), and run the fixed-gain, nominal-inverse and
+        oracle baselines for every adaptive scenario with failures, not only for those with a
+        ``baseline_ratio`` claim.
     formats
         File formats of every figure (``png``, ``pdf``, ``svg``); the report shows the PNG and
         links the others.
     dpi
         Resolution of the PNG files (default :data:`adaptive_ftc.plots.DPI`).
+    fair_baselines
+        Run the fixed-gain, nominal-inverse and oracle baselines (default). ``False`` holds
+        ``baseline_ratio`` claims against the frozen run alone, as before issue 14 (faster).
 
     Returns
     -------
@@ -380,7 +428,12 @@ def run_reproduction(
     results: dict[tuple[str, str], dict[str, Any]] = {}
     fig_errors: dict[tuple[str, str], str] = {}
     figures: dict[str, list[FigureEntry]] = {sc.name: [] for sc in scenarios}
-    sim_tasks = [(sc.name, v) for sc in scenarios for v in _variants(sc)]
+
+    def variants(sc: Scenario) -> list[str]:
+        out = _variants(sc, all_baselines=baselines)
+        return out if fair_baselines else [v for v in out if v not in _DESIGN_BASELINES]
+
+    sim_tasks = [(sc.name, v) for sc in scenarios for v in variants(sc)]
     by_name = {sc.name: sc for sc in scenarios}
 
     executor: cf.Executor
@@ -405,7 +458,7 @@ def run_reproduction(
                 if tag[0] == "sim":
                     _, name, variant = tag
                     results[(name, variant)] = fut.result()
-                    needed = [(name, v) for v in _variants(by_name[name])]
+                    needed = [(name, v) for v in variants(by_name[name])]
                     if all(k in results for k in needed):
                         new = _submit_figures(
                             executor, by_name[name], plan, results, out, baselines, formats, dpi
@@ -427,19 +480,28 @@ def run_reproduction(
         adaptive = results[(sc.name, "adaptive")]["result"]
         frozen = results.get((sc.name, "frozen"), {}).get("result")
         ratio = _error_ratio(adaptive, frozen) if (sc.name, "frozen") in results else math.nan
-        for v in _variants(sc):
+        base_runs = {
+            v: results[(sc.name, v)]["result"] for v in BASELINES if (sc.name, v) in results
+        }
+        base_ratios = {v: _error_ratio(adaptive, b) for v, b in base_runs.items()}
+        fair = {v: q for v, q in base_ratios.items() if v in FAIR_BASELINES and not math.isnan(q)}
+        best = min(fair, key=fair.__getitem__) if fair else ""
+        for v in variants(sc):
             rec = results[(sc.name, v)]
             row = _metrics_row(sc.name, v, rec["result"], rec["error"], rec["wall"])
             if v == "adaptive":
                 row["error_ratio_frozen_over_adaptive"] = ratio
+                row["error_ratio_best_fair_baseline_over_adaptive"] = fair[best] if best else ""
+                row["best_fair_baseline"] = best
+                row["error_ratio_oracle_over_adaptive"] = base_ratios.get("oracle", "")
             metric_rows.append(row)
-            n_errors += rec["result"] is None
+            n_errors += rec["result"] is None and not rec.get("skipped")
         verdicts: list[ClaimResult] = []
         claim_error = ""
         if adaptive is not None:
             try:
                 verdicts = evaluate_claims(
-                    sc.claims, adaptive, frozen=frozen, duration=durations[sc.name]
+                    sc.claims, adaptive, baselines=base_runs, duration=durations[sc.name]
                 )
             except ClaimError as exc:
                 claim_error = f"{sc.name}: {exc}"
@@ -486,9 +548,10 @@ def run_reproduction(
             v: (
                 results[(sc.name, v)]["result"].status
                 if results[(sc.name, v)]["result"] is not None
-                else "error: " + results[(sc.name, v)]["error"].strip().splitlines()[-1]
+                else ("not run: " if results[(sc.name, v)].get("skipped") else "error: ")
+                + results[(sc.name, v)]["error"].strip().splitlines()[-1]
             )
-            for v in _variants(sc)
+            for v in variants(sc)
         }
         entries.append(
             ScenarioEntry(
@@ -505,6 +568,7 @@ def run_reproduction(
                 claim_error=claim_error,
                 error_ratio=ratio,
                 statuses=statuses,
+                baseline_ratios=base_ratios,
             )
         )
     _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
@@ -548,7 +612,7 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     items = plan[sc.name] or _default_specs(sc, adaptive)
     baselines = {
         _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
-        for v in ("frozen", "failure_free")
+        for v in ("frozen", "failure_free", *_DESIGN_BASELINES)
         if overlay and (sc.name, v) in results and results[(sc.name, v)]["result"] is not None
     }
     new = []
