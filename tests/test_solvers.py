@@ -201,6 +201,7 @@ def _rk4_module():
     ns = {k: v for k, v in vars(importlib.import_module(f"{adaptive.__package__}.rk4")).items()}
     ns["rhs"] = _rhs
     ns["jump"] = numba.njit(adaptive._no_jump)
+    ns["leaves_envelope"] = numba.njit(adaptive._no_envelope)
     exec(compile(text, str(path), "exec"), ns)  # noqa: S102
     return ns
 

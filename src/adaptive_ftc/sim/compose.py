@@ -501,6 +501,19 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             f"            Y[{at_act} + j] = min(max(W[U + j], D.act[ph, j, 2]), D.act[ph, j, 3])",
         ]
     jump_src = "\n".join(jump_src)
+    env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
+    env_src = [
+        "@hot",
+        "def leaves_envelope(Y, D):",
+        '    """Index of the first plant state outside the plant\'s envelope, else -1."""',
+    ]
+    if env:
+        env_src += [
+            f"    for i in range({len(env)}):",
+            "        if not (abs(Y[i]) <= D.c[ENV + i]):",
+            "            return i",
+        ]
+    env_src = "\n".join([*env_src, "    return -1"])
     # ------------------------------------------------------------ imports and module
     imports = [
         "import math",
@@ -548,6 +561,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         dfail_src,
         "\n".join(body),
         jump_src,
+        env_src,
         codegen.template("rk4"),
         codegen.template("adaptive"),
         codegen.template("record"),
@@ -564,6 +578,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "centers": tuple(g.centers),
         "spread": tuple(g.spread),
         "act0": (1.0 if has_act and not (loop.actuators and loop.actuators.initial) else 0.0,),
+        "envelope": env,
     }
     layout: dict = {}
     values = list(g.consts)  # expression constants first: their indices are in the text
@@ -578,6 +593,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "centers": "CEN",
         "spread": "SPREAD",
         "act0": "ACT0",
+        "envelope": "ENV",
     }
     consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
     for key, vals in settings.items():

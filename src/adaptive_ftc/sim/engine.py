@@ -355,6 +355,14 @@ def _diverged_message(
     loop: ClosedLoop, asm: Assembled, t: float, index: int, solver: SolverOptions
 ) -> str:
     label = _state_label(loop, asm, index)
+    env = tuple(getattr(loop.plant, "envelope", ()) or ())
+    if 0 <= index < min(len(env), asm.n_x) and math.isfinite(env[index]):
+        return (
+            f"Simulation {_run_label(loop)} diverged at t = {t:.6g} s: signal '{label}' left "
+            f"the plant's envelope |{label}| <= {env[index]:.4g} (a physically meaningless "
+            "value: a wrong control direction, or gains too high). The result keeps the "
+            "samples before that time."
+        )
     return (
         f"Simulation {_run_label(loop)} diverged at t = {t:.6g} s: signal '{label}' became "
         f"non-finite or exceeded {solver.divergence_bound:g}. The result keeps the samples "

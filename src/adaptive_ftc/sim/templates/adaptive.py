@@ -83,6 +83,16 @@ def _no_jump(t, Y, ph, D, W):
     """A continuous loop's ``jump``: nothing happens at interval starts."""
 
 
+def leaves_envelope(Y, D):  # pragma: no cover - stand-in, replaced by the generated module
+    """Stand-in for the generated envelope check."""
+    raise NotImplementedError("the template's leaves_envelope is a stand-in")
+
+
+def _no_envelope(Y, D):
+    """A loop without a physical envelope: no state is ever outside it."""
+    return -1
+
+
 def make_work(D):  # pragma: no cover - stand-in, replaced by the generated module
     """Stand-in for the generated work-array factory."""
     raise NotImplementedError("the template's make_work is a stand-in")
@@ -120,6 +130,7 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
     mod.__dict__.update(
         rhs=rhs,
         jump=jump if jump is not None else numba.njit(_no_jump),
+        leaves_envelope=numba.njit(_no_envelope),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
     )
@@ -179,11 +190,11 @@ _RH34, _RH35 = 15.9925314877952, -1.882352941176471
 
 
 @jit
-def _first_bad(Y, bound):
+def _first_bad(Y, bound, D):
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
             return i
-    return -1
+    return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
 @jit
@@ -354,7 +365,7 @@ def _solve(
     r = 0
     nph = t_breaks.size - 1
     t_end = t_breaks[nph]
-    bad = _first_bad(Y, bound)
+    bad = _first_bad(Y, bound, D)
     if bad >= 0:
         return 0, 1, t_breaks[0], bad
     stiff = method == 1
@@ -429,7 +440,7 @@ def _solve(
                     )
                 err = _err_max(dy, Y, yn, rtol, atol)
                 if err <= 1.0:
-                    bad = _first_bad(yn, bound)
+                    bad = _first_bad(yn, bound, D)
                     if bad >= 0:
                         return r, 1, t1, bad
                     stats[0] += 1
@@ -583,7 +594,7 @@ def _solve(
                 stats[2] += 5
                 err = _err_max(k6, Y, yn, rtol, atol)
                 if err <= 1.0:
-                    bad = _first_bad(yn, bound)
+                    bad = _first_bad(yn, bound, D)
                     if bad >= 0:
                         return r, 1, t1, bad
                     stats[0] += 1

@@ -19,14 +19,19 @@ def jump(t, Y, ph, D, W):  # placeholder: state update at the start of each inte
     raise NotImplementedError
 
 
+def leaves_envelope(Y, D):  # placeholder: first plant state outside the plant's envelope
+    raise NotImplementedError
+
+
 # --- template: begin ---
 @hot
-def first_bad(Y, bound):
-    """Index of the first state that is non-finite or not below ``bound`` in size, else -1."""
+def first_bad(Y, bound, D):
+    """Index of the first state that is non-finite, not below ``bound`` in size or (a plant
+    state) outside the plant's envelope; -1 if none."""
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
             return i
-    return -1
+    return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
 @hot
@@ -65,7 +70,7 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
     r = 0
     nph = t_breaks.size - 1
     t_end = t_breaks[nph]
-    bad = first_bad(Y, bound)
+    bad = first_bad(Y, bound, D)
     if bad >= 0:
         return 0, 1, t_breaks[0], bad
     for ph in range(nph):
@@ -99,7 +104,7 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
             stats[2] += 4
             for i in range(n):
                 yn[i] = Y[i] + hh / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-            bad = first_bad(yn, bound)
+            bad = first_bad(yn, bound, D)
             if bad >= 0:
                 return r, 1, t1, bad
             last = ph == nph - 1 and st == nsteps - 1
