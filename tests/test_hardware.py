@@ -269,3 +269,20 @@ def test_too_many_samples_are_refused_before_anything_is_allocated():
     with pytest.raises(ConfigurationError, match="noise `rate`"):
         loop = _loop((0.0,), sensors=Sensors(noise=(0.1, 0.0), rate=1e9), t_final=100.0)
         simulate(loop)
+
+
+def test_python_control_export_of_a_loop_with_actuator_lag_matches_the_simulation():
+    ct = pytest.importorskip("control")
+    from adaptive_ftc.interop import control_initial_state, to_control
+
+    loop = _loop((0.0, -2.0, -1.0), inputs=("pos", "vel"), initial_state=(1.0, 0.0))
+    loop = replace(loop, actuators=Actuators(tau=0.2), t_final=3.0)
+    r = simulate(loop, ACCURATE)
+    sys = to_control(loop)
+    x0 = control_initial_state(loop)
+    assert x0.size == 2 + 3 + 2  # pos, vel, theta, the actuators (at their first command)
+    np.testing.assert_allclose(x0[-2:], r.u_applied[0], atol=1e-15)
+    resp = ct.input_output_response(
+        sys, r.time, 0.0, x0, solve_ivp_kwargs={"rtol": 1e-10, "atol": 1e-12}
+    )
+    np.testing.assert_allclose(np.atleast_2d(resp.outputs)[0], r.y[:, 0], atol=1e-7)

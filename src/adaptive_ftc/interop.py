@@ -70,7 +70,8 @@ def to_control(
     """The closed loop as a :class:`control.NonlinearIOSystem`.
 
     States are the plant states followed by every adaptive state (in the order of
-    ``SimResult.adaptive_names``; with ``sdot="filtered"`` the s-filter states come last); the
+    ``SimResult.adaptive_names``; with ``sdot="filtered"`` the s-filter states come last), then
+    the actuator positions of a loop with actuator dynamics; the
     system has no inputs (the reference ``y_d(t)`` and the failure schedule are part of the
     loop) and its outputs are the plant outputs ``y`` (thesis (2.1)/(3.1)). The failure phase is
     chosen from ``t``: phase ``k`` on ``[breakpoints[k], breakpoints[k+1])``.
@@ -110,7 +111,7 @@ def to_control(
     def outfcn(t, x, u, params):
         return np.asarray(x, dtype=float)[pos]
 
-    states = [*loop.plant.state_names, *asm.adaptive_names]
+    states = [*loop.plant.state_names, *asm.adaptive_names, *asm.extra_names]
     sys = ct.NonlinearIOSystem(
         updfcn,
         outfcn,

@@ -772,6 +772,8 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
             e = ref[3 * i] - x0[loop.plant.position_index[i]]
             ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
             y0[layout["filt"] + i] = ed + lam[i] * e
+    if asm.extra_names:  # actuators at their first command, the first sample's held values
+        module.jump(float(loop.t0), y0, 0, data, asm.work())
     return asm
 
 
