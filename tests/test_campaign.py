@@ -89,9 +89,9 @@ def test_impossible_spec_is_refused_with_one_line_per_problem():
 
 def test_unknown_keys_and_designs_are_named():
     with pytest.raises(CampaignError) as err:
-        load_campaign(tiny(designs=["adaptive", "oracle"], seeds=3))
+        load_campaign(tiny(designs=["adaptive", "clairvoyant"], seeds=3))
     msg = str(err.value)
-    assert "unknown design 'oracle'" in msg and "unknown key 'seeds'" in msg
+    assert "unknown design 'clairvoyant'" in msg and "unknown key 'seeds'" in msg
 
 
 def test_member_depends_only_on_seed_and_index():
