@@ -286,3 +286,22 @@ def test_python_control_export_of_a_loop_with_actuator_lag_matches_the_simulatio
         sys, r.time, 0.0, x0, solve_ivp_kwargs={"rtol": 1e-10, "atol": 1e-12}
     )
     np.testing.assert_allclose(np.atleast_2d(resp.outputs)[0], r.y[:, 0], atol=1e-7)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"rate": 0.0}, "`rate` of Actuators must be > 0"),
+        ({"tau": -0.1}, "`tau` of Actuators must be > 0"),
+        ({"tau": True}, "must be numbers"),
+        ({"initial": (0.1,)}, "one value per actuator"),
+    ],
+)
+def test_actuator_values_are_checked(kwargs, match):
+    with pytest.raises(ConfigurationError, match=match):
+        _loop((0.0,), actuators=Actuators(**kwargs))
+
+
+def test_sensor_noise_must_be_a_table_or_a_list():
+    with pytest.raises(ConfigurationError, match="table by state name"):
+        Sensors(noise=1e-4)

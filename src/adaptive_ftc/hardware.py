@@ -48,7 +48,9 @@ __all__ = ["RATE_ONLY_TAU", "Actuators", "Sensors"]
 RATE_ONLY_TAU = 0.005
 
 
-def _per_actuator(value, m: int, name: str, *, allow_inf: bool, minimum: float | None):
+def _per_actuator(
+    value, m: int, name: str, *, allow_inf: bool, minimum: float | None, zero: bool = False
+):
     vals = (value,) * m if isinstance(value, (int, float)) else tuple(value)
     if len(vals) != m:
         raise ConfigurationError(
@@ -61,7 +63,7 @@ def _per_actuator(value, m: int, name: str, *, allow_inf: bool, minimum: float |
             raise ConfigurationError(f"`{name}` of Actuators must be numbers; got {v!r}.")
         if not allow_inf and not math.isfinite(v):
             raise ConfigurationError(f"`{name}` of Actuators must be finite; got {v!r}.")
-        if minimum is not None and not v > minimum and not (minimum == 0 and v == 0):
+        if minimum is not None and not v > minimum and not (zero and v == 0):
             raise ConfigurationError(f"`{name}` of Actuators must be > {minimum:g}; got {v!r}.")
         out.append(float(v))
     return tuple(out)
@@ -105,7 +107,7 @@ class Actuators:
     def table(self, m: int) -> np.ndarray:
         """Per actuator ``[tau, rate, lower, upper]`` (tau with :data:`RATE_ONLY_TAU` filled in),
         after checking every value for a plant with ``m`` actuators."""
-        tau = _per_actuator(self.tau, m, "tau", allow_inf=False, minimum=0.0)
+        tau = _per_actuator(self.tau, m, "tau", allow_inf=False, minimum=0.0, zero=True)
         rate = _per_actuator(self.rate, m, "rate", allow_inf=True, minimum=0.0)
         lo = _per_actuator(self.lower, m, "lower", allow_inf=True, minimum=None)
         hi = _per_actuator(self.upper, m, "upper", allow_inf=True, minimum=None)
@@ -151,8 +153,13 @@ class Sensors:
             v = getattr(self, key)
             if isinstance(v, Mapping):
                 object.__setattr__(self, key, dict(v))
-            else:
+            elif isinstance(v, (list, tuple, np.ndarray)):
                 object.__setattr__(self, key, tuple(v))
+            else:
+                raise ConfigurationError(
+                    f"`{key}` of Sensors must be a table by state name (e.g. {{alpha = 1e-4}}) "
+                    f"or one number per state; got {v!r}."
+                )
         if (
             isinstance(self.rate, bool)
             or not isinstance(self.rate, (int, float))
