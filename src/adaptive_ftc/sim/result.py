@@ -132,6 +132,9 @@ class SimResult:
             "wall_time_s": wall_time,
             "solver_settings": _solver_settings(solver),
             "controller": repr(ctrl),
+            "actuators": repr(loop.actuators) if loop.actuators is not None else "ideal",
+            "sensors": repr(loop.sensors) if loop.sensors is not None else "exact",
+            "sample_time": loop.sample_time,
         }
         plant = loop.plant
         return cls(
