@@ -14,6 +14,10 @@ named), prints the RMS tracking error over the claim's window of
 all with the scenario's failures, then the best non-oracle baseline, its ratio to the adaptive
 error, the ratio the claim requires and the verdict (what ``aftc reproduce`` judges).
 
+``--time-reproduce`` times ``run_reproduction`` of the whole catalogue with and without the
+fair baselines (``fair_baselines=True/False``), alternating, in one session, and prints the
+ratio (warm cache: run it twice).
+
 ``--fixed-gain-study`` prints the earlier table of the fixed-gain baseline on the hypersonic
 scenarios (adaptive / fixed-gain / frozen with the failures and on the healthy loop).
 
@@ -22,6 +26,7 @@ Usage::
     python scripts/baseline_study.py                     # every baseline_ratio scenario
     python scripts/baseline_study.py spacecraft-mimo-s1
     python scripts/baseline_study.py --fixed-gain-study  # hypersonic chapter-2/4 scenarios
+    python scripts/baseline_study.py --time-reproduce --jobs 2
 """
 
 from __future__ import annotations
@@ -119,6 +124,28 @@ def _fixed_gain_main(names: list[str], window: float) -> None:
         )
 
 
+def _time_reproduce(jobs: int, repeat: int) -> None:
+    import tempfile
+    import time
+
+    from adaptive_ftc.reproduce import run_reproduction
+
+    best: dict[bool, float] = {}
+    for _ in range(repeat):
+        for fair in (False, True):
+            with tempfile.TemporaryDirectory() as tmp:
+                t = time.perf_counter()
+                s = run_reproduction(tmp, progress=False, jobs=jobs, fair_baselines=fair)
+                wall = time.perf_counter() - t
+            print(
+                f"fair_baselines={fair!s:5s} {s['n_runs']} runs {wall:6.1f} s "
+                f"(pass {s['n_pass']}, fail {s['n_fail']}, errors {s['n_errors']})",
+                flush=True,
+            )
+            best[fair] = min(best.get(fair, float("inf")), wall)
+    print(f"best of {repeat}: with / without the fair baselines = {best[True] / best[False]:.2f}x")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenarios", nargs="*", help="scenario names (default: see the mode)")
@@ -126,7 +153,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--fixed-gain-study", action="store_true", help="the fixed-gain table on hypersonic"
     )
+    ap.add_argument("--time-reproduce", action="store_true", help="time aftc reproduce both ways")
+    ap.add_argument("--jobs", type=int, default=2, help="worker processes (--time-reproduce)")
+    ap.add_argument("--repeat", type=int, default=2, help="repetitions (--time-reproduce)")
     args = ap.parse_args(argv)
+    if args.time_reproduce:
+        _time_reproduce(args.jobs, args.repeat)
+        return 0
     if args.fixed_gain_study:
         _fixed_gain_main(args.scenarios or _hypersonic_scenarios(), args.window)
         return 0
@@ -134,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     print("RMS tracking error over the claim window (output units); inf = diverged")
     print("| scenario | window | adaptive | " + " | ".join(BASELINES), end="")
     print(" | best fair | best fair / adaptive | required | verdict |")
-    print("|---" * (len(BASELINES) + 8) + "|")
+    print("|---" * (len(BASELINES) + 7) + "|")
     for name in names:
         r = fair_study(name)
         verdict = "PASS" if r["ratio"] >= r["required"] else "FAIL"

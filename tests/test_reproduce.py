@@ -21,7 +21,9 @@ NAMES = ["hypersonic-direct-s1", "hypersonic-direct-s2"]
 @pytest.fixture(scope="module")
 def reproduction(tmp_path_factory):
     out = tmp_path_factory.mktemp("repro")
-    summary = run_reproduction(out, quick=True, names=NAMES, progress=False, jobs=2)
+    summary = run_reproduction(
+        out, quick=True, names=NAMES, progress=False, jobs=2, fair_baselines=True
+    )
     return out, summary
 
 
