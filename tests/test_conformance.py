@@ -105,11 +105,22 @@ def test_every_failure_model_is_applied_by_the_kernel_as_its_expression(model):
         "stuck": {"value": "0.1*cos(t)"},
         "bias": {"bias": 0.05},
         "loss_of_effectiveness": {"effectiveness": 0.4},
+        "sluggish": {"tau": 0.3},
+        "rate_limited": {"rate": 0.05},
     }.get(model, {})
     sc = load_scenario("hypersonic-direct-s1")
     fail = cls(actuator=1, onset=1.0, recovery=3.0, **extra)
     loop = replace(sc.loop, failures=(fail,), t_final=4.0)
     r = simulate(loop)
+    if hasattr(fail, "dynamics"):  # a failure of the actuator's motion, not of its output map
+        w = r.window(1.0, 2.999)
+        rate = np.abs(np.diff(r.u_applied[w, 0])) / np.diff(r.time[w])
+        if model == "rate_limited":
+            assert rate.max() <= 0.05 * (1 + 1e-6)
+        assert np.max(np.abs(r.u_applied[w, 0] - r.u_cmd[w, 0])) > 1e-6  # it lags
+        healthy = ~r.window(1.0, 2.999)
+        np.testing.assert_allclose(r.u_applied[healthy, 0], r.u_cmd[healthy, 0], atol=0)
+        return
     e = fail.expression(("t", "u", "x1", "x2"))
     w = r.window(1.0, 2.999)
     want = e(t=r.time[w], u=r.u_cmd[w, 0], x1=r.states[w, 0], x2=r.states[w, 1])
