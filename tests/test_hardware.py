@@ -305,3 +305,19 @@ def test_actuator_values_are_checked(kwargs, match):
 def test_sensor_noise_must_be_a_table_or_a_list():
     with pytest.raises(ConfigurationError, match="table by state name"):
         Sensors(noise=1e-4)
+
+
+def test_second_order_actuator_follows_the_exact_underdamped_step_response():
+    w, z = 20.0, 0.3
+    loop = _loop((2.0,), actuators=Actuators(omega=w, zeta=z, initial=(0.0, 0.0)))
+    r = simulate(loop, ACCURATE)
+    wd = w * math.sqrt(1 - z * z)
+    t = r.time
+    exact = 1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t))
+    np.testing.assert_allclose(r.u_applied[:, 0], exact, atol=1e-8)
+    # with a rate limit the position never moves faster than it
+    limited = simulate(replace(loop, actuators=replace(loop.actuators, rate=5.0)), ACCURATE)
+    speed = np.abs(np.diff(limited.u_applied[:, 0])) / np.diff(limited.time)
+    assert speed.max() <= 5.0 * (1 + 1e-9) and speed.max() > 4.9
+    with pytest.raises(ConfigurationError, match="both a lag"):
+        _loop((0.0,), actuators=Actuators(tau=0.1, omega=10.0))

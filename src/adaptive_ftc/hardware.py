@@ -9,6 +9,10 @@ state, and it runs in continuous time. These parts add, per closed loop:
   .. math:: \\dot a_j = \\operatorname{clip}\\Big(\\frac{\\operatorname{clip}(u_j, l_j, h_j)
             - a_j}{\\tau_j}, -r_j, r_j\\Big),
 
+  or, with a natural frequency ``omega_j`` instead of a lag, second-order dynamics
+  ``a_j' = clip(v_j, -r_j, r_j)``, ``v_j' = omega_j^2 (clip(u_j, l_j, h_j) - a_j)
+  - 2 zeta_j omega_j v_j`` (a velocity state ``v_j`` per actuator),
+
   and the failure acts on ``a_j`` (a stuck actuator stays where it is stuck, a lossy one
   delivers ``rho a_j``). A rate limit without a lag uses the time constant
   :data:`RATE_ONLY_TAU` (a rate limiter with a linear band ``r tau`` wide). The failure models
@@ -81,6 +85,10 @@ class Actuators:
         Rate limit (actuator units per second), one number or one per actuator; ``inf`` = none.
     lower, upper
         Position limits (actuator units); ``-inf``/``inf`` = none.
+    omega, zeta
+        Second-order dynamics instead of the lag: natural frequency (rad/s; 0 = none) and
+        damping ratio, one number or one per actuator. An actuator has ``tau`` or ``omega``,
+        not both.
     initial
         Initial deflections; empty = each actuator starts at its first command (no start-up
         transient).
@@ -95,30 +103,39 @@ class Actuators:
     rate: float | tuple[float, ...] = math.inf
     lower: float | tuple[float, ...] = -math.inf
     upper: float | tuple[float, ...] = math.inf
+    omega: float | tuple[float, ...] = 0.0
+    zeta: float | tuple[float, ...] = 0.7
     initial: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        for key in ("tau", "rate", "lower", "upper"):
+        for key in ("tau", "rate", "lower", "upper", "omega", "zeta"):
             v = getattr(self, key)
             if not isinstance(v, (int, float)):
                 object.__setattr__(self, key, tuple(v))
         object.__setattr__(self, "initial", tuple(self.initial))
 
     def table(self, m: int) -> np.ndarray:
-        """Per actuator ``[tau, rate, lower, upper]`` (tau with :data:`RATE_ONLY_TAU` filled in),
-        after checking every value for a plant with ``m`` actuators."""
+        """Per actuator ``[tau, rate, lower, upper, omega, zeta]`` (tau with
+        :data:`RATE_ONLY_TAU` filled in), after checking every value for ``m`` actuators."""
         tau = _per_actuator(self.tau, m, "tau", allow_inf=False, minimum=0.0, zero=True)
         rate = _per_actuator(self.rate, m, "rate", allow_inf=True, minimum=0.0)
         lo = _per_actuator(self.lower, m, "lower", allow_inf=True, minimum=None)
         hi = _per_actuator(self.upper, m, "upper", allow_inf=True, minimum=None)
-        out = np.zeros((m, 4))
+        om = _per_actuator(self.omega, m, "omega", allow_inf=False, minimum=0.0, zero=True)
+        ze = _per_actuator(self.zeta, m, "zeta", allow_inf=False, minimum=0.0)
+        out = np.zeros((m, 6))
         for j in range(m):
             if not lo[j] < hi[j]:
                 raise ConfigurationError(
                     f"Actuator {j + 1}: `lower` ({lo[j]}) must be below `upper` ({hi[j]})."
                 )
-            t = tau[j] if tau[j] > 0 or math.isinf(rate[j]) else RATE_ONLY_TAU
-            out[j] = (t, rate[j], lo[j], hi[j])
+            if tau[j] > 0 and om[j] > 0:
+                raise ConfigurationError(
+                    f"Actuator {j + 1} has both a lag `tau` and a natural frequency `omega`: "
+                    "give one (first- or second-order dynamics)."
+                )
+            t = tau[j] if tau[j] > 0 or om[j] > 0 or math.isinf(rate[j]) else RATE_ONLY_TAU
+            out[j] = (t if om[j] == 0 else 0.0, rate[j], lo[j], hi[j], om[j], ze[j])
         if self.initial:
             init = _per_actuator(self.initial, m, "initial", allow_inf=False, minimum=None)
             del init  # checked here, used by the loop's initial state

@@ -348,7 +348,7 @@ class RateLimited(_DynamicsFailure):
 @dataclass(frozen=True, kw_only=True)
 class Sluggish(_DynamicsFailure):
     """The actuator follows its command with the first-order lag ``tau`` (s): lost bandwidth
-    (GUAM's bandwidth failure)."""
+    (GUAM's bandwidth failure). A second-order actuator becomes this first-order one."""
 
     model: ClassVar[str] = "sluggish"
     tau: float = 0.0
@@ -365,7 +365,7 @@ class Sluggish(_DynamicsFailure):
         super().__post_init__()
 
     def dynamics(self) -> dict[str, float]:
-        return {"tau": float(self.tau)}
+        return {"tau": float(self.tau), "omega": 0.0}
 
 
 #: Failure models by the name used in scenario files.

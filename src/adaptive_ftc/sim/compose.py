@@ -43,7 +43,7 @@ class LoopData(NamedTuple):
     inst: np.ndarray  # per failure instance: [shape (generated branch), offset in c]
     plant: Any  # the plant's parameters (a NamedTuple, or an array for expression plants)
     gains: Any  # the design's gains (a NamedTuple)
-    act: np.ndarray  # per (interval, actuator): [tau, rate, lower, upper] (actuator dynamics)
+    act: np.ndarray  # per (interval, actuator): [tau, rate, lower, upper, omega, zeta]
     meas: np.ndarray  # per (interval, state): measurement offset, bias + noise (sensors)
     samp: np.ndarray  # per interval: 1 where it starts at a controller sample (digital)
 
@@ -348,8 +348,14 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     has_act = loop.has_actuator_dynamics
     sampled = loop.sample_time > 0
     has_meas = loop.sensors is not None
+    has_act2 = (
+        has_act
+        and loop.actuators is not None
+        and any(v > 0 for v in np.ravel(loop.actuators.omega))
+    )
     at_act = ny
-    at_hu = at_act + (m if has_act else 0)
+    at_vel = at_act + (m if has_act else 0)  # velocities of second-order actuators
+    at_hu = at_vel + (m if has_act2 else 0)
     at_hd = at_hu + (m if sampled else 0)
     ny_all = at_hd + ((ny - nx) if sampled else 0)
     # ------------------------------------------------------------ the right-hand side
@@ -403,7 +409,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "        u[j] = acc",
         *(
             [
-                "        if D.act[ph, j, 0] > 0.0:  # actuator position (a state)",
+                "        if D.act[ph, j, 0] > 0.0 or D.act[ph, j, 4] > 0.0:  # position: a state",
                 f"            acc = Y[{at_act} + j]",
                 "        else:  # an ideal actuator within its position limits",
                 "            acc = min(max(acc, D.act[ph, j, 2]), D.act[ph, j, 3])",
@@ -422,6 +428,22 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             "    # actuators: a' = clip((clip(u, lower, upper) - a) / tau, -rate, rate)",
             f"    for j in range({m}):",
             "        tau = D.act[ph, j, 0]",
+            *(
+                [
+                    "        omega = D.act[ph, j, 4]",
+                    "        if omega > 0.0:  # a' = clip(v), v' = w^2 (u - a) - 2 z w v",
+                    "            target = min(max(u[j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+                    f"            v = Y[{at_vel} + j]",
+                    "            rate = D.act[ph, j, 1]",
+                    f"            dY[{at_act} + j] = min(max(v, -rate), rate)",
+                    f"            dY[{at_vel} + j] = omega * omega * (target - Y[{at_act} + j])"
+                    " - 2.0 * D.act[ph, j, 5] * omega * v",
+                    "            continue",
+                    f"        dY[{at_vel} + j] = 0.0",
+                ]
+                if has_act2
+                else []
+            ),
             "        if tau > 0.0:",
             "            target = min(max(u[j], D.act[ph, j, 2]), D.act[ph, j, 3])",
             "            rate = D.act[ph, j, 1]",
@@ -496,9 +518,10 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             "        if ph == 0:",
             "            was_ideal = D.c[ACT0] != 0.0",
             "        else:",
-            "            was_ideal = D.act[ph - 1, j, 0] == 0.0",
+            "            was_ideal = D.act[ph - 1, j, 0] == 0.0 and D.act[ph - 1, j, 4] == 0.0",
             "        if was_ideal:",
             f"            Y[{at_act} + j] = min(max(W[U + j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+            *([f"            Y[{at_vel} + j] = 0.0"] if has_act2 else []),
         ]
     jump_src = "\n".join(jump_src)
     env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
@@ -641,13 +664,15 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         inst=inst,
         plant=plant.parameter_values(),
         gains=ctrl.gains(),
-        act=_actuator_table(loop, bps) if has_act else np.zeros((1, 1, 4)),
+        act=_actuator_table(loop, bps) if has_act else np.zeros((1, 1, 6)),
         meas=_measurements(loop, sample_index) if has_meas else np.zeros((1, 1)),
         samp=samp if sampled else np.zeros(1, dtype=np.int64),
     )
     extra = []
     if has_act:
         extra += [f"position of {a}" for a in plant.actuator_names]
+    if has_act2:
+        extra += [f"velocity of {a}" for a in plant.actuator_names]
     if sampled:
         extra += [f"held command of {a}" for a in plant.actuator_names]
         extra += [f"held derivative of {n}" for n in g.adaptive_names]
@@ -666,7 +691,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
 
 
 def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
-    """``[tau, rate, lower, upper]`` per (interval, actuator): the declared actuators, changed
+    """``[tau, rate, lower, upper, omega, zeta]`` per (interval, actuator): the declared
+    actuators, changed
     by the dynamics failures (:class:`~adaptive_ftc.faults.models.RateLimited`,
     :class:`~adaptive_ftc.faults.models.Sluggish`) in their windows."""
     from adaptive_ftc.hardware import RATE_ONLY_TAU, Actuators
@@ -682,8 +708,8 @@ def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
                 continue
             row = out[k, j]
             for key, v in change().items():
-                row[0 if key == "tau" else 1] = v
-            if row[0] == 0.0 and math.isfinite(row[1]):
+                row[{"tau": 0, "rate": 1, "omega": 4}[key]] = v
+            if row[0] == 0.0 and row[4] == 0.0 and math.isfinite(row[1]):
                 row[0] = RATE_ONLY_TAU
     return out
 
