@@ -275,8 +275,9 @@ def _claim_baselines(c: ClaimResult) -> str:
     rows = getattr(c, "baselines", ())
     if not rows:
         return ""
+    note = " (knows the failure: shown, not compared with)"
     items = "".join(
-        f"<li>{_e(name)}{' (oracle: shown, not compared with)' if name == 'oracle' else ''}: "
+        f"<li>{_e(name)}{note if name == 'oracle' else ''}: "
         f"RMS {_with_unit(rms, getattr(c, 'unit', ''))} = <b>{_num(ratio)}</b> × adaptive</li>"
         for name, rms, ratio in rows
     )
