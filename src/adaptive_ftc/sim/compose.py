@@ -182,8 +182,11 @@ def _reference(g: Generator) -> str:
         start = len(g.consts)
         for d in range(3):
             text = g.constant_block(e.node, {"t": "t"}, share_from=start)
-            lines.append(f"    out[{3 * i + d}] = {text}")
+            lines.append(f"    r{3 * i + d} = {text}")
             e = e.derivative("t")
+    # stored after all are computed: a store to ``out`` between them could alias ``c`` and
+    # keep the compiler from sharing sin(w t) and cos(w t) between y_d and its derivatives
+    lines += [f"    out[{k}] = r{k}" for k in range(3 * len(g.loop.reference))]
     return "\n".join(lines)
 
 
