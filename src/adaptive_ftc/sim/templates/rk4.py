@@ -59,13 +59,21 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
     """
     n = y0.size
     Y = y0.copy()
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    yt = np.empty(n)
-    yn = np.empty(n)
-    fe = np.empty(n)
+    buf = np.empty((7, n))  # k1, k2, k3, k4, the stage state, the new state, f at the end
+    return _rk4_loop(
+        Y, buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6],
+        t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, stats,
+    )  # fmt: skip
+
+
+@hot
+def _rk4_loop(
+    Y, k1, k2, k3, k4, yt, yn, fe, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, stats
+):
+    """The stepping of :func:`integrate_rk4` on preallocated buffers. It allocates nothing,
+    so it runs without reference counting (a few percent faster: no reference-count
+    operations on the array views of the loop)."""
+    n = Y.size
     nrec = t_rec.size
     r = 0
     nph = t_breaks.size - 1
@@ -81,7 +89,8 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
         h = (b - a) / nsteps
         jump(a, Y, ph, D, W)  # e.g. a sampled controller's new command (no-op if continuous)
         while r < nrec and t_rec[r] <= a + tol:
-            out_Y[r, :] = Y
+            for i in range(n):
+                out_Y[r, i] = Y[i]
             out_phase[r] = ph
             r += 1
         for st in range(nsteps):
@@ -114,7 +123,8 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
                 while r < nrec and t_rec[r] < limit:
                     tr = t_rec[r]
                     if abs(tr - t1) <= tol:
-                        out_Y[r, :] = yn
+                        for i in range(n):
+                            out_Y[r, i] = yn[i]
                     else:
                         if not have_end:
                             rhs(t1, yn, ph, D, W, fe)
@@ -123,9 +133,11 @@ def integrate_rk4(y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, 
                         record_hermite(out_Y, r, tr, t, hh, Y, k1, yn, fe)
                     out_phase[r] = ph
                     r += 1
-            Y[:] = yn
+            for i in range(n):
+                Y[i] = yn[i]
     while r < nrec and t_rec[r] <= t_end + 1e-9 * max(1.0, abs(t_end)):
-        out_Y[r, :] = Y
+        for i in range(n):
+            out_Y[r, i] = Y[i]
         out_phase[r] = nph - 1
         r += 1
     return r, 0, t_end, -1
