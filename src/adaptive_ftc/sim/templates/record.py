@@ -5,6 +5,7 @@ The placeholders above the marker exist only so this file imports and lints on i
 
 # ruff: noqa: F811
 import numpy as np
+from numba import njit as hot
 from numba import njit as jit
 
 
@@ -37,12 +38,19 @@ def signals(T, Ys, phases, D, W, out):
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used."""
-    c = D.c
     dY = np.zeros(Ys.shape[1])
     zero = np.zeros(M)
     unit = np.zeros(M)
     x0dot = np.zeros(NX)
     x1dot = np.zeros(NX)
+    _signal_rows(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot)
+
+
+@hot
+def _signal_rows(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot):
+    """The rows of :func:`signals` on preallocated buffers: it allocates nothing, so it runs
+    without reference counting (no reference-count operations on the views of every row)."""
+    c = D.c
     v0 = VEL[0]
     sig = W[SIG : SIG + N_SIG]
     ref = W[REF : REF + N_REF]
@@ -82,7 +90,8 @@ def signals(T, Ys, phases, D, W, out):
         plant_dynamics(t, x, zero, D.plant, x0dot)
         gain = 0.0
         for j in range(M):
-            unit[:] = 0.0
+            for i in range(M):
+                unit[i] = 0.0
             unit[j] = 1.0
             plant_dynamics(t, x, unit, D.plant, x1dot)
             gj = x1dot[v0] - x0dot[v0]
