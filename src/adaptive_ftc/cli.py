@@ -159,6 +159,9 @@ def _parser() -> argparse.ArgumentParser:
         pass
     else:
         campaign_cli.add_parser(sub)
+    from adaptive_ftc import studies
+
+    studies.add_parser(sub)
     return p
 
 
@@ -443,6 +446,10 @@ def main(argv: list[str] | None = None) -> int:
             from adaptive_ftc.campaigns import cli as campaign_cli
 
             return campaign_cli.main(args)
+        if args.command == "study":
+            from adaptive_ftc import studies
+
+            return studies.cli_main(args)
         return _cmd_reproduce(args)
     except (ScenarioError, ConfigurationError, ExpressionError) as exc:
         print(f"error: {exc}", file=sys.stderr)

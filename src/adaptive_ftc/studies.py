@@ -1,0 +1,475 @@
+"""Robustness studies the thesis did not make (issue 14).
+
+The thesis's designs assume ideal actuators, exact measurements and a continuous-time
+controller. :func:`robustness_sweep` runs one scenario many times, each time with one of these
+assumptions relaxed by a *knob*, and tabulates how the tracking degrades; :func:`break_points`
+finds where each design breaks.
+
+Knobs (the value's unit in brackets; every other setting is the scenario's own):
+
+``noise`` [output units, e.g. rad]
+    Seeded Gaussian measurement noise (:class:`~adaptive_ftc.hardware.Sensors`, 1000 samples
+    per second, each held until the next) with standard deviation ``value`` on the first state
+    and ``value * 10**i`` on state ``i`` (for the hypersonic plant: ``value`` on ``alpha``,
+    ``10 value`` on ``q``; pass ``noise_shape`` to change this). ``s'`` comes from the
+    dirty-derivative filter (``SolverOptions(sdot="auto")``, ``filter_tau`` 0.01 s).
+``controller_rate`` [Hz]
+    Sample-and-hold digital controller at ``value`` Hz (``ClosedLoop(sample_time=1/value)``);
+    the filter time constant is ``max(filter_tau, 1/value)`` (a sampled filter needs
+    ``sample_time < 2 filter_tau``; at ``filter_tau = sample_time`` it is the backward
+    difference, the plainest digital derivative).
+``lag`` [s]
+    First-order lag of every actuator, time constant ``value``
+    (:class:`~adaptive_ftc.hardware.Actuators`).
+``rate_limit`` [actuator units per second]
+    Rate limit ``value`` on every actuator with no other lag. The rate limiter then has the
+    time constant :data:`~adaptive_ftc.hardware.RATE_ONLY_TAU` (5 ms) in its linear band, so a
+    rate limit that never binds gives the ``lag`` = 5 ms run: read this knob's break point
+    together with the lag knob's.
+
+Noise and digital runs integrate with RK4 at ``dt <= 1 ms`` dividing the sample period (the
+noise and the held command jump every sample; an adaptive step would only shrink to meet
+them: the RMS errors agree with dopri5 within 2 %); lag and rate-limit runs use the scenario's
+own solver. A ``noise`` value of 0 (or ``controller_rate`` ``inf``, ``lag`` 0, ``rate_limit``
+``inf``) is the scenario's ideal run, unchanged.
+
+**Break point.** A run is *broken* when it diverged (or was stopped) before the end, or its RMS
+tracking error over the last ``window`` seconds exceeds ``threshold``. The default threshold is
+that of the scenario's own ``tracking`` claim (in the catalogue: 1 % of the reference amplitude,
+``pi/36 * 0.01 = 8.7e-4`` rad for the hypersonic scenarios), i.e. the accuracy the thesis
+claims. The break point of a knob is the mildest value, in order of increasing severity (noise
+and lag growing, controller rate and rate limit falling), from which every harsher value
+tested is broken too. The table also reports the ratio to the ideal error and the peak command
+``|u|``: a design can keep its error small while its adaptive law winds the command up to
+hundreds of radians behind a rate limit (no anti-windup in the thesis's laws), which the
+``windup`` column flags (peak command more than 10 times the ideal run's).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+
+from adaptive_ftc.errors import ConfigurationError, did_you_mean
+from adaptive_ftc.hardware import Actuators, Sensors
+from adaptive_ftc.scenarios.loader import Scenario, load_scenario
+from adaptive_ftc.sim.batch import simulate_many
+from adaptive_ftc.sim.engine import SolverOptions
+from adaptive_ftc.sim.result import SimResult
+from adaptive_ftc.sim.system import ClosedLoop
+
+__all__ = [
+    "DEFAULT_VALUES",
+    "KNOBS",
+    "QUICK_VALUES",
+    "STUDY_SCENARIOS",
+    "break_points",
+    "robustness_study",
+    "robustness_sweep",
+]
+
+#: Knob name -> (unit, True when a larger value is harsher).
+KNOBS: dict[str, tuple[str, bool]] = {
+    "noise": ("rad", True),
+    "controller_rate": ("Hz", False),
+    "lag": ("s", True),
+    "rate_limit": ("rad/s", False),
+}
+
+#: Values swept by ``aftc study robustness``.
+DEFAULT_VALUES: dict[str, tuple[float, ...]] = {
+    "noise": (1e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2),
+    "controller_rate": (5000.0, 2000.0, 1000.0, 500.0, 200.0, 100.0, 50.0),
+    "lag": (1e-4, 3e-4, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2),
+    "rate_limit": (200.0, 100.0, 50.0, 20.0, 10.0, 5.0, 2.0),
+}
+
+#: Values swept by ``aftc study robustness --quick``.
+QUICK_VALUES: dict[str, tuple[float, ...]] = {
+    "noise": (1e-5, 1e-4, 1e-3),
+    "controller_rate": (1000.0, 200.0, 100.0),
+    "lag": (0.005, 0.05, 0.2),
+    "rate_limit": (50.0, 10.0, 2.0),
+}
+
+#: The designs of the study: §2.3 (direct) and §4.4 (sign estimation), hypersonic plant.
+STUDY_SCENARIOS: tuple[str, ...] = ("hypersonic-direct-s1", "hypersonic-sign-s1-rho0pos")
+
+_NOISE_RATE = 1000.0
+_MAX_DT = 1e-3
+_WINDUP = 10.0
+_COLUMNS = [
+    "scenario",
+    "knob",
+    "value",
+    "unit",
+    "seed",
+    "status",
+    "rms_error",
+    "ideal_rms_error",
+    "ratio_to_ideal",
+    "threshold",
+    "broken",
+    "peak_u_cmd",
+    "peak_u_applied",
+    "windup",
+    "diverged_at",
+]
+
+
+def _check_knob(knob: str) -> None:
+    if knob not in KNOBS:
+        raise ConfigurationError(
+            f"Unknown robustness knob {knob!r}.{did_you_mean(knob, list(KNOBS))} "
+            f"Knobs: {', '.join(KNOBS)}."
+        )
+
+
+def _is_ideal(knob: str, value: float) -> bool:
+    return value == 0.0 if KNOBS[knob][1] else math.isinf(value)
+
+
+def _noise_table(loop: ClosedLoop, value: float, shape: Mapping[str, float] | None):
+    names = loop.plant.state_names
+    if shape is None:
+        if loop.plant.n_outputs != 1:
+            raise ConfigurationError(
+                f"The noise knob's default shape (value * 10**i on state i) is for one-output "
+                f"plants; plant '{loop.plant.name}' has {loop.plant.n_outputs} outputs. Pass "
+                f"noise_shape={{state name: multiplier}} (states: {', '.join(names)})."
+            )
+        shape = {name: 10.0**i for i, name in enumerate(names)}
+    return {name: value * float(k) for name, k in shape.items()}
+
+
+def _variant(
+    loop: ClosedLoop,
+    solver: SolverOptions,
+    knob: str,
+    value: float,
+    seed: int,
+    noise_shape: Mapping[str, float] | None,
+) -> tuple[ClosedLoop, SolverOptions]:
+    """The loop and solver of one run of the sweep."""
+    if _is_ideal(knob, value):
+        return loop, solver
+    if knob == "noise":
+        sensors = Sensors(
+            noise=_noise_table(loop, value, noise_shape), rate=_NOISE_RATE, seed=int(seed)
+        )
+        rk4 = replace(solver, method="rk4", dt=_MAX_DT)
+        return replace(loop, sensors=sensors), rk4
+    if knob == "controller_rate":
+        ts = 1.0 / value
+        dt = ts / math.ceil(ts / _MAX_DT - 1e-9)
+        rk4 = replace(solver, method="rk4", dt=dt, filter_tau=max(solver.filter_tau, ts))
+        return replace(loop, sample_time=ts), rk4
+    if knob == "lag":
+        return replace(loop, actuators=Actuators(tau=value)), solver
+    return replace(loop, actuators=Actuators(rate=value)), solver
+
+
+def _check_values(knob: str, values: Iterable[float]) -> list[float]:
+    out = []
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+            raise ConfigurationError(f"Values of knob {knob!r} must be numbers; got {v!r}.")
+        if v < 0 or (v == 0 and not KNOBS[knob][1]):
+            raise ConfigurationError(
+                f"Values of knob {knob!r} must be {'>= 0' if KNOBS[knob][1] else '> 0'} "
+                f"({KNOBS[knob][0]}); got {v!r}."
+            )
+        out.append(float(v))
+    if not out:
+        raise ConfigurationError(f"Knob {knob!r} needs at least one value to sweep.")
+    return out
+
+
+def _default_threshold(sc: Scenario) -> float:
+    for claim in sc.claims:
+        if claim.get("kind") == "tracking" and "threshold" in claim:
+            return float(claim["threshold"])
+    raise ConfigurationError(
+        f"Scenario '{sc.name}' has no `tracking` claim to take the break threshold from: pass "
+        "threshold= (an RMS tracking error, in the output's unit)."
+    )
+
+
+def _metrics(r: SimResult, window: float, t_final: float) -> tuple[float, float, float, float]:
+    """(rms error over the last window, peak |u_cmd|, peak |u_applied|, divergence time)."""
+    done = r.status == "completed" and r.time.size and r.time[-1] >= t_final - 1e-9
+    rms = float(np.max(r.rms_error(t_final - window, t_final))) if done else math.nan
+    peak_cmd = float(np.nanmax(np.abs(r.u_cmd))) if r.u_cmd.size else math.nan
+    peak_app = float(np.nanmax(np.abs(r.u_applied))) if r.u_applied.size else math.nan
+    diverged_at = math.nan if done else float(r.time[-1] if r.time.size else 0.0)
+    return rms, peak_cmd, peak_app, diverged_at
+
+
+def robustness_sweep(
+    scenario: str | Scenario,
+    knob: str,
+    values: Sequence[float],
+    *,
+    seeds: Sequence[int] = (0,),
+    window: float = 20.0,
+    threshold: float | None = None,
+    duration: float | None = None,
+    noise_shape: Mapping[str, float] | None = None,
+    jobs: int | None = None,
+    progress: bool = False,
+) -> pd.DataFrame:
+    """Run ``scenario`` once per knob value (and per seed for ``noise``) and tabulate the result.
+
+    Parameters
+    ----------
+    scenario
+        A catalogue name, a scenario file, or a :class:`Scenario`.
+    knob
+        ``"noise"``, ``"controller_rate"``, ``"lag"`` or ``"rate_limit"`` (see the module
+        docstring for what each changes and its unit).
+    values
+        Knob values; 0 noise / lag (``inf`` rate) is the ideal run, unchanged.
+    seeds
+        Noise seeds (one row per value and seed); the other knobs are deterministic and run
+        once, with seed ``-1``.
+    window
+        The RMS tracking error is taken over the last ``window`` seconds (the thesis claims'
+        window).
+    threshold
+        RMS error above which a completed run counts as broken; default: the threshold of the
+        scenario's ``tracking`` claim (1 % of the reference amplitude in the catalogue).
+    duration
+        Shorten every run to this many seconds (default: the scenario's duration).
+    noise_shape
+        Multiplier of ``value`` per state name for the ``noise`` knob.
+    jobs, progress
+        Threads and progress bar of :func:`~adaptive_ftc.sim.batch.simulate_many`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run, in the order of ``values`` then ``seeds``, with columns ``scenario,
+        knob, value, unit, seed, status, rms_error, ideal_rms_error, ratio_to_ideal,
+        threshold, broken, peak_u_cmd, peak_u_applied, windup, diverged_at`` (``rms_error`` is
+        the largest over the outputs, NaN for a run that did not reach its end;
+        ``diverged_at`` the time of the last good sample, NaN for a completed run). The same
+        arguments give the same table.
+
+    Examples
+    --------
+    >>> df = robustness_sweep("hypersonic-direct-s1", "lag", [0.0, 0.05], duration=20.0)
+    >>> df[["value", "status", "broken"]].values.tolist()
+    [[0.0, 'completed', False], [0.05, 'completed', False]]
+    """
+    _check_knob(knob)
+    vals = _check_values(knob, values)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    seeds = [int(s) for s in seeds] if knob == "noise" else [-1]
+    if knob == "noise" and not seeds:
+        raise ConfigurationError("`seeds` of a noise sweep needs at least one seed.")
+    loop, solver = sc.loop, sc.solver
+    if duration is not None:
+        if not duration > 0:
+            raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
+        loop = replace(loop, t_final=loop.t0 + float(duration))
+    span = loop.t_final - loop.t0
+    if not 0 < window <= span:
+        raise ConfigurationError(
+            f"`window` must be in (0, {span:g}] s (the run's length); got {window!r}."
+        )
+    thr = _default_threshold(sc) if threshold is None else float(threshold)
+    runs = [(v, s) for v in vals for s in seeds]
+    pairs = [_variant(loop, solver, knob, v, max(s, 0), noise_shape) for v, s in runs]
+    results = _simulate_grouped([(loop, solver), *pairs], jobs=jobs, progress=progress)
+    ideal = _metrics(results[0], window, loop.t_final)
+    rows = []
+    for (v, s), r in zip(runs, results[1:], strict=True):
+        rms, peak_cmd, peak_app, div = _metrics(r, window, loop.t_final)
+        broken = not (rms <= thr)  # NaN (diverged) is broken
+        rows.append(
+            {
+                "scenario": sc.name,
+                "knob": knob,
+                "value": v,
+                "unit": KNOBS[knob][0],
+                "seed": s,
+                "status": r.status,
+                "rms_error": rms,
+                "ideal_rms_error": ideal[0],
+                "ratio_to_ideal": rms / ideal[0] if ideal[0] > 0 else math.nan,
+                "threshold": thr,
+                "broken": bool(broken),
+                "peak_u_cmd": peak_cmd,
+                "peak_u_applied": peak_app,
+                "windup": bool(peak_cmd > _WINDUP * ideal[1]),
+                "diverged_at": div,
+            }
+        )
+    return pd.DataFrame(rows, columns=_COLUMNS)
+
+
+def _simulate_grouped(pairs, *, jobs, progress) -> list[SimResult]:
+    """simulate_many over (loop, solver) pairs that may use different solvers."""
+    import warnings
+
+    from adaptive_ftc.errors import DivergenceWarning
+
+    out: list[SimResult | None] = [None] * len(pairs)
+    groups: dict[SolverOptions, list[int]] = {}
+    for i, (_, solver) in enumerate(pairs):
+        groups.setdefault(solver, []).append(i)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)  # a diverged run is a data point
+        for solver, idx in groups.items():
+            res = simulate_many([pairs[i][0] for i in idx], solver, jobs=jobs, progress=progress)
+            for i, r in zip(idx, res, strict=True):
+                out[i] = r
+    return out  # type: ignore[return-value]
+
+
+def break_points(table: pd.DataFrame) -> pd.DataFrame:
+    """The break point of every (scenario, knob) of a sweep table.
+
+    A value counts as broken when any of its seeds is broken. Values are ordered by severity
+    (noise and lag growing, controller rate and rate limit falling); the break point is the
+    mildest value from which every harsher value tested is broken (NaN when the harshest
+    value still holds). ``last_ok`` is the harshest value that holds with every milder one.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``scenario, knob, unit, break_point, last_ok, how`` (``how``: "diverged" when
+        the break-point run did not reach its end, else "error > threshold").
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"scenario": "s", "knob": "lag", "value": [0.01, 0.1, 0.05],
+    ...                   "unit": "s", "broken": [False, True, False], "status": "completed"})
+    >>> break_points(t)[["break_point", "last_ok"]].values.tolist()
+    [[0.1, 0.05]]
+    """
+    missing = {"scenario", "knob", "value", "broken", "status"} - set(table.columns)
+    if missing:
+        raise ConfigurationError(
+            f"break_points() needs a robustness_sweep table; columns missing: "
+            f"{', '.join(sorted(missing))}."
+        )
+    rows = []
+    for (scen, knob), grp in table.groupby(["scenario", "knob"], sort=False):
+        _check_knob(knob)
+        harsher_up = KNOBS[knob][1]
+        per = grp.groupby("value", sort=True).agg(
+            broken=("broken", "any"), diverged=("status", lambda s: (s != "completed").any())
+        )
+        per = per.sort_index(ascending=harsher_up)  # mildest first
+        values = list(per.index)
+        broken = list(per["broken"])
+        bp = last_ok = math.nan
+        how = ""
+        k = len(values)
+        while k > 0 and broken[k - 1]:
+            k -= 1
+        if k < len(values):
+            bp = float(values[k])
+            how = "diverged" if per["diverged"].iloc[k] else "error > threshold"
+        if k > 0:
+            last_ok = float(values[k - 1])
+        unit = grp["unit"].iloc[0] if "unit" in grp else KNOBS[knob][0]
+        rows.append(
+            {
+                "scenario": scen,
+                "knob": knob,
+                "unit": unit,
+                "break_point": bp,
+                "last_ok": last_ok,
+                "how": how,
+            }
+        )
+    return pd.DataFrame(rows, columns=["scenario", "knob", "unit", "break_point", "last_ok", "how"])
+
+
+def robustness_study(
+    scenarios: Sequence[str] = STUDY_SCENARIOS,
+    *,
+    quick: bool = False,
+    values: Mapping[str, Sequence[float]] | None = None,
+    seeds: Sequence[int] = (0, 1, 2),
+    jobs: int | None = None,
+    progress: bool = False,
+) -> pd.DataFrame:
+    """Every knob of :data:`KNOBS` on every scenario (the ``aftc study robustness`` table).
+
+    ``quick`` sweeps :data:`QUICK_VALUES` with one seed instead of :data:`DEFAULT_VALUES`.
+    """
+    chosen = dict(QUICK_VALUES if quick else DEFAULT_VALUES)
+    for knob, vals in (values or {}).items():
+        _check_knob(knob)
+        chosen[knob] = tuple(vals)
+    from tqdm.auto import tqdm
+
+    seeds = seeds[:1] if quick else seeds
+    bar = tqdm(
+        [(s, k) for s in scenarios for k in chosen],
+        disable=not progress,
+        desc="robustness sweeps",
+        unit="sweep",
+    )
+    tables = []
+    for name, knob in bar:
+        bar.set_postfix_str(f"{name} {knob}")
+        tables.append(robustness_sweep(name, knob, chosen[knob], seeds=seeds, jobs=jobs))
+    return pd.concat(tables, ignore_index=True)
+
+
+def add_parser(subparsers):
+    """Add the ``study`` command to the ``aftc`` sub-parsers."""
+    st = subparsers.add_parser(
+        "study",
+        help="robustness studies beyond the thesis (sensor noise, digital control, actuators)",
+        description="aftc study robustness --out DIR: sweep sensor noise, controller rate, "
+        "actuator lag and rate limit on the §2.3 and §4.4 hypersonic designs; write "
+        "robustness.csv, break_points.csv and robustness.png/.pdf.",
+    )
+    st.add_argument("study", choices=["robustness"], help="which study")
+    st.add_argument("--out", default="study", help="output folder (default: ./study)")
+    st.add_argument("--quick", action="store_true", help="3 values per knob, one noise seed")
+    st.add_argument(
+        "--scenario",
+        action="append",
+        help="scenario to sweep (repeatable; default: " + ", ".join(STUDY_SCENARIOS) + ")",
+    )
+    st.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
+    st.add_argument("--quiet", action="store_true", help="no progress bar")
+    return st
+
+
+def cli_main(args) -> int:
+    """Run ``aftc study robustness``; print the break points; return the exit status."""
+    from pathlib import Path
+
+    from adaptive_ftc.study_plots import save_robustness_figure
+
+    if args.jobs is not None and args.jobs < 1:
+        raise ConfigurationError(f"--jobs must be >= 1; got {args.jobs}.")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = robustness_study(
+        tuple(args.scenario or STUDY_SCENARIOS),
+        quick=args.quick,
+        jobs=args.jobs,
+        progress=not args.quiet,
+    )
+    table.to_csv(out / "robustness.csv", index=False)
+    bps = break_points(table)
+    bps.to_csv(out / "break_points.csv", index=False)
+    files = save_robustness_figure(table, out / "robustness.png", formats=("png", "pdf"))
+    with pd.option_context("display.width", 200, "display.max_columns", 10):
+        print(bps.to_string(index=False))
+    print(
+        f"wrote {out / 'robustness.csv'}, {out / 'break_points.csv'}, " + ", ".join(map(str, files))
+    )
+    return 0

@@ -1,0 +1,187 @@
+"""Figures of the robustness studies (:mod:`adaptive_ftc.studies`), in :mod:`adaptive_ftc.plots`
+style: a bare :class:`matplotlib.figure.Figure` (no ``pyplot``), SI units on the axes, a grid,
+legends outside the data.
+
+:func:`plot_robustness` draws one panel per knob: the RMS tracking error over the last window
+against the knob value, log-log, one line per design (the median over the noise seeds), the
+harsh end of every axis on the right (the controller-rate and rate-limit axes are reversed).
+Runs that did not reach their end are drawn as crosses on a "diverged" band above the data
+(``gid="diverged"``); the break threshold is a dotted horizontal line (``gid="threshold"``) and
+each design's break point a dashed vertical line in its colour (``gid="break-point"``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.plots import DPI, FORMATS
+from adaptive_ftc.studies import KNOBS, break_points
+
+__all__ = ["plot_robustness", "save_robustness_figure"]
+
+_TITLES = {
+    "noise": "sensor noise (std of the output; rates 10x)",
+    "controller_rate": "digital controller rate",
+    "lag": "actuator lag (first-order time constant)",
+    "rate_limit": "actuator rate limit",
+}
+_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink")
+
+
+def plot_robustness(table: pd.DataFrame, *, title: str | None = None) -> Figure:
+    """Error against knob value for every design and knob of a :func:`robustness_sweep` table.
+
+    Parameters
+    ----------
+    table
+        Rows of :func:`~adaptive_ftc.studies.robustness_sweep` (several scenarios and knobs
+        concatenated).
+    title
+        Figure title (default: none).
+    """
+    need = {"scenario", "knob", "value", "rms_error", "status", "broken", "threshold"}
+    missing = need - set(table.columns)
+    if missing or table.empty:
+        raise ConfigurationError(
+            "plot_robustness() needs a non-empty robustness_sweep table"
+            + (f"; columns missing: {', '.join(sorted(missing))}." if missing else ".")
+        )
+    knobs = [k for k in KNOBS if k in set(table["knob"])]
+    scenarios = list(dict.fromkeys(table["scenario"]))
+    colors = {s: _COLORS[i % len(_COLORS)] for i, s in enumerate(scenarios)}
+    prefix = _common_prefix(scenarios)
+    bps = break_points(table).set_index(["scenario", "knob"])
+    n_cols = 2 if len(knobs) > 1 else 1
+    n_rows = math.ceil(len(knobs) / n_cols)
+    fig = Figure(figsize=(6.2 * n_cols + 3.4, 0.9 + 3.0 * n_rows), dpi=DPI)
+    axes = fig.subplots(n_rows, n_cols, squeeze=False).ravel()
+    finite = table["rms_error"].to_numpy(dtype=float)
+    finite = finite[np.isfinite(finite) & (finite > 0)]
+    top = float(np.max(np.r_[finite, table["threshold"].to_numpy(float)])) * 10.0
+    bottom = float(np.min(finite)) / 3.0 if finite.size else top / 1e6
+    for ax, knob in zip(axes, knobs, strict=False):
+        sub = table[table["knob"] == knob]
+        for scen in scenarios:
+            rows = sub[sub["scenario"] == scen]
+            if rows.empty:
+                continue
+            per = rows.groupby("value", sort=True).agg(
+                rms=("rms_error", "median"),
+                diverged=("status", lambda s: (s != "completed").any()),
+            )
+            ok = per[~per["diverged"]]
+            ax.plot(
+                ok.index,
+                ok["rms"],
+                "o-",
+                color=colors[scen],
+                ms=4,
+                lw=1.4,
+                label=scen[len(prefix) :],
+            )
+            bad = per[per["diverged"]]
+            if not bad.empty:
+                ax.plot(
+                    bad.index,
+                    np.full(len(bad), top),
+                    "x",
+                    color=colors[scen],
+                    ms=8,
+                    mew=2,
+                    gid="diverged",
+                    label=f"{scen[len(prefix) :]}: diverged",
+                )
+            if (scen, knob) in bps.index:
+                bp = bps.loc[(scen, knob), "break_point"]
+                if np.isfinite(bp):
+                    ax.axvline(
+                        bp,
+                        color=colors[scen],
+                        ls="--",
+                        lw=1.0,
+                        gid="break-point",
+                        label=f"{scen[len(prefix) :]}: breaks at {bp:g} {KNOBS[knob][0]}",
+                    )
+        thr = float(sub["threshold"].iloc[0])
+        ax.axhline(thr, color="0.3", ls=":", lw=1.0, gid="threshold", label=f"threshold {thr:.2g}")
+        ax.axhspan(top / 2.5, top * 2.5, color="tab:red", alpha=0.07, lw=0)
+        ax.text(
+            0.01, 0.985, "diverged", transform=ax.transAxes, va="top", fontsize=8, color="tab:red"
+        )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylim(bottom, top * 2.5)
+        if not KNOBS[knob][1]:
+            ax.invert_xaxis()
+        ax.set_xlabel(f"{_TITLES[knob]} ({KNOBS[knob][0]})")
+        ax.set_ylabel("RMS tracking error (last 20 s)")
+        ax.grid(True, which="both", linewidth=0.4, alpha=0.5)
+        handles, labels = ax.get_legend_handles_labels()
+        ax.legend(
+            handles,
+            labels,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            fontsize=7.5,
+            frameon=False,
+        )
+    for ax in axes[len(knobs) :]:
+        ax.set_visible(False)
+    w, h = fig.get_figwidth(), fig.get_figheight()
+    fig.subplots_adjust(
+        left=0.8 / w,
+        right=1.0 - 2.8 / w,
+        bottom=0.6 / h,
+        top=1.0 - (0.55 if title else 0.2) / h,
+        hspace=0.9 / 3.0,
+        wspace=3.4 / 6.2 if n_cols > 1 else 0.2,
+    )
+    if title:
+        fig.suptitle(title, fontsize=11)
+    return fig
+
+
+def _common_prefix(names: Sequence[str]) -> str:
+    """The shared ``word-`` prefix of the scenario names (dropped from the legend labels)."""
+    if len(names) < 2:
+        return ""
+    head = names[0].split("-")
+    k = 0
+    while k < len(head) - 1 and all(n.split("-")[: k + 1] == head[: k + 1] for n in names):
+        k += 1
+    return "-".join(head[:k]) + "-" if k else ""
+
+
+def save_robustness_figure(
+    table: pd.DataFrame,
+    path: str | Path,
+    *,
+    formats: Sequence[str] = ("png", "pdf"),
+    title: str | None = None,
+    dpi: int | None = None,
+) -> list[Path]:
+    """Draw :func:`plot_robustness` and write it as ``path`` with each suffix of ``formats``.
+
+    Returns the written files.
+    """
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise ConfigurationError(
+            f"Figure formats must be among {', '.join(FORMATS)}; got {', '.join(bad) or 'none'}."
+        )
+    fig = plot_robustness(table, title=title)
+    out = []
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for fmt in formats:
+        p = path.with_suffix(f".{fmt}")
+        fig.savefig(p, dpi=dpi or DPI)
+        out.append(p)
+    return out
