@@ -156,9 +156,10 @@ def test_prothero_robinson_stiff_component_dense_output(mod):
     )
     assert status == 0 and nrec == t_rec.size
     assert_close(Y[1:], exact[1:], 2e-6)
-    # steps capped at the record spacing (0.01): the 3rd-order dense output over the ~0.13 s
-    # steps the tolerance alone allows is off by 5e-4
-    assert 1000 <= stats[0] < 1100
+    # the 3rd-order dense output over the ~0.13 s steps the step error alone allows is off by
+    # 5e-4; the dense-output check shortens them (about 120 steps, not the 1000 of a cap at the
+    # record spacing)
+    assert 80 < stats[0] < 300
 
 
 def test_auto_stays_explicit_on_a_nonstiff_problem(mod):
