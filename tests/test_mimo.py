@@ -48,8 +48,8 @@ def test_every_thesis_claim_of_the_scenario_passes(name):
     assert {"tracking", "recovery", "bounded", "redistribution"} <= kinds
     if name in SPACECRAFT:
         assert "modal_decay" in kinds
-    tracking = next(c for c in sc.claims if c["kind"] == "tracking")
-    assert tracking["baseline_ratio"] >= 10.0
+    # on the spacecraft the baseline comparison is a separate (catalogue) tracking claim
+    assert any(c.get("baseline_ratio", 0) >= 10.0 for c in sc.claims if c["kind"] == "tracking")
 
 
 @pytest.mark.parametrize("name", ALL)
