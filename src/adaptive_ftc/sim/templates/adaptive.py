@@ -328,6 +328,14 @@ def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
 
 
 @jit
+def _dense_terms(k1, k2, k3, k4, k5, i):
+    """The two RODASP dense-output combinations of the stages at component ``i``."""
+    h2 = _RH21 * k1[i] + _RH22 * k2[i] + _RH23 * k3[i] + _RH24 * k4[i] + _RH25 * k5[i]
+    h3 = _RH31 * k1[i] + _RH32 * k2[i] + _RH33 * k3[i] + _RH34 * k4[i] + _RH35 * k5[i]
+    return h2, h3
+
+
+@jit
 def _solve(
     method, y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
 ):
@@ -602,20 +610,7 @@ def _solve(
                     # dense-output check: the interpolant's slope at the step's end against
                     # h f(y1), filtered by (I - gamma h J)^-1 (stiff components damped)
                     for i in range(n):
-                        h2 = (
-                            _RH21 * k1[i]
-                            + _RH22 * k2[i]
-                            + _RH23 * k3[i]
-                            + _RH24 * k4[i]
-                            + _RH25 * k5[i]
-                        )
-                        h3 = (
-                            _RH31 * k1[i]
-                            + _RH32 * k2[i]
-                            + _RH33 * k3[i]
-                            + _RH34 * k4[i]
-                            + _RH35 * k5[i]
-                        )
+                        h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
                         pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3)
                     _lu_solve(A, piv, pw)
                     for i in range(n):
@@ -625,20 +620,7 @@ def _solve(
                         # defect of the interpolant at the step's middle; its error there is
                         # about (I/(gamma h) - J)^-1 times the defect (J^-1 on stiff parts)
                         for i in range(n):
-                            h2 = (
-                                _RH21 * k1[i]
-                                + _RH22 * k2[i]
-                                + _RH23 * k3[i]
-                                + _RH24 * k4[i]
-                                + _RH25 * k5[i]
-                            )
-                            h3 = (
-                                _RH31 * k1[i]
-                                + _RH32 * k2[i]
-                                + _RH33 * k3[i]
-                                + _RH34 * k4[i]
-                                + _RH35 * k5[i]
-                            )
+                            h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
                             rc1 = yn[i] - Y[i]
                             yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * h3)
                             ysti[i] = (rc1 + 0.25 * h3) / hh
@@ -658,20 +640,7 @@ def _solve(
                     if r < nrec and t_rec[r] < limit:
                         for i in range(n):  # the method's own dense output (rodas.f)
                             rc[1, i] = yn[i] - Y[i]
-                            rc[2, i] = (
-                                _RH21 * k1[i]
-                                + _RH22 * k2[i]
-                                + _RH23 * k3[i]
-                                + _RH24 * k4[i]
-                                + _RH25 * k5[i]
-                            )
-                            rc[3, i] = (
-                                _RH31 * k1[i]
-                                + _RH32 * k2[i]
-                                + _RH33 * k3[i]
-                                + _RH34 * k4[i]
-                                + _RH35 * k5[i]
-                            )
+                            rc[2, i], rc[3, i] = _dense_terms(k1, k2, k3, k4, k5, i)
                             rc[4, i] = 0.0
                         r = _record(
                             r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase
