@@ -5,6 +5,7 @@ One test right-hand side serves every problem (``D[0]`` picks it), so the templa
 
 from __future__ import annotations
 
+import dis
 import importlib
 import math
 import threading
@@ -88,12 +89,29 @@ def assert_close(actual, expected, atol):
     assert err <= atol, f"max error {err:.3e} > {atol:.1e}"
 
 
-def test_template_text_is_what_follows_the_marker():
+def test_template_text_is_what_follows_the_marker_with_one_core_per_method():
     text = adaptive.template_text()
     source = Path(adaptive.__file__).read_text()
-    assert source.endswith(text)
-    assert "def integrate_dopri5(" in text and "def bind(" not in text
     assert source.count(adaptive.TEMPLATE_MARKER + "\n") == 1
+    pasted = source.split(adaptive.TEMPLATE_MARKER + "\n", 1)[1]
+    assert adaptive.specialise(pasted) == text
+    assert "def integrate_dopri5(" in text and "def bind(" not in text
+    assert "def _solve(" not in text
+    names = {name: _names_used(text, name) for name, *_ in adaptive._CORES}
+    # each entry point's core keeps only its own method's steps once Python drops dead blocks
+    assert "_A21" in names["_solve_dopri5"] and "_lu_solve" not in names["_solve_dopri5"]
+    assert "_lu_solve" in names["_solve_rodasp"] and "_A21" not in names["_solve_rodasp"]
+    assert {"_A21", "_lu_solve"} <= names["_solve_auto"]
+
+
+def _names_used(text: str, name: str) -> set[str]:
+    """Global names that function ``name`` of ``text`` loads (its bytecode, so not those of
+    blocks Python dropped)."""
+    source = f"@jit\ndef {name}(" + text.split(f"def {name}(", 1)[1].split("\n\n\n", 1)[0]
+    ns = {"jit": lambda f: f}
+    exec(source, ns)  # noqa: S102
+    code = ns[name].__code__
+    return {i.argval for i in dis.get_instructions(code) if i.opname == "LOAD_GLOBAL"}
 
 
 @pytest.mark.parametrize("method", METHODS)

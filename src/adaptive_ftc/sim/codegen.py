@@ -106,6 +106,10 @@ def emit_at(
 
 def template(name: str) -> str:
     """The pasted part of ``templates/<name>.py``."""
+    if name == "adaptive":  # one core per method (see templates.adaptive.specialise)
+        from adaptive_ftc.sim.templates.adaptive import template_text
+
+        return template_text().lstrip("\n")
     text = (Path(__file__).parent / "templates" / f"{name}.py").read_text()
     return text.split("\n" + _BEGIN + "\n", 1)[1].lstrip("\n")
 
