@@ -117,6 +117,50 @@ def test_user_plant_open_loop_matches_the_analytic_oscillator():
     np.testing.assert_allclose(r.states[:, 0], np.cos(2.0 * r.time), atol=1e-9)
 
 
+class _Spring(NamedTuple):
+    """Module level: its numbers can live in the loop's flat data array."""
+
+    index: int  # an integer field: rebuilt as an int in the compiled code
+    soft: float
+    stiff: float
+
+
+def _local_spring_class():
+    class Spring(NamedTuple):  # defined in a function: not importable, passed whole
+        index: int
+        soft: float
+        stiff: float
+
+    return Spring
+
+
+@pytest.mark.parametrize("where", ["module", "function"])
+def test_plant_parameters_reach_the_equations_flattened_or_whole(where):
+    """Parameters of an importable class are flattened into the data array (an int field
+    comes back an int); those of a class defined in a function travel whole. Both give the
+    analytic oscillator x = cos(2 t)."""
+    cls = _Spring if where == "module" else _local_spring_class()
+
+    @plant(states=("q", "v"), outputs={"q": "v"}, actuators=("a", "b"), params=cls(1, 9.0, 4.0))
+    def spring(t, x, u, p, xdot):
+        k = p.stiff if p.index == 1 else p.soft
+        xdot[0] = x[1]
+        xdot[1] = -k * x[0] + u[0] + u[1]
+
+    ctrl = DirectAdaptive(regressor=LinearRegressor(inputs=(), bias=True), theta0=0.0)
+    loop = ClosedLoop(
+        plant=spring,
+        controller=ctrl,
+        allocation=(0.0, 0.0),
+        initial_state=(1.0, 0.0),
+        t_final=3.0,
+    )
+    asm = assemble(loop)
+    assert (asm.data.p == ()) == (where == "module")
+    r = simulate(loop)
+    np.testing.assert_allclose(r.states[:, 0], np.cos(2.0 * r.time), atol=1e-9)
+
+
 def test_two_hundred_members_that_differ_only_in_numbers_compile_once():
     """Gains, failure values and times, initial states are data, not code."""
     sc = load_scenario("hypersonic-direct-s1")

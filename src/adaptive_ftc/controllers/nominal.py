@@ -23,7 +23,7 @@ so a baseline built from an adaptive loop aims at the same error dynamics.
     every loop; it is what a designer without fault tolerance would fly.
 :class:`OracleInverse` (design ``"oracle"``)
     evaluates the same two model calls through the failure functions of the current interval
-    (``failure(D.fphase[ph, j], t, x, u_j, D)``; a healthy actuator passes ``u_j``), so ``f``
+    (``failure(instance(ph, j, D), t, x, u_j, D)``; a healthy actuator passes ``u_j``), so ``f``
     includes the stuck/bias outputs and ``G`` the lost effectiveness: exact for the failures
     ``a u + b`` (loss, stuck, bias, affine, reversal, incipient) of plants affine in ``u``. It
     is the best any controller of this form could do and is not a fair competitor: reports
@@ -152,11 +152,11 @@ class NominalInverse(AdaptiveController):
         v_at = p * p
         if self.oracle:  # through the failure functions of the current interval
             zero = [
-                "        k = D.fphase[ph, j]",
+                "        k = instance(ph, j, D)",
                 "        uf[j] = 0.0 if k < 0 else failure(k, t, xs, 0.0, D)",
             ]
             step = [
-                "            k = D.fphase[ph, j]",
+                "            k = instance(ph, j, D)",
                 "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
             ]
             what = "the failed actuators' true outputs (oracle)"
@@ -169,13 +169,13 @@ class NominalInverse(AdaptiveController):
             f"    xs = sig[0:{nx}]",
             f"    for j in range({m}):",
             *zero,
-            "    plant_dynamics(t, xs, uf, D.plant, xdot)",
+            "    plant_dynamics(t, xs, uf, plant_params(D), xdot)",
             *[f"    wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
             f"    for kk in range({p}):",
             f"        for j in range({m}):",
             f"            a = c[RMAT + kk * {m} + j] * D.gains.probe",
             *step,
-            "        plant_dynamics(t, xs, uf, D.plant, xdot)",
+            "        plant_dynamics(t, xs, uf, plant_params(D), xdot)",
             *[
                 f"        wb[{i * p} + kk] = (xdot[{vel[i]}] - wb[{f_at + i}]) / D.gains.probe"
                 for i in range(p)

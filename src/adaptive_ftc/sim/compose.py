@@ -33,19 +33,53 @@ __all__ = ["Assembled", "Generator", "LoopData", "assemble", "generate", "source
 class LoopData(NamedTuple):
     """The numbers of a closed loop (everything a campaign may vary without recompiling).
 
-    A few flat arrays: the compiled right-hand side receives them on every call, so its cost
-    does not grow with the number of named settings. :attr:`Assembled.layout` names the places
-    in ``c`` (``"c:lam"``, ``"c:k"``, ``"c:R"``, ``"c:centers"``...).
+    Two flat arrays: the compiled right-hand side receives them on every call, and a call's
+    cost grows with the number of arrays and tuple fields it passes (each array is seven
+    machine words). :attr:`Assembled.layout` names the places in ``c`` (``"c:lam"``, ``"c:k"``,
+    ``"c:R"``, ``"c:gains"``, ``"c:plant"``...); the tables are readable as the properties
+    below. ``c`` holds, in order: the expressions' lifted constants, the settings, the design's
+    gains, the plant's parameters, the failure constants, the actuator table and the
+    measurement table. ``i`` holds a header (see ``_I_*``), the failure instance per (interval,
+    actuator), the instance table and the sample flags.
     """
 
-    c: np.ndarray  # every number: settings, lifted expression constants, failure constants
-    fphase: np.ndarray  # failure instance per (phase, actuator); -1 = healthy
-    inst: np.ndarray  # per failure instance: [shape (generated branch), offset in c]
-    plant: Any  # the plant's parameters (a NamedTuple, or an array for expression plants)
-    gains: Any  # the design's gains (a NamedTuple)
-    act: np.ndarray  # per (interval, actuator): [tau, rate, lower, upper, omega, zeta]
-    meas: np.ndarray  # per (interval, state): measurement offset, bias + noise (sensors)
-    samp: np.ndarray  # per interval: 1 where it starts at a controller sample (digital)
+    c: np.ndarray  # every number (float64)
+    i: np.ndarray  # every integer (int64)
+    p: Any = ()  # the plant's parameters, only when they cannot live in ``c`` (else empty)
+
+    def _table(self, at: int, shape: tuple[int, ...], ints: bool = False) -> np.ndarray:
+        base = self.i if ints else self.c
+        return base[at : at + int(np.prod(shape))].reshape(shape)
+
+    @property
+    def fphase(self) -> np.ndarray:
+        """Failure instance per (interval, actuator); -1 = healthy (a view)."""
+        return self._table(_I_HEAD, (int(self.i[_I_NPH]), int(self.i[_I_M])), ints=True)
+
+    @property
+    def inst(self) -> np.ndarray:
+        """Per failure instance: [shape (generated branch), offset in ``c``] (a view)."""
+        return self._table(int(self.i[_I_INST]), (int(self.i[_I_NINST]), 2), ints=True)
+
+    @property
+    def samp(self) -> np.ndarray:
+        """Per interval: 1 where it starts at a controller sample (digital control; a view)."""
+        return self._table(int(self.i[_I_SAMP]), (int(self.i[_I_NPH]),), ints=True)
+
+    @property
+    def act(self) -> np.ndarray:
+        """Per (interval, actuator): [tau, rate, lower, upper, omega, zeta] (a view)."""
+        return self._table(int(self.i[_I_ACT]), (int(self.i[_I_NPH]), int(self.i[_I_M]), 6))
+
+    @property
+    def meas(self) -> np.ndarray:
+        """Per (interval, state): measurement offset, bias + noise (sensors; a view)."""
+        return self._table(int(self.i[_I_MEAS]), (int(self.i[_I_NPH]), int(self.i[_I_NX])))
+
+
+# the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``)
+_I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = range(8)
+_I_HEAD = 8  # the failure instance per (interval, actuator) starts here in ``i``
 
 
 #: The work array of one run, as named slices in this order: controller signals
@@ -73,6 +107,7 @@ class Generator:
     n_w: int = 0
     y0_extra: list[float] = field(default_factory=list)
     adaptive_names: list[str] = field(default_factory=list)
+    classes: set[str] = field(default_factory=set)  # aliases of imported classes
 
     # sizes fixed by the plant
     @property
@@ -96,22 +131,21 @@ class Generator:
         if checked:
             self.checked.add(alias)
         func = getattr(func, "py_func", func)  # accept numba dispatchers too
-        modname = getattr(func, "__module__", None)
-        qual = getattr(func, "__qualname__", "")
-        importable = False
-        if modname not in (None, "__main__") and "<" not in qual and "." not in qual:
-            try:
-                module = importlib.import_module(modname)
-            except Exception:  # noqa: BLE001 - e.g. code executed from a string
-                module = None
-            importable = getattr(module, func.__name__, None) is func and bool(
-                getattr(module, "__file__", None)
-            )
-        if importable:
-            self.imports[alias] = f"{modname}:{func.__name__}"
+        where = _importable(func)
+        if where:
+            self.imports[alias] = where
         else:
             self.inject[f"_py_{alias}"] = func
             self.imports[alias] = ""
+        return alias
+
+    def use_class(self, alias: str, cls: type) -> str:
+        """Make the class ``cls`` (a NamedTuple of numbers) available as ``alias``."""
+        where = _importable(cls)
+        self.classes.add(alias)
+        self.imports[alias] = where
+        if not where:
+            self.inject[alias] = cls
         return alias
 
     def constant_block(self, node, names: dict[str, str], share_from: int | None = None) -> str:
@@ -126,6 +160,63 @@ class Generator:
                 f"Available signals: {', '.join(names)}."
             )
         return names[name]
+
+
+def _importable(obj) -> str:
+    """``"module:name"`` when ``obj`` can be imported by name from a module file, else ``""``
+    (functions and classes of ``__main__``, of a notebook, or defined inside a function)."""
+    modname = getattr(obj, "__module__", None)
+    qual = getattr(obj, "__qualname__", "")
+    if modname in (None, "__main__") or "<" in qual or "." in qual:
+        return ""
+    try:
+        module = importlib.import_module(modname)
+    except Exception:  # noqa: BLE001 - e.g. code executed from a string
+        return ""
+    found = getattr(module, obj.__name__, None) is obj and bool(getattr(module, "__file__", None))
+    return f"{modname}:{obj.__name__}" if found else ""
+
+
+def _pack_plant(g: Generator, value) -> tuple[list[float], str]:
+    """The plant's parameters as numbers for ``D.c`` (from ``PLANT`` on) and the expression
+    that rebuilds them in ``plant_params``; ``([], "D.p")`` when they cannot be flattened
+    (arrays inside a NamedTuple, a class defined in ``__main__``...): then they travel in
+    ``LoopData.p``."""
+    vals: list[float] = []
+
+    def pack(v) -> str | None:
+        if isinstance(v, (bool, np.bool_)):
+            vals.append(1.0 if v else 0.0)
+            return f"(c[PLANT + {len(vals) - 1}] != 0.0)"
+        if isinstance(v, (int, np.integer)):
+            if abs(int(v)) > 2**53:
+                return None
+            vals.append(float(v))
+            return f"int(c[PLANT + {len(vals) - 1}])"
+        if isinstance(v, (float, np.floating)):
+            vals.append(float(v))
+            return f"c[PLANT + {len(vals) - 1}]"
+        if isinstance(v, tuple):
+            parts = [pack(x) for x in v]
+            if any(part is None for part in parts):
+                return None
+            if hasattr(type(v), "_fields"):
+                if not _importable(type(v)):
+                    return None
+                alias = g.use_class(f"_Params{len(g.classes)}", type(v))
+                return f"{alias}({', '.join(parts)})"
+            return "(" + "".join(f"{part}, " for part in parts) + ")"
+        return None
+
+    if isinstance(value, np.ndarray) and value.ndim == 1 and value.dtype.kind == "f":
+        # a plant written as equations indexes its numbers as ``c[k]``: a tuple serves (a
+        # function without reference counting cannot return a view of ``D.c``)
+        vals = [float(v) for v in value]
+        return vals, "(" + "".join(f"c[PLANT + {k}], " for k in range(len(vals))) + ")"
+    expr = pack(value) if hasattr(type(value), "_fields") else None
+    if expr is None:
+        return [], "D.p"
+    return vals, expr
 
 
 @dataclass(frozen=True)
@@ -277,16 +368,18 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
             "def failure(k, t, x, u, D):",
             '    """Applied output of a failed actuator (pattern of failure instance k)."""',
             "    c = D.c",
-            "    s = D.inst[k, 0]",
-            "    o = D.inst[k, 1]",
+            "    at = D.i[I_INST] + 2 * k",
+            "    s = D.i[at]",
+            "    o = D.i[at + 1]",
         ],
         [
             "@hot",
             "def dfailure(k, t, x, u, D):",
             '    """d(applied output)/du of failure instance k."""',
             "    c = D.c",
-            "    s = D.inst[k, 0]",
-            "    o = D.inst[k, 1]",
+            "    at = D.i[I_INST] + 2 * k",
+            "    s = D.i[at]",
+            "    o = D.i[at + 1]",
         ],
     )
     for (text, dtext), s in shapes.items():
@@ -341,6 +434,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
+    adapt_src = [ln.replace("D.gains.", "gains(D).") for ln in adapt_src]
     filt = extra_at + len(g.y0_extra)
     if sdot == "filtered":
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
@@ -371,7 +466,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "    c = D.c",
         *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
         f"    for i in range({nx}):",
-        "        sig[i] = x[i] + D.meas[ph, i]  # what the sensors give"
+        "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
         if has_meas
         else "        sig[i] = x[i]",
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
@@ -412,17 +507,17 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "        u[j] = acc",
         *(
             [
-                "        if D.act[ph, j, 0] > 0.0 or D.act[ph, j, 4] > 0.0:  # position: a state",
+                "        if act(ph, j, 0, D) > 0.0 or act(ph, j, 4, D) > 0.0:  # position: a state",
                 f"            acc = Y[{at_act} + j]",
                 "        else:  # an ideal actuator within its position limits",
-                "            acc = min(max(acc, D.act[ph, j, 2]), D.act[ph, j, 3])",
+                "            acc = min(max(acc, act(ph, j, 2, D)), act(ph, j, 3, D))",
             ]
             if has_act
             else []
         ),
-        "        k = D.fphase[ph, j]",
+        "        k = instance(ph, j, D)",
         "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
-        "    plant_dynamics(t, x, uf, D.plant, xdot)",
+        "    plant_dynamics(t, x, uf, plant_params(D), xdot)",
         f"    for i in range({nx}):",
         "        dY[i] = xdot[i]",
     ]
@@ -430,17 +525,17 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         body += [
             "    # actuators: a' = clip((clip(u, lower, upper) - a) / tau, -rate, rate)",
             f"    for j in range({m}):",
-            "        tau = D.act[ph, j, 0]",
+            "        tau = act(ph, j, 0, D)",
             *(
                 [
-                    "        omega = D.act[ph, j, 4]",
+                    "        omega = act(ph, j, 4, D)",
                     "        if omega > 0.0:  # a' = clip(v), v' = w^2 (u - a) - 2 z w v",
-                    "            target = min(max(u[j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+                    "            target = min(max(u[j], act(ph, j, 2, D)), act(ph, j, 3, D))",
                     f"            v = Y[{at_vel} + j]",
-                    "            rate = D.act[ph, j, 1]",
+                    "            rate = act(ph, j, 1, D)",
                     f"            dY[{at_act} + j] = min(max(v, -rate), rate)",
                     f"            dY[{at_vel} + j] = omega * omega * (target - Y[{at_act} + j])"
-                    " - 2.0 * D.act[ph, j, 5] * omega * v",
+                    " - 2.0 * act(ph, j, 5, D) * omega * v",
                     "            continue",
                     f"        dY[{at_vel} + j] = 0.0",
                 ]
@@ -448,8 +543,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
                 else []
             ),
             "        if tau > 0.0:",
-            "            target = min(max(u[j], D.act[ph, j, 2]), D.act[ph, j, 3])",
-            "            rate = D.act[ph, j, 1]",
+            "            target = min(max(u[j], act(ph, j, 2, D)), act(ph, j, 3, D))",
+            "            rate = act(ph, j, 1, D)",
             f"            da = (target - Y[{at_act} + j]) / tau",
             f"            dY[{at_act} + j] = min(max(da, -rate), rate)",
             "        else:",
@@ -503,7 +598,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         ]
     if sampled:
         jump_src += [
-            "    if D.samp[ph] != 0:  # a controller sample: new command and derivatives, held",
+            "    if D.i[D.i[I_SAMP] + ph] != 0:  # a controller sample: new command and"
+            " derivatives, held",
             "        misc[5] = 1.0",
             "        rhs(t, Y, ph, D, W, scratch)",
             "        misc[5] = 0.0",
@@ -521,9 +617,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             "        if ph == 0:",
             "            was_ideal = D.c[ACT0] != 0.0",
             "        else:",
-            "            was_ideal = D.act[ph - 1, j, 0] == 0.0 and D.act[ph - 1, j, 4] == 0.0",
+            "            was_ideal = act(ph - 1, j, 0, D) == 0.0 and act(ph - 1, j, 4, D) == 0.0",
             "        if was_ideal:",
-            f"            Y[{at_act} + j] = min(max(W[U + j], D.act[ph, j, 2]), D.act[ph, j, 3])",
+            f"            Y[{at_act} + j] = min(max(W[U + j], act(ph, j, 2, D)), act(ph, j, 3, D))",
             *([f"            Y[{at_vel} + j] = 0.0"] if has_act2 else []),
         ]
     jump_src = "\n".join(jump_src)
@@ -540,6 +636,45 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             "            return i",
         ]
     env_src = "\n".join([*env_src, "    return -1"])
+    plant_vals, plant_expr = _pack_plant(g, plant.parameter_values())
+    gains = ctrl.gains()
+    gains_alias = g.use_class("Gains", type(gains))
+    tables_src = "\n".join(
+        [
+            "@hot",
+            "def plant_params(D):",
+            '    """The plant\'s parameters (their numbers live in D.c, from PLANT on)."""',
+            "    c = D.c",
+            f"    return {plant_expr}",
+            "",
+            "",
+            "@hot",
+            "def gains(D):",
+            '    """The design\'s gains (their numbers live in D.c, from GAINS on)."""',
+            "    c = D.c",
+            f"    return {gains_alias}("
+            + ", ".join(f"c[GAINS + {k}]" for k in range(len(gains)))
+            + ")",
+            "",
+            "",
+            "@hot",
+            "def instance(ph, j, D):",
+            '    """Failure instance of actuator j in interval ph (-1: healthy)."""',
+            "    return D.i[I_HEAD + ph * M + j]",
+            "",
+            "",
+            "@hot",
+            "def act(ph, j, k, D):",
+            '    """Entry k of [tau, rate, lower, upper, omega, zeta] of actuator j, phase ph."""',
+            "    return D.c[D.i[I_ACT] + (ph * M + j) * 6 + k]",
+            "",
+            "",
+            "@hot",
+            "def meas(ph, i, D):",
+            '    """Measurement offset (bias + noise) of state i in interval ph."""',
+            "    return D.c[D.i[I_MEAS] + ph * NX + i]",
+        ]
+    )
     # ------------------------------------------------------------ imports and module
     imports = [
         "import math",
@@ -553,6 +688,12 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     jits = ["filtered_error", "robust_q", "weighted_sum", *_guarded()]
     mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib"]
     for alias, target in sorted(g.imports.items()):
+        if alias in g.classes:
+            if target:
+                mod, cls = target.split(":")
+                imports.append(f"from {mod} import {cls} as {alias}")
+                mods.append(mod)
+            continue
         if target:
             mod, fn = target.split(":")
             imports.append(f"from {mod} import {fn} as _py_{alias}")
@@ -588,6 +729,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "\n".join(body),
         jump_src,
         env_src,
+        tables_src,
         codegen.template("rk4"),
         codegen.template("adaptive"),
         codegen.template("record"),
@@ -605,6 +747,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "spread": tuple(g.spread),
         "act0": (1.0 if has_act and not (loop.actuators and loop.actuators.initial) else 0.0,),
         "envelope": env,
+        "gains": tuple(float(v) for v in gains),
+        "plant": tuple(plant_vals),
     }
     layout: dict = {}
     values = list(g.consts)  # expression constants first: their indices are in the text
@@ -620,6 +764,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "spread": "SPREAD",
         "act0": "ACT0",
         "envelope": "ENV",
+        "gains": "GAINS",
+        "plant": "PLANT",
     }
     consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
     for key, vals in settings.items():
@@ -651,6 +797,12 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         at += sizes[name]
     layout["w:size"] = slice(0, at)
     consts_lines += [
+        "# the header of D.i: sizes, then where the tables start (in D.i or D.c)",
+        *[
+            f"I_{name} = {k}"
+            for k, name in enumerate(("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"))
+        ],
+        f"I_HEAD = {_I_HEAD}",
         f"NX = {nx}",
         f"P = {p}",
         f"M = {m}",
@@ -658,19 +810,27 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         f"VEL = {tuple(vel)!r}",
     ]
     text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
-    inst = np.zeros((max(len(fshape), 1), 2), dtype=np.int64)
+    inst = np.zeros((len(fshape), 2), dtype=np.int64)
     for n_, (sh, of) in enumerate(zip(fshape, foff, strict=True)):
         inst[n_] = (sh, of + fail_base)
-    data = LoopData(
-        c=np.array(values, dtype=float),
-        fphase=fphase,
-        inst=inst,
-        plant=plant.parameter_values(),
-        gains=ctrl.gains(),
-        act=_actuator_table(loop, bps) if has_act else np.zeros((1, 1, 6)),
-        meas=_measurements(loop, sample_index) if has_meas else np.zeros((1, 1)),
-        samp=samp if sampled else np.zeros(1, dtype=np.int64),
-    )
+    nph = len(bps) - 1
+    act_table = _actuator_table(loop, bps) if has_act else np.zeros((nph, m, 6))
+    meas_table = _measurements(loop, sample_index) if has_meas else np.zeros((nph, nx))
+    act_at = len(values)
+    meas_at = act_at + act_table.size
+    c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
+    inst_at = _I_HEAD + fphase.size
+    samp_at = inst_at + inst.size
+    header = [nph, m, nx, len(fshape), inst_at, samp_at, act_at, meas_at]
+    ints = np.concatenate(
+        [
+            np.array(header, dtype=np.int64),
+            fphase.ravel(),
+            inst.ravel(),
+            (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel(),
+        ]
+    ).astype(np.int64)
+    data = LoopData(c=c_all, i=ints, p=plant.parameter_values() if plant_expr == "D.p" else ())
     extra = []
     if has_act:
         extra += [f"position of {a}" for a in plant.actuator_names]

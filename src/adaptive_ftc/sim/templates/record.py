@@ -25,6 +25,14 @@ def filtered_error(e, edot, lam):
     raise NotImplementedError
 
 
+def plant_params(D):
+    raise NotImplementedError
+
+
+def instance(ph, j, D):
+    raise NotImplementedError
+
+
 # module constants of every generated loop (sizes and places in the work array)
 NX = P = M = SIG = N_SIG = REF = N_REF = XDOT = N_XDOT = Q = N_Q = U0 = N_U0 = U = N_U = 0
 UF = N_UF = MISC = N_MISC = LAM = RMAT = 0
@@ -87,15 +95,15 @@ def _signal_rows(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot):
         out[n, col] = misc[0]
         out[n, col + 1] = misc[1]
         x = Y[:NX]
-        plant_dynamics(t, x, zero, D.plant, x0dot)
+        plant_dynamics(t, x, zero, plant_params(D), x0dot)
         gain = 0.0
         for j in range(M):
             for i in range(M):
                 unit[i] = 0.0
             unit[j] = 1.0
-            plant_dynamics(t, x, unit, D.plant, x1dot)
+            plant_dynamics(t, x, unit, plant_params(D), x1dot)
             gj = x1dot[v0] - x0dot[v0]
-            k = D.fphase[ph, j]
+            k = instance(ph, j, D)
             df = 1.0 if k < 0 else dfailure(k, t, x, u[j], D)
             gain += gj * c[RMAT + j] * df
         out[n, col + 2] = gain
