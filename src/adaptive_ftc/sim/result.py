@@ -138,9 +138,11 @@ class SimResult:
         }
         plant = loop.plant
         return cls(
+            # views of the recorded block, like the signals below: copying them cost ~1 ms
+            # of a 60 ms run
             time=T.copy(),
-            states=Y[:, :n].copy(),
-            adaptive=Y[:, n : n + len(asm.adaptive_names)].copy(),
+            states=Y[:, :n],
+            adaptive=Y[:, n : n + len(asm.adaptive_names)],
             y=cols[0],
             yd=cols[1],
             yd_dot=cols[2],
