@@ -472,3 +472,25 @@ def test_simulate_refuses_a_run_that_cannot_fit_before_allocating():
     sc = load_scenario("hypersonic-direct-s1")
     with pytest.raises(ConfigurationError, match="steps"):
         simulate(replace(sc.loop, t_final=1e9), SolverOptions(dt=1e-3))
+
+
+def test_failure_free_and_oracle_runs_share_the_compiled_code_of_their_loop():
+    """The variants a reproduction runs per scenario cost no compilation of their own: the
+    failure-free run keeps the failures' code (never acting), the oracle is the nominal
+    inverse with one number changed."""
+    from adaptive_ftc.baselines import baseline_loop
+
+    sc = load_scenario("hypersonic-direct-s2")  # non-affine failures: shapes of their own
+    loop = sc.loop
+    assert any(
+        type(f).__name__ not in ("LossOfEffectiveness", "Stuck") for f in loop.failures.failures
+    )
+    assert "if s == 2:" in source_of(loop)  # a third failure shape, beyond a*u + b
+    healthy = loop.without_failures()
+    assert not healthy.failures.failures and healthy.dormant_failures
+    assert source_of(healthy) == source_of(loop)
+    nominal, oracle = (baseline_loop(loop, v) for v in ("nominal-inverse", "oracle"))
+    assert source_of(oracle) == source_of(nominal)
+    # ... and they still behave differently: a failure-free run is healthy throughout
+    r = simulate(replace(healthy, t_final=1.0))
+    assert r.failures == () and np.allclose(r.u_applied, r.u_cmd)

@@ -93,6 +93,12 @@ class AdaptiveController(ABC):
         return self.regressors()
 
     # ------------------------------------------------------------------ code generation
+    def code_label(self) -> str:
+        """The design as the generated module's header names it: designs that differ only in
+        their numbers (see :class:`~adaptive_ftc.controllers.nominal.OracleInverse`) share one
+        label, hence one compiled structure."""
+        return f"{self.design!r} {self.equation}"
+
     def gains(self) -> tuple:
         """The design's adaptation gains as a NamedTuple (numbers of the compiled loop)."""
         raise NotImplementedError

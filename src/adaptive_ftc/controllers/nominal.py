@@ -50,10 +50,13 @@ __all__ = ["NominalInverse", "OracleInverse", "solve_guarded"]
 
 
 class NominalGains(NamedTuple):
-    """Numbers of the inverse: the pivot floor and the probe step of the model slope."""
+    """Numbers of the inverse: the pivot floor, the probe step of the model slope and whether
+    the model sees the true failures (1.0, the oracle) or healthy actuators (0.0): a number,
+    so the nominal inverse and the oracle of a loop share one compiled structure."""
 
     gmin: float
     probe: float
+    oracle: float
 
 
 def solve_guarded(a, at, n, gmin, out):
@@ -140,7 +143,7 @@ class NominalInverse(AdaptiveController):
         return ()
 
     def gains(self) -> NominalGains:
-        return NominalGains(float(self.gmin), float(self.probe))
+        return NominalGains(float(self.gmin), float(self.probe), 1.0 if self.oracle else 0.0)
 
     def emit_control(self, g, blocks, extra_at: int) -> list[str]:
         nx, p, m = g.nx, g.p, g.m
@@ -150,20 +153,16 @@ class NominalInverse(AdaptiveController):
         g.n_w = max(g.n_w, p * p + 2 * p)
         f_at = p * p + p  # wb: [G (p*p, row-major) | v (p) | f (p)]
         v_at = p * p
-        if self.oracle:  # through the failure functions of the current interval
-            zero = [
-                "        k = instance(ph, j, D)",
-                "        uf[j] = 0.0 if k < 0 else failure(k, t, xs, 0.0, D)",
-            ]
-            step = [
-                "            k = instance(ph, j, D)",
-                "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
-            ]
-            what = "the failed actuators' true outputs (oracle)"
-        else:
-            zero = ["        uf[j] = 0.0"]
-            step = ["            uf[j] = a"]
-            what = "the healthy model"
+        # the oracle goes through the failure functions of the current interval
+        zero = [
+            "        k = instance(ph, j, D) if D.gains.oracle != 0.0 else -1",
+            "        uf[j] = 0.0 if k < 0 else failure(k, t, xs, 0.0, D)",
+        ]
+        step = [
+            "            k = instance(ph, j, D) if D.gains.oracle != 0.0 else -1",
+            "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
+        ]
+        what = "the healthy model, or the failed actuators' true outputs (oracle)"
         lines = [
             f"    # u0 from y'' = f + G u0 along u = R^T u0, with {what} (controllers/nominal.py)",
             f"    xs = sig[0:{nx}]",
@@ -206,3 +205,6 @@ class OracleInverse(NominalInverse):
     design: ClassVar[str] = "oracle"
     equation: ClassVar[str] = "feedback linearisation knowing the true failure (oracle baseline)"
     oracle: ClassVar[bool] = True
+
+    def code_label(self) -> str:
+        return NominalInverse.code_label(NominalInverse())  # the same code, other numbers

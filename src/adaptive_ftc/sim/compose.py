@@ -326,7 +326,8 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
     drawn: list[tuple[Failure, tuple[str, str], list[float]]] = []
     # every failure of the schedule, active in this window or not: a shortened run (quick
     # mode, a test) shares the compiled structure of the full one
-    for f in loop.failures.failures:
+    # (and the dormant failures of a failure-free run: it shares the failing run's code)
+    for f in (*loop.failures.failures, *loop.dormant_failures):
         ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
         e = f.expression(variables, context=ctx)
         raw = Expression(f.pattern(), variables, context=ctx) if f.ramp > 0 else e
@@ -461,7 +462,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     body = [
         "@hot",
         "def rhs(t, Y, ph, D, W, dY):",
-        f'    """Closed-loop derivative of {plant.name} + {ctrl.design} (in place)."""',
+        f'    """Closed-loop derivative of {plant.name} + {ctrl.code_label()} (in place)."""',
         f"    x = Y[0:{nx}]",
         "    c = D.c",
         *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
@@ -700,8 +701,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             mods.append(mod)
         jits.append(alias)
     header = [
-        f'"""Generated closed loop: plant {plant.name!r}, design {ctrl.design!r} '
-        f"{ctrl.equation}, {p} output(s), {m} actuator(s), s' {sdot}.",
+        f'"""Generated closed loop: plant {plant.name!r}, design {ctrl.code_label()}, '
+        f"{p} output(s), {m} actuator(s), s' {sdot}.",
         "",
         "Written by adaptive_ftc.sim.compose; numbers live in LoopData, not here.",
         '"""',

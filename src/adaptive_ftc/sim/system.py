@@ -61,6 +61,10 @@ class ClosedLoop:
         controller sees the exact state.
     sample_time
         Period (s) of a digital, sample-and-hold controller; 0: continuous-time controller.
+    dormant_failures
+        Failures compiled into the loop that never act (set by :meth:`without_failures`): the
+        failure-free run of a scenario shares the compiled code of the failing one, so it
+        costs no compilation of its own.
     """
 
     plant: Plant
@@ -77,6 +81,7 @@ class ClosedLoop:
     actuators: Actuators | None = None
     sensors: Sensors | None = None
     sample_time: float = 0.0
+    dormant_failures: tuple = ()
 
     def __post_init__(self) -> None:
         plant = self.plant
@@ -123,6 +128,12 @@ class ClosedLoop:
         if not all(math.isfinite(v) for v in x0):
             raise ConfigurationError("`initial_state` must contain finite numbers.")
         object.__setattr__(self, "initial_state", x0 + (0.0,) * (n - len(x0)))
+        dormant = tuple(self.dormant_failures)
+        if not all(isinstance(f, Failure) and 1 <= f.actuator <= m for f in dormant):
+            raise ConfigurationError(
+                f"`dormant_failures` must be failures of plant '{plant.name}'s {m} actuators."
+            )
+        object.__setattr__(self, "dormant_failures", dormant)
         fails = self.failures
         if not isinstance(fails, FailureSchedule):
             if isinstance(fails, Failure):
@@ -214,6 +225,7 @@ class ClosedLoop:
         return replace(
             self,
             failures=FailureSchedule((), self.plant.n_actuators),
+            dormant_failures=self.dormant_failures + tuple(self.failures.failures),
             name=f"{self.name} (failure-free)" if self.name else "failure-free",
         )
 
