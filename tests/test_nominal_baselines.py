@@ -17,6 +17,7 @@ from adaptive_ftc.baselines import (
     BASELINES,
     FAIR_BASELINES,
     baseline_loop,
+    baseline_solver,
     fixed_gain,
     nominal_inverse,
     oracle,
@@ -86,6 +87,30 @@ def test_robust_term_gives_the_nonlinear_s_dynamics(hyper):
     ref = solve_ivp(rhs, (0.0, 3.0), [e0, s0], t_eval=r.time, rtol=1e-11, atol=1e-13)
     np.testing.assert_allclose(r.e[:, 0], ref.y[0], rtol=0, atol=1e-7)
     np.testing.assert_allclose(r.s[:, 0], ref.y[1], rtol=0, atol=1e-6)
+
+
+def test_stiff_inverse_loops_run_with_stiffness_switching_at_the_same_accuracy(hyper):
+    """With a small eps0 the exact inverse gives s' = -k s - k0 tanh(s/eps0), stiff near
+    s = 0 (slope k0/eps0 = 2e4): the baselines of a DOPRI5 scenario run with stiffness
+    switching, agree with an independent stiff integration and take far fewer steps."""
+    k0, eps0 = 20.0, 1e-3
+    loop = replace(hyper, controller=NominalInverse(lam=LAM, k=K, k0=k0, eps0=eps0), t_final=2.0)
+    solver = SolverOptions(method="dopri5", rtol=1e-8, atol=1e-11, record_dt=0.01)
+    assert baseline_solver("fixed-gain", solver) == solver  # the adaptive structure, unchanged
+    chosen = baseline_solver("oracle", solver)
+    assert chosen == replace(solver, method="auto") == baseline_solver("nominal-inverse", solver)
+    explicit, switching = _run(loop, solver), _run(loop, chosen)
+    e0, s0 = _initial_errors(loop)
+
+    def rhs(t, z):
+        e, s = z
+        return [-LAM * e + s, -K * s - k0 * math.tanh(s / eps0)]
+
+    ref = solve_ivp(rhs, (0.0, 2.0), [e0, s0], t_eval=explicit.time, method="Radau", rtol=1e-11,
+                    atol=1e-14)  # fmt: skip
+    for r in (explicit, switching):
+        np.testing.assert_allclose(r.e[:, 0], ref.y[0], rtol=0, atol=1e-7)
+    assert switching.meta["steps"] < 0.5 * explicit.meta["steps"]
 
 
 def test_oracle_keeps_the_error_dynamics_through_a_loss_of_effectiveness(hyper):

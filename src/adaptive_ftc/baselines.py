@@ -38,6 +38,7 @@ __all__ = [
     "CAMPAIGN_SOLVER",
     "FAIR_BASELINES",
     "baseline_loop",
+    "baseline_solver",
     "fixed_gain",
     "healthy_parameters",
     "nominal_inverse",
@@ -245,6 +246,20 @@ def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = No
     )
 
 
+def baseline_solver(name: str, solver: SolverOptions) -> SolverOptions:
+    """The integration settings of baseline ``name`` in a scenario integrated with ``solver``.
+
+    The exact-inverse baselines impose ``s' = -k s - k0 tanh(s/eps0)``: with the thesis's small
+    ``eps0`` their loops are stiff (an eigenvalue near ``-k0/eps0``), so a scenario on the
+    explicit adaptive-step method runs them with stiffness switching (``"auto"``) at the same
+    tolerances. Measured on spacecraft-mimo-s2: oracle 5.5 s -> 3.9 s, nominal inverse
+    1.6 s -> 0.7 s (910k -> 285k and 636k -> 125k steps); the other loops take the same steps.
+    """
+    if name in ("nominal-inverse", "oracle") and solver.method == "dopri5":
+        return replace(solver, method="auto")
+    return solver
+
+
 def run_baselines(
     scenario,
     names: tuple[str, ...] = BASELINES,
@@ -288,7 +303,7 @@ def run_baselines(
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # a diverged baseline is a result
-            result = simulate(base, solver)
+            result = simulate(base, baseline_solver(name, solver))
         if hasattr(scenario, "stamp"):
             scenario.stamp(result)
         result.meta["variant"] = name

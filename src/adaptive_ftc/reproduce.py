@@ -57,7 +57,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from adaptive_ftc.baselines import BASELINES, FAIR_BASELINES, baseline_loop
+from adaptive_ftc.baselines import BASELINES, FAIR_BASELINES, baseline_loop, baseline_solver
 from adaptive_ftc.claims import (
     FAIL,
     NOT_EVALUATED,
@@ -153,7 +153,7 @@ def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[s
                 except ConfigurationError as exc:  # e.g. a fixed-gain tuning run diverged:
                     # no such baseline exists; reported, not counted as an error
                     return {"result": None, "error": str(exc), "wall": 0.0, "skipped": True}
-                result = sc.stamp(simulate(loop, sc.solver))
+                result = sc.stamp(simulate(loop, baseline_solver(variant, sc.solver)))
             else:
                 result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
         result.meta["variant"] = variant
