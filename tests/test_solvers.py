@@ -99,9 +99,9 @@ def test_template_text_is_what_follows_the_marker_with_one_core_per_method():
     assert "def _solve(" not in text
     names = {name: _names_used(text, name) for name, *_ in adaptive._CORES}
     # each entry point's core keeps only its own method's steps once Python drops dead blocks
-    assert "_A21" in names["_solve_dopri5"] and "_lu_solve" not in names["_solve_dopri5"]
-    assert "_lu_solve" in names["_solve_rodasp"] and "_A21" not in names["_solve_rodasp"]
-    assert {"_A21", "_lu_solve"} <= names["_solve_auto"]
+    assert "_A21" in names["_solve_dopri5"] and "_lu_solve_t" not in names["_solve_dopri5"]
+    assert "_lu_solve_t" in names["_solve_rodasp"] and "_A21" not in names["_solve_rodasp"]
+    assert {"_A21", "_lu_solve_t"} <= names["_solve_auto"]
 
 
 def _names_used(text: str, name: str) -> set[str]:
@@ -163,6 +163,51 @@ def test_stiff_linear_problem_against_exact_solution(mod):
     assert status == 0
     assert_close(Ya, exact, 1e-6)
     assert stats_a[3] > 0 and stats_a[0] < stats_e[0] / 10  # switched to the stiff method
+
+
+def test_transposed_lu_solves_against_numpy(mod):
+    """``_lu_factor`` of ``A^T`` then ``_lu_solve_t`` / ``_lu_solve_t2`` solve ``A x = b``
+    (the core factors the transpose of ``I / (gamma h) - J``), with pivoting exercised."""
+    rng = np.random.default_rng(12)
+    for n in (1, 2, 5, 14, 27):
+        A = rng.normal(size=(n, n))
+        if n > 1:
+            A[0, 0] = 0.0  # forces a row swap at the first column
+        b, c = rng.normal(size=n), rng.normal(size=n)
+        F = A.T.copy()
+        piv = np.zeros(n, dtype=np.int64)
+        dinv = np.zeros(n)
+        assert mod._lu_factor(F, piv, dinv)
+        x = b.copy()
+        mod._lu_solve_t(F, piv, dinv, x)
+        np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
+        x2, y2 = b.copy(), c.copy()
+        mod._lu_solve_t2(F, piv, dinv, x2, y2)
+        np.testing.assert_array_equal(x2, x)  # same arithmetic as the one-vector solve
+        np.testing.assert_allclose(y2, np.linalg.solve(A, c), rtol=1e-10, atol=1e-12)
+    singular = np.ones((3, 3))
+    assert not mod._lu_factor(singular, np.zeros(3, np.int64), np.zeros(3))
+
+
+def test_rodasp_time_derivative_skipped_only_where_the_loop_does_not_move(mod):
+    """An autonomous loop needs n + 1 evaluations per Jacobian (f(t + delt, y) equals f(t, y)
+    bit for bit, so df/dt = 0), a time-dependent one n + 2 (central difference)."""
+    n = 2
+
+    def extra(stats, per_jacobian):
+        # evaluations left after the 2 at the start, the Jacobians and 5 per attempt: one per
+        # attempt passing the error test (f(y1)), one more where a record lies inside a step
+        return stats[2] - 2 - per_jacobian * stats[3] - 5 * (stats[0] + stats[1])
+
+    t_rec = np.array([0.0, 2.0])
+    D = [0.0, *_A.ravel()]  # y' = A y: autonomous
+    *_, status, _, _, stats = solve(mod, "rodasp", [2.0, 0.5], [0.0, 2.0], t_rec, D, 1e-7, 1e-9)
+    assert status == 0
+    assert stats[0] <= extra(stats, n + 1) <= stats[0] + stats[1] + 1
+    # Prothero-Robinson: depends on t
+    *_, status, _, _, stats = solve(mod, "rodasp", [2.0, 1.0], [0.0, 2.0], t_rec, [5.0], 1e-7, 1e-9)
+    assert status == 0
+    assert stats[0] <= extra(stats, n + 2) <= stats[0] + stats[1] + 1
 
 
 def test_prothero_robinson_stiff_component_dense_output(mod):

@@ -44,9 +44,12 @@ benchmarks/bench_tolerance.py hold the numbers):
   Rodas4P), whose order does not drop on Prothero-Robinson problems ``y' = L (y - g(t)) + g'``
   with ``|L h|`` large, as the adaptive laws driven by ``sin 5t`` are in the wing-rock loops.
   Measured there, Hairer's original RODAS coefficients needed 18x more steps for the same
-  error on such a problem. Jacobian by forward differences, ``df/dt`` by a central
-  difference (n + 2 rhs evaluations per step), in-place LU with partial pivoting (nothing
-  allocated per step), Gustafsson's predictive step control, the method's own 3rd-order
+  error on such a problem. Jacobian by forward differences (stored transposed), ``df/dt`` by a
+  central difference, skipped where ``f(t + d, y)`` equals ``f(t, y)`` bit for bit (n + 2 rhs
+  evaluations per step, n + 1 where the loop does not depend on ``t``), in-place LU with
+  partial pivoting of ``(I / (gamma h) - J)^T`` solved by contiguous column sweeps (nothing
+  allocated per step; 1.2-1.8x faster per step than row-wise substitution on the wing-rock
+  loops), Gustafsson's predictive step control, the method's own 3rd-order
   dense output (a cubic Hermite interpolant is useless on stiff components: ``f(y1)``
   multiplies the step's error by the fast rate). The dense output is an order below the steps
   and degrades on stiff components, so a step with a record inside must also pass a dense-output
@@ -283,8 +286,9 @@ def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
 
 
 @jit
-def _lu_factor(A, piv):
-    """In-place LU with partial pivoting (rows swapped whole); False if singular."""
+def _lu_factor(A, piv, dinv):
+    """In-place LU with partial pivoting (rows swapped whole), the pivots' reciprocals in
+    ``dinv``; False if singular."""
     n = A.shape[0]
     for k in range(n):
         p = k
@@ -303,6 +307,7 @@ def _lu_factor(A, piv):
                 A[k, j] = A[p, j]
                 A[p, j] = tmp
         inv = 1.0 / A[k, k]
+        dinv[k] = inv
         for i in range(k + 1, n):
             lik = A[i, k] * inv
             A[i, k] = lik
@@ -313,25 +318,62 @@ def _lu_factor(A, piv):
 
 
 @jit
-def _lu_solve(A, piv, b):
-    """Solve ``A x = b`` in place with the factors of :func:`_lu_factor`."""
+def _lu_solve_t(A, piv, dinv, b):
+    """Solve ``A^T x = b`` in place with the factors ``P A = L U`` of :func:`_lu_factor`.
+
+    ``A^T = U^T L^T P``: the triangular solves run over rows of ``U`` and ``L`` (contiguous
+    axpy updates, no serial dot products), then the row swaps in reverse order. The core
+    factors the transpose of ``I / (gamma h) - J`` so that this solves with the matrix itself:
+    measured on a 14-state loop, about 20 % faster per solve than the row-oriented
+    substitution.
+    """
     n = A.shape[0]
-    for k in range(n):
+    for j in range(n):
+        v = b[j] * dinv[j]
+        b[j] = v
+        for i in range(j + 1, n):
+            b[i] -= A[j, i] * v
+    for j in range(n - 1, 0, -1):
+        v = b[j]
+        for i in range(j):
+            b[i] -= A[j, i] * v
+    for k in range(n - 1, -1, -1):
         p = piv[k]
         if p != k:
             tmp = b[k]
             b[k] = b[p]
             b[p] = tmp
-    for i in range(n):
-        s = b[i]
-        for j in range(i):
-            s -= A[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= A[i, j] * b[j]
-        b[i] = s / A[i, i]
+
+
+@jit
+def _lu_solve_t2(A, piv, dinv, b, c):
+    """:func:`_lu_solve_t` for two right-hand sides at once (independent chains overlap)."""
+    n = A.shape[0]
+    for j in range(n):
+        v = b[j] * dinv[j]
+        w = c[j] * dinv[j]
+        b[j] = v
+        c[j] = w
+        for i in range(j + 1, n):
+            a = A[j, i]
+            b[i] -= a * v
+            c[i] -= a * w
+    for j in range(n - 1, 0, -1):
+        v = b[j]
+        w = c[j]
+        for i in range(j):
+            a = A[j, i]
+            b[i] -= a * v
+            c[i] -= a * w
+    for k in range(n - 1, -1, -1):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+            tmp = c[k]
+            c[k] = c[p]
+            c[p] = tmp
 
 
 @jit
@@ -390,9 +432,10 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
     k6 = np.empty(n)
     k7 = np.empty(n)
     rc = np.zeros((5, n))
-    J = np.empty((n, n))
+    JT = np.empty((n, n))  # the Jacobian, transposed
     A = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
+    dinv = np.empty(n)
     pv = np.full(n, 1.0 / math.sqrt(max(n, 1)))  # power-iteration vector (auto)
     pw = np.empty(n)
     for i in range(5):
@@ -547,8 +590,9 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                         h = 0.1 * hh
                     reject_last = True
             elif _RODASP:
-                # ---------------------------------------------- Rodas4
+                # ---------------------------------------------- RODASP
                 if not jac_ok:
+                    # finite-difference Jacobian, stored transposed: JT[j, i] = df_i / dy_j
                     for i in range(n):
                         yt[i] = Y[i]
                     for j in range(n):
@@ -556,45 +600,61 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                         delt = math.sqrt(_UROUND * max(1e-5, abs(yj)))
                         yt[j] = yj + delt
                         rhs(t, yt, ph, D, W, fs)
-                        for i in range(n):
-                            J[i, j] = (fs[i] - f0[i]) / delt
                         yt[j] = yj
+                        delt = 1.0 / ((yj + delt) - yj)  # the step actually taken
+                        for i in range(n):
+                            JT[j, i] = (fs[i] - f0[i]) * delt
                     # df/dt by a central difference: a forward one (its O(delt) bias times the
-                    # large f_tt of the wing-rock loops) tripled the rejected steps at rtol 1e-9
+                    # large f_tt of the wing-rock loops) tripled the rejected steps at rtol 1e-9.
+                    # Where f(t + delt, y) equals f(t, y) bit for bit, the loop does not depend
+                    # on t there (no moving reference or failure pattern): df/dt = 0 and the
+                    # second evaluation is saved.
                     delt = 1e-5 * max(1.0, abs(t))
                     rhs(t + delt, Y, ph, D, W, fs)
-                    rhs(t - delt, Y, ph, D, W, ft)
+                    moving = False
                     for i in range(n):
-                        ft[i] = (fs[i] - ft[i]) / (2.0 * delt)
-                    stats[2] += n + 2
+                        if fs[i] != f0[i]:
+                            moving = True
+                            break
+                    if moving:
+                        rhs(t - delt, Y, ph, D, W, ft)
+                        for i in range(n):
+                            ft[i] = (fs[i] - ft[i]) / (2.0 * delt)
+                        stats[2] += n + 2
+                    else:
+                        for i in range(n):
+                            ft[i] = 0.0
+                        stats[2] += n + 1
                     stats[3] += 1
                     jac_ok = True
                 fac = 1.0 / (_RG * hh)
+                ihh = 1.0 / hh
+                # A = (I / (gamma h) - J)^T, factored; _lu_solve_t solves with its transpose
                 for i in range(n):
                     for j in range(n):
-                        A[i, j] = -J[i, j]
+                        A[i, j] = -JT[i, j]
                     A[i, i] += fac
                 stats[4] += 1
-                if not _lu_factor(A, piv):
+                if not _lu_factor(A, piv, dinv):
                     stats[1] += 1
                     h = 0.5 * hh
                     reject_last = True
                     continue
                 for i in range(n):
                     k1[i] = f0[i] + hh * _RD1 * ft[i]
-                _lu_solve(A, piv, k1)
+                _lu_solve_t(A, piv, dinv, k1)
                 for i in range(n):
                     yt[i] = Y[i] + _RA21 * k1[i]
                 rhs(t + _RC2 * hh, yt, ph, D, W, fs)
                 for i in range(n):
-                    k2[i] = fs[i] + hh * _RD2 * ft[i] + _RC21 * k1[i] / hh
-                _lu_solve(A, piv, k2)
+                    k2[i] = fs[i] + hh * _RD2 * ft[i] + _RC21 * k1[i] * ihh
+                _lu_solve_t(A, piv, dinv, k2)
                 for i in range(n):
                     yt[i] = Y[i] + _RA31 * k1[i] + _RA32 * k2[i]
                 rhs(t + _RC3 * hh, yt, ph, D, W, fs)
                 for i in range(n):
-                    k3[i] = fs[i] + hh * _RD3 * ft[i] + (_RC31 * k1[i] + _RC32 * k2[i]) / hh
-                _lu_solve(A, piv, k3)
+                    k3[i] = fs[i] + hh * _RD3 * ft[i] + (_RC31 * k1[i] + _RC32 * k2[i]) * ihh
+                _lu_solve_t(A, piv, dinv, k3)
                 for i in range(n):
                     yt[i] = Y[i] + _RA41 * k1[i] + _RA42 * k2[i] + _RA43 * k3[i]
                 rhs(t + _RC4 * hh, yt, ph, D, W, fs)
@@ -602,18 +662,19 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                     k4[i] = (
                         fs[i]
                         + hh * _RD4 * ft[i]
-                        + (_RC41 * k1[i] + _RC42 * k2[i] + _RC43 * k3[i]) / hh
+                        + (_RC41 * k1[i] + _RC42 * k2[i] + _RC43 * k3[i]) * ihh
                     )
-                _lu_solve(A, piv, k4)
+                _lu_solve_t(A, piv, dinv, k4)
                 for i in range(n):
                     dy[i] = _RA51 * k1[i] + _RA52 * k2[i] + _RA53 * k3[i] + _RA54 * k4[i]
                     yt[i] = Y[i] + dy[i]
                 rhs(t1, yt, ph, D, W, fs)
                 for i in range(n):
                     k5[i] = (
-                        fs[i] + (_RC51 * k1[i] + _RC52 * k2[i] + _RC53 * k3[i] + _RC54 * k4[i]) / hh
+                        fs[i]
+                        + (_RC51 * k1[i] + _RC52 * k2[i] + _RC53 * k3[i] + _RC54 * k4[i]) * ihh
                     )
-                _lu_solve(A, piv, k5)
+                _lu_solve_t(A, piv, dinv, k5)
                 for i in range(n):
                     dy[i] += k5[i]
                     yt[i] = Y[i] + dy[i]
@@ -628,9 +689,9 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                             + _RC64 * k4[i]
                             + _RC65 * k5[i]
                         )
-                        / hh
+                        * ihh
                     )
-                _lu_solve(A, piv, k6)
+                _lu_solve_t(A, piv, dinv, k6)
                 for i in range(n):
                     yn[i] = Y[i] + dy[i] + k6[i]
                 stats[2] += 5
@@ -646,26 +707,29 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                     for i in range(n):
                         h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
                         pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3)
-                    _lu_solve(A, piv, pw)
-                    for i in range(n):
-                        pw[i] *= fac * 0.25
-                    edense = _err_max(pw, Y, yn, rtol, atol)
-                    if r < nrec and t_rec[r] < limit:
+                    inside = r < nrec and t_rec[r] < limit
+                    if inside:
                         # defect of the interpolant at the step's middle; its error there is
                         # about (I/(gamma h) - J)^-1 times the defect (J^-1 on stiff parts)
                         for i in range(n):
                             h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
                             rc1 = yn[i] - Y[i]
                             yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * h3)
-                            ysti[i] = (rc1 + 0.25 * h3) / hh
+                            ysti[i] = (rc1 + 0.25 * h3) * ihh
                         rhs(t + 0.5 * hh, yt, ph, D, W, fs)
                         stats[2] += 1
                         for i in range(n):
                             ysti[i] -= fs[i]
-                        _lu_solve(A, piv, ysti)
+                        _lu_solve_t2(A, piv, dinv, pw, ysti)
+                    else:
+                        _lu_solve_t(A, piv, dinv, pw)
+                    for i in range(n):
+                        pw[i] *= fac * 0.25
+                    edense = _err_max(pw, Y, yn, rtol, atol)
+                    if inside:
                         edense = max(edense, _err_max(ysti, Y, yn, rtol, atol))
-                    if edense > 1.0 and r < nrec and t_rec[r] < limit:
-                        err = math.inf  # reject: a record falls inside the step
+                        if edense > 1.0:
+                            err = math.inf  # reject: a record falls inside the step
                 if err <= 1.0:
                     bad = _first_bad(yn, bound, D)
                     if bad >= 0:
@@ -700,13 +764,15 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                         # at n + 8 evaluations plus an LU here
                         rho = 0.0
                         for _ in range(6):
+                            for i in range(n):
+                                pw[i] = 0.0
+                            for j in range(n):
+                                v = pv[j]
+                                for i in range(n):
+                                    pw[i] += JT[j, i] * v
                             nw = 0.0
                             for i in range(n):
-                                s = 0.0
-                                for j in range(n):
-                                    s += J[i, j] * pv[j]
-                                pw[i] = s
-                                nw += s * s
+                                nw += pw[i] * pw[i]
                             nw = math.sqrt(nw)
                             if not (nw > 0.0) or not (nw < math.inf):
                                 break
