@@ -48,7 +48,7 @@ benchmarks/bench_tolerance.py hold the numbers):
   central difference, skipped where ``f(t + d, y)`` equals ``f(t, y)`` bit for bit (n + 2 rhs
   evaluations per step, n + 1 where the loop does not depend on ``t``), in-place LU with
   partial pivoting of ``(I / (gamma h) - J)^T`` solved by contiguous column sweeps (nothing
-  allocated per step; 1.2-1.8x faster per step than row-wise substitution on the wing-rock
+  allocated per step; 1.1-1.8x faster per step than row-wise substitution on the wing-rock
   loops), Gustafsson's predictive step control, the method's own 3rd-order
   dense output (a cubic Hermite interpolant is useless on stiff components: ``f(y1)``
   multiplies the step's error by the fast rate). The dense output is an order below the steps
@@ -324,7 +324,7 @@ def _lu_solve_t(A, piv, dinv, b):
     ``A^T = U^T L^T P``: the triangular solves run over rows of ``U`` and ``L`` (contiguous
     axpy updates, no serial dot products), then the row swaps in reverse order. The core
     factors the transpose of ``I / (gamma h) - J`` so that this solves with the matrix itself:
-    measured on a 14-state loop, about 20 % faster per solve than the row-oriented
+    measured on a 14-state loop, about 15-20 % faster per solve than the row-oriented
     substitution.
     """
     n = A.shape[0]
