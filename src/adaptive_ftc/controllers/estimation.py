@@ -90,9 +90,9 @@ class FailureEstimation(AdaptiveController):
                 i += 1
         g.defs.append("\n".join(lines))
         g.n_w = i
+        g.per_time.append("basis(t, c, wb)  # varpi(t), once per t (wb holds nothing else)")
         return [
-            "    # compensator u_f = -sum_j kappa_j^T varpi_j(t) (2.62)",
-            "    basis(t, c, wb)",
+            "    # compensator u_f = -sum_j kappa_j^T varpi_j(t) (2.62); wb = varpi(t)",
             "    comp = 0.0",
             f"    for l in range({i}):",
             f"        comp -= Y[{extra_at} + l] * wb[l]",

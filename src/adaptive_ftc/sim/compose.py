@@ -86,8 +86,8 @@ _I_HEAD = 8  # the failure instance per (interval, actuator) starts here in ``i`
 #: [x, e, e', s], regressor values, memberships, u0, commands, applied outputs, plant
 #: derivative, reference (y_d, y_d', y_d'' per output), q, misc [u_f compensation, adaptive
 #: gain, s' used, reference valid, reference time, computing a sample], design basis values,
-#: scratch derivative (for ``jump``).
-_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb", "scr")
+#: scratch derivative (for ``jump``), the failure values remembered per actuator (``fc``).
+_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb", "scr", "fc")
 
 
 @dataclass
@@ -108,6 +108,9 @@ class Generator:
     y0_extra: list[float] = field(default_factory=list)
     adaptive_names: list[str] = field(default_factory=list)
     classes: set[str] = field(default_factory=set)  # aliases of imported classes
+    #: lines that depend on t alone, run once per distinct t (with the reference): a
+    #: Rosenbrock step evaluates its Jacobian's columns at one t
+    per_time: list[str] = field(default_factory=list)
 
     # sizes fixed by the plant
     @property
@@ -350,7 +353,8 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
             key, numbers = (text, _shift(dtext, len(local))), local + dlocal
         drawn.append((f, key, numbers))
     # shape numbers: the two affine shapes first, the others sorted (a set of shapes gives
-    # the same code whatever the order of the failures)
+    # the same code whatever the order of the failures); a shape of t alone is remembered per
+    # actuator while t stays the same (failure_cached)
     others = sorted({key for _, key, _ in drawn} - {_AFFINE, _AFFINE_RAMPED})
     shapes = {key: n for n, key in enumerate([_AFFINE, _AFFINE_RAMPED, *others])}
     for f, key, numbers in drawn:
@@ -383,12 +387,37 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
             "    o = D.i[at + 1]",
         ],
     )
+    time_only = tuple(
+        int(key not in (_AFFINE, _AFFINE_RAMPED) and not re.search(r"\b(u|x)\b", key[0]))
+        for key in shapes
+    )
     for (text, dtext), s in shapes.items():
         fn.append(f"    if s == {s}:\n        return {text}")
         dfn.append(f"    if s == {s}:\n        return {dtext}")
     fn.append("    return u")
     dfn.append("    return 1.0")
-    return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn)
+    if any(time_only):
+        fn += [
+            "",
+            "",
+            f"TIME_ONLY = {time_only!r}  # per shape: the pattern depends on t alone",
+            "",
+            "",
+            "@hot",
+            "def failure_cached(k, j, t, x, u, D, fc):",
+            '    """failure(k, ...) of actuator j, remembered while t and k stay the same when the',
+            '    pattern depends on t alone (fc[3 j:3 j + 3] = [t, k + 1, value])."""',
+            "    if TIME_ONLY[D.i[D.i[I_INST] + 2 * k]] == 0:",
+            "        return failure(k, t, x, u, D)",
+            "    if fc[3 * j] == t and fc[3 * j + 1] == k + 1:",
+            "        return fc[3 * j + 2]",
+            "    v = failure(k, t, x, u, D)",
+            "    fc[3 * j] = t",
+            "    fc[3 * j + 1] = k + 1",
+            "    fc[3 * j + 2] = v",
+            "    return v",
+        ]
+    return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn), any(time_only)
 
 
 #: ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) - u)``.
@@ -442,7 +471,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
     ny = filt + (p if sdot == "filtered" else 0)
     bps, samp, sample_index = _intervals(loop)
-    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src = _failures(g, variables, names, bps)
+    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src, cache_failures = _failures(
+        g, variables, names, bps
+    )
     # actuator, sensor and sampling parts (beyond the thesis): states after the controller's
     has_act = loop.has_actuator_dynamics
     sampled = loop.sample_time > 0
@@ -472,6 +503,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         else "        sig[i] = x[i]",
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
         "        reference(t, c, ref)",
+        *[f"        {line}" for line in g.per_time],
         "        misc[4] = t",
         "        misc[3] = 1.0",
         "    # tracking errors e = y_d - y and filtered errors s (2.18)",
@@ -517,7 +549,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             else []
         ),
         "        k = instance(ph, j, D)",
-        "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
+        "        uf[j] = acc if k < 0 else failure_cached(k, j, t, x, acc, D, fc)"
+        if cache_failures
+        else "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
         "    plant_dynamics(t, x, uf, plant_params(D), xdot)",
         f"    for i in range({nx}):",
         "        dY[i] = xdot[i]",
@@ -788,6 +822,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "misc": 8,
         "wb": max(g.n_w, 1),
         "scr": ny_all if (sampled or has_act) else 1,
+        "fc": 3 * m if cache_failures else 1,
     }
     consts_lines.append("# places of the buffers in the work array W")
     at = 0
