@@ -232,6 +232,62 @@ def test_the_cache_survives_a_new_process_and_is_keyed_by_content(tmp_path):
     assert len(list((tmp_path / "loops").glob("loop_*.py"))) == 1
 
 
+_DECORATED = """
+from adaptive_ftc.plants import plant
+
+
+@plant(states=("theta", "omega"), outputs={"theta": "omega"}, actuators=("m1", "m2", "m3"))
+def decorated_pendulum(t, x, u, p, xdot):
+    xdot[0] = x[1]
+    xdot[1] = -{g} * x[0] + (u[0] + u[1] + u[2]) / 0.1
+"""
+
+
+def _fresh_loop(plant_obj):
+    """A two-second loop of a structure no other test compiles (a distinctive reference)."""
+    loop = replace(_pendulum_loop(plant_obj, t_final=2.0), reference=("0.25*sin(0.75*t)",))
+    return replace(loop, controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e",))))
+
+
+def test_a_decorated_plant_compiles_once_per_process_and_disk_caches(monkeypatch, tmp_path):
+    # ``@plant`` rebinds the function's name to the plant: the loop imports the function
+    # through it, so the loop is a disk-cached module like a built-in plant's
+    (tmp_path / "user_plants_a.py").write_text(_DECORATED.replace("{g}", "9.0"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    from user_plants_a import decorated_pendulum
+
+    loop = _fresh_loop(decorated_pendulum)
+    assert "from user_plants_a import decorated_pendulum" in source_of(loop)
+    before = codegen.stats()
+    first = simulate(loop)
+    mid = codegen.stats()
+    second = simulate(replace(loop, initial_state=(0.2, 0.0)))
+    after = codegen.stats()
+    assert first.status == second.status == "completed"
+    assert mid["in_memory"] == before["in_memory"]  # on disk, not in memory
+    assert mid["loaded"] == before["loaded"] + 1
+    assert after["loaded"] == mid["loaded"] and after["compiled"] == mid["compiled"]
+
+
+def test_a_plant_of_a_script_compiles_once_per_process(tmp_path):
+    # a plant defined where it cannot be imported (a script's __main__, a notebook, a
+    # function) is compiled in memory: once per plant object, again when it is redefined
+    def make(g):
+        ns: dict = {}
+        exec(_DECORATED.replace("{g}", str(g)), ns)  # as a notebook cell would define it
+        return ns["decorated_pendulum"]
+
+    ship = make(8.0)
+    before = codegen.stats()["in_memory"]
+    a = simulate(_fresh_loop(ship))
+    b = simulate(replace(_fresh_loop(ship), initial_state=(0.3, 0.0)))
+    assert codegen.stats()["in_memory"] == before + 1
+    c = simulate(_fresh_loop(make(8.0)))  # redefined: compiled again
+    assert codegen.stats()["in_memory"] == before + 2
+    assert a.status == b.status == c.status == "completed"
+    np.testing.assert_array_equal(a.states, c.states)  # same equations, same numbers
+
+
 def test_no_writable_cache_directory_compiles_in_memory(monkeypatch, tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("")

@@ -46,6 +46,8 @@ __all__ = [
 _BEGIN = "# --- template: begin ---"
 _lock = threading.RLock()
 _modules: dict[str, types.ModuleType] = {}
+_kept: dict[str, tuple] = {}
+_METHODS = ("rk4", "dopri5", "rodasp", "auto")  # the integrators a loop module may define
 _stats = {"generated": 0, "loaded": 0, "in_memory": 0}
 
 
@@ -168,13 +170,29 @@ def _key(source: str, imports: list[str]) -> str:
     return hashlib.sha256(key_src.encode()).hexdigest()[:24]
 
 
-def is_cached(source: str, imports: list[str]) -> bool:
-    """Whether the module ``source`` is loaded in this process or compiled in the disk cache."""
+def _memo(key: str, inject: Mapping[str, object] | None) -> str:
+    return key + "".join(f":{n}={id(o):x}" for n, o in sorted((inject or {}).items()))
+
+
+def is_cached(
+    source: str, imports: list[str], inject: Mapping[str, object] | None = None
+) -> bool:
+    """Whether the module ``source`` is loaded in this process or compiled in the disk cache
+    (numba's own ``NUMBA_CACHE_DIR`` included)."""
     key = _key(source, imports)
-    if key in _modules:
+    if _memo(key, inject) in _modules:
         return True
     folder = cache_dir()
-    return folder is not None and any((folder / "__pycache__").glob(f"loop_{key}*.nbi"))
+    if inject or folder is None:
+        return False
+    places = [folder / "__pycache__"]
+    import numba
+    from numba.core.caching import UserProvidedCacheLocator
+
+    if numba.config.CACHE_DIR:  # numba then keeps every index there
+        sub = UserProvidedCacheLocator.get_suitable_cache_subpath(str(folder / "x.py"))
+        places.insert(0, Path(numba.config.CACHE_DIR) / sub)
+    return any(any(p.glob(f"loop_{key}*.nbi")) for p in places)
 
 
 def load_module(
@@ -196,9 +214,13 @@ def load_module(
         functions defined in ``__main__``); such modules are compiled in memory only.
     """
     key = _key(source, imports)
+    # a module with injected parts is kept under their identities too: the same function
+    # object (a plant of a notebook or a script) reuses its compiled loop, a redefined one
+    # compiles anew; ``_kept`` holds the objects so that their ids are not reused
+    memo = _memo(key, inject)
     with _lock:
-        if key in _modules and not inject:
-            return _modules[key]
+        if memo in _modules:
+            return _modules[memo]
         name = f"adaptive_ftc_loop_{key}"
         folder = None if inject else cache_dir()
         if folder is None:
@@ -232,8 +254,9 @@ def load_module(
                 sys.modules.pop(name, None)
                 raise
         _stats["loaded"] += 1
-        if not inject:
-            _modules[key] = module
+        _modules[memo] = module
+        if inject:
+            _kept[memo] = tuple(inject.values())
         return module
 
 
@@ -242,7 +265,7 @@ def stats() -> dict[str, int]:
     numba compilations of loop entry points (``compiled``; 0 when every loop hit the cache)."""
     compiled = 0
     for mod in list(_modules.values()):
-        for fn in ("rhs", "integrate_rk4", "signals"):
+        for fn in ("rhs", "signals", *(f"integrate_{m}" for m in _METHODS)):
             disp = getattr(mod, fn, None)
             if disp is not None and hasattr(disp, "stats"):
                 compiled += sum(disp.stats.cache_misses.values())

@@ -176,8 +176,17 @@ def _importable(obj) -> str:
         module = importlib.import_module(modname)
     except Exception:  # noqa: BLE001 - e.g. code executed from a string
         return ""
-    found = getattr(module, obj.__name__, None) is obj and bool(getattr(module, "__file__", None))
-    return f"{modname}:{obj.__name__}" if found else ""
+    if not getattr(module, "__file__", None):
+        return ""
+    named = getattr(module, obj.__name__, None)
+    if named is obj:
+        return f"{modname}:{obj.__name__}"
+    # a decorator such as ``@plant`` rebinds the name to an object that keeps the function
+    # as ``equations`` (itself perhaps a numba dispatcher): import it through that object
+    wrapped = getattr(named, "equations", None)
+    if wrapped is not None and getattr(wrapped, "py_func", wrapped) is obj:
+        return f"{modname}:{obj.__name__}.equations"
+    return ""
 
 
 def _pack_plant(g: Generator, value) -> tuple[list[float], str]:
@@ -731,7 +740,13 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             continue
         if target:
             mod, fn = target.split(":")
-            imports.append(f"from {mod} import {fn} as _py_{alias}")
+            owner, _, attr = fn.partition(".")
+            if attr:  # a function kept by the decorated object that took its name
+                imports.append(f"from {mod} import {owner} as _owner_{alias}")
+                imports.append(f"_py_{alias} = getattr(_owner_{alias}.{attr}, 'py_func', "
+                               f"_owner_{alias}.{attr})")
+            else:
+                imports.append(f"from {mod} import {fn} as _py_{alias}")
             mods.append(mod)
         jits.append(alias)
     header = [
@@ -937,7 +952,7 @@ def _guarded() -> list[str]:
 def is_compiled(loop: ClosedLoop, *, sdot: str = "exact") -> bool:
     """Whether ``loop``'s structure is already compiled (in this process or the disk cache)."""
     text, _, g, layout = generate(loop, sdot=sdot)
-    return not g.inject and codegen.is_cached(text, layout["mods"])
+    return codegen.is_cached(text, layout["mods"], g.inject)
 
 
 def source_of(loop: ClosedLoop, *, sdot: str = "exact") -> str:
