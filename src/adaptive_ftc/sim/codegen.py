@@ -174,9 +174,7 @@ def _memo(key: str, inject: Mapping[str, object] | None) -> str:
     return key + "".join(f":{n}={id(o):x}" for n, o in sorted((inject or {}).items()))
 
 
-def is_cached(
-    source: str, imports: list[str], inject: Mapping[str, object] | None = None
-) -> bool:
+def is_cached(source: str, imports: list[str], inject: Mapping[str, object] | None = None) -> bool:
     """Whether the module ``source`` is loaded in this process or compiled in the disk cache
     (numba's own ``NUMBA_CACHE_DIR`` included)."""
     key = _key(source, imports)

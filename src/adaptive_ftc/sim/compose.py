@@ -743,8 +743,10 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             owner, _, attr = fn.partition(".")
             if attr:  # a function kept by the decorated object that took its name
                 imports.append(f"from {mod} import {owner} as _owner_{alias}")
-                imports.append(f"_py_{alias} = getattr(_owner_{alias}.{attr}, 'py_func', "
-                               f"_owner_{alias}.{attr})")
+                imports.append(
+                    f"_py_{alias} = getattr(_owner_{alias}.{attr}, 'py_func', "
+                    f"_owner_{alias}.{attr})"
+                )
             else:
                 imports.append(f"from {mod} import {fn} as _py_{alias}")
             mods.append(mod)
