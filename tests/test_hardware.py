@@ -33,9 +33,7 @@ def double_integrator_equations(t, x, u, p, xdot):
 
 
 # plant(...) called, not used as a decorator: the module keeps the equations under their own
-# name, so the generated loops import them and are compiled once and cached on disk. Under
-# ``@plant`` the name is the plant object, the function cannot be imported, and every
-# simulate() compiles its loop again in memory (~7 s each).
+# name (both forms give disk-cached loops; test_open_engine checks the decorated one).
 double_integrator = plant(
     states=("pos", "vel"),
     outputs={"pos": "vel"},
@@ -145,6 +143,29 @@ def test_zero_order_hold_matches_the_exact_discretisation():
     u_k = theta[0] + theta[1] * ex[:, 0] + theta[2] * ex[:, 1]
     np.testing.assert_allclose(2 * r.u_cmd[:-1, 0], u_k[:-1], atol=1e-12)
     assert 2 * r.u_cmd[-1, 0] == pytest.approx(u_k[-2], abs=1e-12)
+
+
+def test_failure_times_within_rounding_of_a_sample_instant_replace_it():
+    from adaptive_ftc.sim.compose import _intervals
+
+    T = 0.05
+    onset = 10 * T + 1e-13  # at the 10th sample, up to rounding
+    fails = (
+        LossOfEffectiveness(actuator=1, onset=onset, effectiveness=0.5, recovery=20 * T - 1e-13),
+        LossOfEffectiveness(actuator=2, onset=onset - 4e-13, effectiveness=0.5),
+        LossOfEffectiveness(actuator=2, onset=0.7 * T, effectiveness=0.5, recovery=2 * T),
+    )
+    loop = replace(_loop((0.0,), sample_time=T, failures=fails), t_final=2.0)
+    bps, on_grid, k = _intervals(loop)
+    # one interval per sample period; the failure times stand in for their sample instants
+    # (the later of two within rounding), and 0.7 T adds one interval off the grid
+    grid = {float(t) for t in T * np.arange(40)}
+    expect = sorted(grid - {10 * T, 20 * T} | {onset, 20 * T - 1e-13, 0.7 * T, 2.0})
+    assert list(bps) == expect
+    assert len(bps) == 42 and onset - 4e-13 not in bps
+    starts = np.asarray(bps[:-1])
+    assert on_grid.tolist() == [int(not math.isclose(t, 0.7 * T)) for t in starts]
+    assert k.tolist() == [int(math.floor(t / T + 1e-9)) for t in starts]
 
 
 def test_digital_adaptive_law_is_forward_euler_at_the_samples():

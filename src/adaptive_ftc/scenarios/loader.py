@@ -804,14 +804,9 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         raise _Problems from None
     # resolve every expression and regressor input now, so nothing half-runs
     try:
-        try:
-            from adaptive_ftc.sim.compose import generate
-        except ImportError:  # the engine before the code-generation rewrite
-            from adaptive_ftc.sim.assemble import assemble
+        from adaptive_ftc.sim.compose import generate
 
-            assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
-        else:
-            generate(loop, sdot=solver.sdot_for(loop))  # checks every part without compiling
+        generate(loop, sdot=solver.sdot_for(loop))  # checks every part without compiling
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
         raise _Problems from None

@@ -311,15 +311,19 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
     n = int(math.floor((t1 - t0) / period + 1e-9))
     grid = t0 + period * np.arange(n + 1)
     tol = 1e-9 * max(1.0, abs(t1))
-    times = sorted(set(fail) | {float(t) for t in grid if t < t1 - tol})
-    merged: list[float] = []
-    for t in times:  # a failure time within rounding of a sample instant is that instant
-        if merged and t - merged[-1] <= tol:
-            if t in fail:
-                merged[-1] = t
-            continue
-        merged.append(t)
-    bps = tuple(merged)
+    grid = grid[grid < t1 - tol]
+    # a failure time within rounding of a sample instant is that instant: such grid points
+    # are dropped and the failure time kept (the failure times are few, the grid is long)
+    fail_arr = np.asarray(fail, dtype=float)
+    near = np.searchsorted(fail_arr, grid)
+    close = np.zeros(grid.size, dtype=bool)
+    for shift in (-1, 0):
+        j = np.clip(near + shift, 0, fail_arr.size - 1)
+        close |= np.abs(fail_arr[j] - grid) <= tol
+    times = np.union1d(fail_arr, grid[~close])
+    keep = np.ones(times.size, dtype=bool)
+    keep[:-1] = np.diff(times) > tol  # failure times within rounding: the last one stands
+    bps = tuple(float(t) for t in times[keep])
     starts = np.asarray(bps[:-1])
     k = np.floor((starts - t0) / period + 1e-9).astype(np.int64)
     on_grid = np.abs(starts - (t0 + k * period)) <= tol
@@ -371,11 +375,12 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
         inst_shape.append(shapes[key])
         inst_off.append(len(consts))
         consts.extend(numbers)
-    for k in range(nph):
-        mid = 0.5 * (bps[k] + bps[k + 1])
-        for j, f in enumerate(loop.failures.active(mid)):
-            if f is not None:
-                fphase[k, j] = seen[id(f)]
+    # the failure acting on each actuator in each interval (at its midpoint; a later failure
+    # of the schedule on the same actuator wins, as in FailureSchedule.active)
+    edges = np.asarray(bps, dtype=float)
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    for f in loop.failures.failures:
+        fphase[(f.onset <= mids) & (mids < f.end), f.actuator - 1] = seen[id(f)]
     fn, dfn = (
         [
             "@hot",
