@@ -59,7 +59,7 @@ def test_reproduction_writes_figures_data_tables_and_report(reproduction):
             "_nominal-inverse",
             "_oracle",
         ):
-            ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="h5netcdf")
+            ds = xr.open_dataset(out / "data" / f"{name}{suffix}.nc", engine="netcdf4")
             assert ds.sizes["time"] > 100
             ds.close()
 

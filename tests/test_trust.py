@@ -163,7 +163,7 @@ def test_netcdf_round_trips_and_describes_itself(tmp_path, short_result):
     assert back.metrics() == short_result.metrics()
     assert back.recovery() == short_result.recovery()
     assert back.theta_slices == short_result.theta_slices
-    with xr.open_dataset(path, engine="h5netcdf") as ds:
+    with xr.open_dataset(path, engine="netcdf4") as ds:
         assert ds.attrs["Conventions"] == "CF-1.10"
         assert ds.attrs["scenario"] == "hypersonic-direct-s1"
         assert "[controller]" in ds.attrs["scenario_file_text"]

@@ -454,7 +454,7 @@ class SimResult:
         if not path.is_file():
             raise ConfigurationError(f"No netCDF file at '{path}'; give the path of a .nc file.")
         try:
-            with xr.open_dataset(path, engine="h5netcdf") as handle:
+            with xr.open_dataset(path, engine="netcdf4") as handle:
                 ds = handle.load()
         except Exception as exc:  # noqa: BLE001 - any reader failure is the same user error
             raise ConfigurationError(
@@ -536,7 +536,7 @@ class SimResult:
         complevel: int = 4,
         timing: bool = False,
     ) -> Path:
-        """Write a compressed, self-describing netCDF4 file (h5netcdf), atomically.
+        """Write a compressed, self-describing netCDF4 file (netCDF4-python), atomically.
 
         The file is written to a temporary name in the same folder and renamed, so an
         interrupted write never leaves a truncated file where a good one was. Identical
@@ -572,7 +572,7 @@ class SimResult:
             encoding[str(name)] = enc
         path = Path(path)
         with atomic_path(path) as tmp:
-            ds.to_netcdf(tmp, engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
+            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         return path
 
     def to_csv(self, path: str | Path) -> Path:
