@@ -246,18 +246,37 @@ def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = No
     )
 
 
+#: Loosest tolerances of the exact-inverse baselines (see :func:`baseline_solver`)
+BASELINE_RTOL, BASELINE_ATOL = 1e-6, 1e-9
+
+
 def baseline_solver(name: str, solver: SolverOptions) -> SolverOptions:
     """The integration settings of baseline ``name`` in a scenario integrated with ``solver``.
 
     The exact-inverse baselines impose ``s' = -k s - k0 tanh(s/eps0)``: with the thesis's small
     ``eps0`` their loops are stiff (an eigenvalue near ``-k0/eps0``), so a scenario on the
-    explicit adaptive-step method runs them with stiffness switching (``"auto"``) at the same
-    tolerances. Measured on spacecraft-mimo-s2: oracle 5.5 s -> 3.9 s, nominal inverse
-    1.6 s -> 0.7 s (910k -> 285k and 636k -> 125k steps); the other loops take the same steps.
+    explicit adaptive-step method runs them with stiffness switching (``"auto"``). Measured on
+    spacecraft-mimo-s2: oracle 5.5 s -> 3.9 s, nominal inverse 1.6 s -> 0.7 s (910k -> 285k and
+    636k -> 125k steps); the other loops take the same steps.
+
+    They are yardsticks: only their RMS tracking errors enter the claims and the report, so an
+    adaptive-step method runs them at no tighter than ``rtol`` :data:`BASELINE_RTOL` and
+    ``atol`` :data:`BASELINE_ATOL`. Against the scenario's own tolerances (rtol 1e-7, atol
+    1e-10 on the spacecraft and manipulator), every catalogue baseline's RMS error moved by at
+    most 5.2e-6 of itself (spacecraft-mimo-s1 nominal inverse), and the spacecraft oracle took
+    0.36-0.48 s instead of 2.1-3.0 s (19k instead of 285k steps on s2).
     """
-    if name in ("nominal-inverse", "oracle") and solver.method == "dopri5":
-        return replace(solver, method="auto")
-    return solver
+    if name not in ("nominal-inverse", "oracle"):
+        return solver  # fixed-gain: the adaptive loop's structure and settings, unchanged
+    method = "auto" if solver.method == "dopri5" else solver.method
+    if method == "rk4":
+        return solver
+    return replace(
+        solver,
+        method=method,
+        rtol=max(solver.rtol, BASELINE_RTOL),
+        atol=max(solver.atol, BASELINE_ATOL),
+    )
 
 
 def run_baselines(
