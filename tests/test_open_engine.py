@@ -548,3 +548,18 @@ def test_failure_free_and_oracle_runs_share_the_compiled_code_of_their_loop():
     # ... and they still behave differently: a failure-free run is healthy throughout
     r = simulate(replace(healthy, t_final=1.0))
     assert r.failures == () and np.allclose(r.u_applied, r.u_cmd)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the rebinding is Linux-only")
+def test_generated_code_calls_the_c_librarys_math_functions():
+    # numba binds exp, sin, tanh... to wrappers of its helper library, which its Linux wheels
+    # link to glibc's compatibility entry points; the loops call libm's own symbols instead
+    import ctypes
+    import ctypes.util
+
+    import llvmlite.binding as ll
+
+    simulate(replace(_pendulum_loop(Pendulum()), t_final=0.1))
+    libm = ctypes.CDLL(ctypes.util.find_library("m"))
+    for name in ("exp", "sin", "cos", "tanh", "pow"):
+        assert ll.address_of_symbol(name) == ctypes.cast(getattr(libm, name), ctypes.c_void_p).value
