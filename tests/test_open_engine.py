@@ -563,3 +563,20 @@ def test_generated_code_calls_the_c_librarys_math_functions():
     libm = ctypes.CDLL(ctypes.util.find_library("m"))
     for name in ("exp", "sin", "cos", "tanh", "pow"):
         assert ll.address_of_symbol(name) == ctypes.cast(getattr(libm, name), ctypes.c_void_p).value
+
+
+def test_loops_compile_with_numba_profiling_on(tmp_path):
+    # NUMBA_ENABLE_PROFILING (perf maps) turns on debug info, whose first-line finder failed
+    # on the generated no-op ``jump`` (a docstring alone), reported as a plant index error
+    env = {**os.environ, "ADAPTIVE_FTC_CACHE_DIR": str(tmp_path), "NUMBA_ENABLE_PROFILING": "1"}
+    code = (
+        "from dataclasses import replace\n"
+        "from adaptive_ftc import load_scenario, simulate\n"
+        "sc = load_scenario('wingrock-free-1deg')\n"
+        "print(simulate(replace(sc.loop, t_final=0.1), sc.solver).status)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split()[-1] == "completed"

@@ -671,6 +671,10 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             f"            Y[{at_act} + j] = min(max(W[U + j], act(ph, j, 2, D)), act(ph, j, 3, D))",
             *([f"            Y[{at_vel} + j] = 0.0"] if has_act2 else []),
         ]
+    if len(jump_src) == 3:
+        # a statement after the docstring: numba's first-line finder (used when debug info or
+        # NUMBA_ENABLE_PROFILING is on) fails on a function whose body is a docstring alone
+        jump_src.append("    return")
     jump_src = "\n".join(jump_src)
     env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
     env_src = [

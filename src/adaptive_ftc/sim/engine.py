@@ -4,6 +4,7 @@ or an accurate variable-step scipy path."""
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 import warnings
@@ -283,6 +284,12 @@ def _compiled_call(loop: ClosedLoop, run):
     try:
         return _interruptible(run)
     except IndexError as exc:
+        if _inside_numba(exc):  # the compiler's own error, not an index of the plant's
+            raise ConfigurationError(
+                f"The closed loop of plant '{loop.plant.name}' cannot be compiled: numba failed "
+                f"inside its compiler (IndexError: {exc}). Unset NUMBA_DEBUGINFO / "
+                "NUMBA_ENABLE_PROFILING if set, and report the plant's equations."
+            ) from exc
         raise ConfigurationError(
             f"The equations of plant '{loop.plant.name}' index outside an array ({exc}): "
             f"x has {loop.plant.n_states} states, u has {loop.plant.n_actuators} actuators and "
@@ -304,6 +311,15 @@ def _compiled_call(loop: ClosedLoop, run):
             + ". Plant equations must use numbers, arrays, indexing, loops and the math "
             "module only (the subset numba compiles)."
         ) from None
+
+
+def _inside_numba(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised by numba's own Python code (its compiler), not by compiled
+    code at run time (a bounds-checked index of the plant's equations)."""
+    import traceback
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    return any(f"{os.sep}numba{os.sep}" in f.filename for f in frames)
 
 
 def _interruptible(run):

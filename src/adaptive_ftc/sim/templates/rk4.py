@@ -38,10 +38,12 @@ def first_bad(Y, bound, D):
 def record_hermite(out_Y, r, tr, t, h, Y, k1, yn, fe):
     """Cubic Hermite interpolant between ``(t, Y, k1)`` and ``(t + h, yn, fe)`` at ``tr``."""
     s = (tr - t) / h
-    h00 = 2 * s**3 - 3 * s**2 + 1
-    h10 = s**3 - 2 * s**2 + s
-    h01 = -2 * s**3 + 3 * s**2
-    h11 = s**3 - s**2
+    s2 = s * s  # products, not s**2 and s**3: the same numbers, without numba's power code
+    s3 = s * s2
+    h00 = 2 * s3 - 3 * s2 + 1
+    h10 = s3 - 2 * s2 + s
+    h01 = -2 * s3 + 3 * s2
+    h11 = s3 - s2
     for i in range(Y.size):
         out_Y[r, i] = h00 * Y[i] + h10 * h * k1[i] + h01 * yn[i] + h11 * h * fe[i]
 
