@@ -109,10 +109,19 @@ def _failures_of(sc: Scenario) -> tuple:
     return tuple(getattr(failures, "failures", failures))
 
 
+#: Scenarios loaded by this process during one reproduction (a worker runs several variants of
+#: a scenario: each loaded and validated once); emptied when a reproduction starts
+_LOADED: dict[tuple[str, bool], Scenario] = {}
+
+
 def _prepare(name: str, quick: bool) -> Scenario:
-    sc = load_scenario(name)
-    if quick:
-        sc = dataclasses.replace(sc, loop=dataclasses.replace(sc.loop, t_final=quick_duration(sc)))
+    sc = _LOADED.get((name, quick))
+    if sc is None:
+        sc = load_scenario(name)
+        if quick:
+            loop = dataclasses.replace(sc.loop, t_final=quick_duration(sc))
+            sc = dataclasses.replace(sc, loop=loop)
+        _LOADED[(name, quick)] = sc
     return sc
 
 
@@ -420,8 +429,10 @@ def run_reproduction(
     (out / "figures").mkdir(parents=True, exist_ok=True)
     (out / "data").mkdir(parents=True, exist_ok=True)
     scenario_names = list(names) if names is not None else list_scenarios()
+    _LOADED.clear()  # files may have changed since an earlier reproduction in this process
+    # loaded (and validated) here, before the workers fork: they inherit them
     scenarios = [_prepare(n, quick) for n in scenario_names]  # validates every name first
-    durations = {n: float(load_scenario(n).loop.t_final) for n in scenario_names}
+    durations = {n: float(_prepare(n, False).loop.t_final) for n in scenario_names}
     from adaptive_ftc.plots import check_formats
 
     formats = check_formats(formats)
