@@ -580,3 +580,34 @@ def test_loops_compile_with_numba_profiling_on(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split()[-1] == "completed"
+
+
+def test_loops_compile_at_their_own_llvm_level_and_leave_numbas_setting_alone(tmp_path):
+    # the generated loops compile at -O2 (as fast or faster on them, same numbers); numba's
+    # process-wide setting is untouched for any other numba code
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+    env["ADAPTIVE_FTC_CACHE_DIR"] = str(tmp_path)
+    code = (
+        "from dataclasses import replace\n"
+        "import numba\n"
+        "from numba.core import config, event\n"
+        "from adaptive_ftc import load_scenario, simulate\n"
+        "seen = []\n"
+        "class Spy(event.Listener):\n"
+        "    def on_start(self, e):\n"
+        "        seen.append((e.data['dispatcher'].py_func.__module__, int(config.OPT)))\n"
+        "    def on_end(self, e):\n"
+        "        pass\n"
+        "sc = load_scenario('wingrock-free-1deg')\n"
+        "with event.install_listener('numba:compile', Spy()):\n"
+        "    simulate(replace(sc.loop, t_final=0.1), sc.solver)\n"
+        "    numba.njit(lambda x: x + 1)(1.0)\n"
+        "loops = {o for m, o in seen if m.startswith('adaptive_ftc_loop_')}\n"
+        "user = {o for m, o in seen if m == '__main__'}\n"
+        "print(sorted(loops), sorted(user), int(config.OPT))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split("\n")[-2] == "[2] [3] 3"

@@ -737,6 +737,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "",
         "from adaptive_ftc.controllers.laws import filtered_error, robust_q, weighted_sum",
         "from adaptive_ftc.sim.mathlib import " + ", ".join(_guarded()),
+        "from adaptive_ftc.sim.optlevel import at_loop_level",
     ]
     jits = ["filtered_error", "robust_q", "weighted_sum", *_guarded()]
     mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib"]
@@ -771,8 +772,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "",
         "# jit: functions that allocate; hot: the right-hand side and its parts, which never",
         "# allocate and so run without reference counting (the generated code's inner loop)",
-        'jit = njit(cache=CACHE, nogil=True, error_model="numpy")',
-        'hot = njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False)',
+        "# both compile at the loops' LLVM level (adaptive_ftc.sim.optlevel: -O2)",
+        'jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))',
+        'hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))',
         '_part = njit(nogil=True, error_model="numpy", _nrt=False)',
         '_user_part = njit(nogil=True, error_model="numpy", _nrt=False, boundscheck=True)',
     ]
