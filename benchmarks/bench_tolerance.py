@@ -76,7 +76,7 @@ WINGROCK_RK4_DT = 2e-5
 WINGROCK_SPEEDUP = 5.0
 NONSTIFF = ("hypersonic-direct-s1", "hypersonic-direct-s2")
 NONSTIFF_RATIO = 1.5
-METHODS = ("dopri5", "rodasp", "auto")
+METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
 _BOUND: dict[int, object] = {}
 
 
@@ -286,7 +286,7 @@ def study(
     tiny = np.array([breaks[0], breaks[0] + 1e-6])
     for meth in METHODS:
         getattr(mod, f"integrate_{meth}")(
-            y0, tiny, tiny, D, asm.work(), 1e-6, 1e-9, math.inf, BOUND,
+            y0, tiny, tiny, D, asm.work(), 1e-6, np.full(n, 1e-9), math.inf, BOUND,
             np.zeros(1, np.int64), np.zeros((2, n)), np.zeros(2, np.int64), np.zeros(5, np.int64),
         )  # fmt: skip
     gen.integrate_rk4(
@@ -321,6 +321,7 @@ def study(
         stats = np.zeros(5, dtype=np.int64)
         W = asm.work()
         h_max = float(min(solver.max_step, 1e300))
+        atol = np.broadcast_to(np.asarray(atol, dtype=float), (n,)).copy()
 
         def run():
             return fn(
@@ -356,8 +357,8 @@ def study(
         catalogue = adaptive_row(
             solver.compiled_method,
             float(solver.rtol),
-            float(solver.atol),
-            f"rtol={solver.rtol:.2g} atol={solver.atol:.2g} (catalogue)",
+            solver.atol_for(n, names),
+            f"rtol={solver.rtol:.2g} atol={_atol_label(solver.atol)} (catalogue)",
         )
         rows.append(catalogue)
     elif solver.compiled_method == "rk4" and solver.dt != dt0:
@@ -484,10 +485,16 @@ def study(
     return summary
 
 
+def _atol_label(atol) -> str:
+    if isinstance(atol, tuple):
+        return "[" + ",".join(f"{a:.2g}" for a in atol) + "]"
+    return f"{atol:.2g}"
+
+
 def _catalogue_label(solver) -> str:
     if solver.compiled_method == "rk4":
         return f"rk4 dt {solver.dt:g}"
-    return f"{solver.method} rtol {solver.rtol:g} atol {solver.atol:g}"
+    return f"{solver.method} rtol {solver.rtol:g} atol {_atol_label(solver.atol)}"
 
 
 def print_summary(summaries) -> None:

@@ -18,8 +18,8 @@ import pytest
 
 from adaptive_ftc.sim.templates import adaptive
 
-METHODS = ("dopri5", "rodasp", "auto")
-ORDERS = {"dopri5": 5, "rodasp": 4}
+METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
+ORDERS = {"dopri5": 5, "rodasp": 4, "rodas5p": 5}
 
 # stiff linear problem y' = A y, eigenvalues -1 and -1e5 (A = P diag(-1, -1e5) P^-1)
 _P = np.array([[1.0, 1.0], [1.0, -1.0]])
@@ -45,6 +45,9 @@ def _rhs(t, Y, ph, D, W, dY):
     elif kind == 4:  # y' = 1 / (t - 0.5): a singularity no step size resolves
         dY[0] = 1.0 / (t - 0.5)
         dY[1] = 0.0
+    elif kind == 6:  # stiff, nonlinear, coupled: y relaxes at rate D[1] to z^2
+        dY[0] = -D[1] * (Y[0] - Y[1] * Y[1])
+        dY[1] = -Y[1] + math.cos(t) + 0.1 * Y[0]
     else:  # Prothero-Robinson y' = L (y - cos t) - sin t, L = -1e4; z' = -z^2
         dY[0] = -1e4 * (Y[0] - math.cos(t)) - math.sin(t)
         dY[1] = -Y[1] * Y[1]
@@ -73,7 +76,7 @@ def solve(mod, method, y0, breaks, t_rec, D, rtol=1e-8, atol=1e-10, bound=1e8, s
         np.asarray(D, dtype=float),
         (np.zeros(1),),
         float(rtol),
-        float(atol),
+        np.broadcast_to(np.asarray(atol, dtype=float), (n,)).copy(),
         math.inf,
         float(bound),
         stop,
@@ -127,7 +130,7 @@ def test_nonlinear_nonautonomous_problem_meets_the_tolerance(mod, method):
     assert stats[0] > 0 and stats[2] > stats[0]
 
 
-@pytest.mark.parametrize("method", ["dopri5", "rodasp"])
+@pytest.mark.parametrize("method", ["dopri5", "rodasp", "rodas5p"])
 def test_convergence_order(mod, method):
     """Global error against steps taken falls with the slope of the method's order."""
     t_rec = np.array([0.0, 5.0])
@@ -223,6 +226,103 @@ def test_prothero_robinson_stiff_component_dense_output(mod):
     # 5e-4; the dense-output check shortens them (about 120 steps, not the 1000 of a cap at the
     # record spacing)
     assert 80 < stats[0] < 300
+
+
+def test_rodas5p_dense_output_on_the_prothero_robinson_problem(mod):
+    """Rodas5P's 4th-order dense output keeps every record within the tolerance, in fewer
+    steps than RODASP (whose 3rd-order interpolant limits its steps between records)."""
+    t_rec = np.linspace(0.0, 10.0, 1001)
+    exact = np.c_[np.cos(t_rec) + np.exp(-1e4 * t_rec), 1.0 / (1.0 + t_rec)]
+    runs = {}
+    for method in ("rodasp", "rodas5p"):
+        Y, _, nrec, status, *_, stats = solve(
+            mod, method, [2.0, 1.0], [0.0, 10.0], t_rec, [5.0], 1e-6, 1e-8
+        )
+        assert status == 0 and nrec == t_rec.size
+        assert_close(Y[1:], exact[1:], 2e-6)
+        runs[method] = stats.copy()
+    assert runs["rodas5p"][0] < runs["rodasp"][0]
+    # 7 stage evaluations per attempt (8 stages, the first at f(y0))
+    s = runs["rodas5p"]
+    assert s[3] == s[0] and s[4] == s[0] + s[1]
+
+
+@pytest.mark.parametrize("method", ["rodasp", "rodas5p"])
+def test_stiff_nonlinear_problem_against_scipy_radau(mod, method):
+    """y' = -1e4 (y - z^2), z' = -z + cos t + 0.1 y (eigenvalues near -1e4 and -1): every
+    record, nearly all from the dense output, within 1e-7 of scipy's Radau at rtol 1e-12,
+    in a few hundred steps."""
+    from scipy.integrate import solve_ivp
+
+    k = 1e4
+    t_rec = np.linspace(0.0, 10.0, 1001)
+
+    def f(t, y):
+        return [-k * (y[0] - y[1] ** 2), -y[1] + math.cos(t) + 0.1 * y[0]]
+
+    def jac(t, y):
+        return [[-k, 2.0 * k * y[1]], [0.1, -1.0]]
+
+    ref = solve_ivp(
+        f, (0.0, 10.0), [2.0, 0.5], method="Radau", t_eval=t_rec, rtol=1e-12, atol=1e-14,
+        jac=jac,
+    )  # fmt: skip
+    assert ref.status == 0
+    Y, _, nrec, status, *_, stats = solve(
+        mod, method, [2.0, 0.5], [0.0, 10.0], t_rec, [6.0, k], 1e-7, 1e-9
+    )
+    assert status == 0 and nrec == t_rec.size
+    assert_close(Y, ref.y.T, 1e-7)
+    assert stats[0] < 2000
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_per_state_atol_controls_each_state(mod, method):
+    """``atol`` per state (rtol negligible): the state with the tight ``atol`` stays as
+    accurate as with both tight, a thousand times better than with both loose, and the loose
+    ``atol`` of the other state saves steps (y = 1 / (1 + t^2) and z against their exact
+    solutions)."""
+    t_rec = np.linspace(0.0, 5.0, 51)
+    exact = np.c_[1.0 / (1.0 + t_rec**2), 0.5 * (np.cos(t_rec) + np.sin(t_rec) - np.exp(-t_rec))]
+    out = {}
+    for key, atol in (
+        ("tight", [1e-11, 1e-11]),
+        ("loose", [1e-4, 1e-4]),
+        ("y tight", [1e-11, 1e-4]),
+        ("z tight", [1e-4, 1e-11]),
+    ):
+        Y, _, _, status, *_, stats = solve(
+            mod, method, [1.0, 0.0], [0.0, 5.0], t_rec, [1.0], 1e-14, atol
+        )
+        assert status == 0
+        out[key] = (np.abs(Y - exact).max(axis=0), stats[0])
+    for key, i in (("y tight", 0), ("z tight", 1)):
+        err, steps = out[key]
+        assert err[i] < 1e-8 and out["loose"][0][i] > 1e-6, (key, err, out["loose"][0])
+        assert steps < out["tight"][1], (key, steps, out["tight"][1])
+
+
+def test_solver_options_atol_per_state_is_validated():
+    from adaptive_ftc import SolverOptions
+    from adaptive_ftc.errors import ConfigurationError
+
+    s = SolverOptions(method="rodas5p", atol=[1e-8, 2e-10, 1e-6])
+    assert s.atol == (1e-8, 2e-10, 1e-6) and hash(s) == hash(SolverOptions(**vars(s)))
+    np.testing.assert_array_equal(s.atol_for(3), [1e-8, 2e-10, 1e-6])
+    np.testing.assert_array_equal(SolverOptions(atol=1e-9).atol_for(2), [1e-9, 1e-9])
+    with pytest.raises(
+        ConfigurationError, match=r"has 3 entries but the loop has 2 states \(a, b\)"
+    ):
+        s.atol_for(2, ["a", "b"])
+    for bad, msg in (
+        ([], "empty"),
+        ([1e-8, 0.0], r"atol\[1\]` .* positive"),
+        ([1e-8, "x"], r"atol\[1\]` .* number"),
+        ([math.nan], "positive and finite"),
+        (-1e-9, "positive"),
+    ):
+        with pytest.raises(ConfigurationError, match=msg):
+            SolverOptions(atol=bad)
 
 
 def test_auto_stays_explicit_on_a_nonstiff_problem(mod):
@@ -350,3 +450,42 @@ def test_stop_flag_from_another_thread_interrupts_a_running_integration(mod):
     assert not worker.is_alive()
     *_, nrec, status, t_stop, bad, stats = out["res"]
     assert status == 3 and 0.0 < t_stop < 1e4 and nrec == 1 and stats[0] > 0
+
+
+def test_scenario_solver_table_takes_one_atol_per_state(tmp_path):
+    """``[solver] atol`` as a list: one number per state of the loop, checked at load time."""
+    from adaptive_ftc import load_scenario
+    from adaptive_ftc.errors import ScenarioError
+
+    head = 'name = "x"\nextends = "wingrock-estimation-s2"\n[solver]\n'
+    good = tmp_path / "good.toml"
+    good.write_text(head + f"atol = [{', '.join(['1e-9'] * 13)}, 1e-11]\n")
+    assert load_scenario(good).solver.atol == (1e-9,) * 13 + (1e-11,)
+    for body, msg in (
+        ("atol = [1e-9, 1e-9]", r"has 2 entries but the loop has 14 states \(phi, phi_dot,"),
+        ('atol = [1e-9, "x"]', "atol"),
+        ("atol = [1e-9, -1.0]", "atol"),
+    ):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(head + body + "\n")
+        with pytest.raises(ScenarioError, match=msg):
+            load_scenario(bad)
+
+
+def test_simulate_with_one_atol_per_state_equals_the_scalar_atol():
+    """The engine passes every compiled integrator one atol per state: the same number
+    repeated gives the scalar's trajectory bit for bit; a wrong count is refused."""
+    import dataclasses
+
+    from adaptive_ftc import load_scenario, simulate
+    from adaptive_ftc.errors import ConfigurationError
+
+    sc = load_scenario("wingrock-estimation-s2")
+    loop = dataclasses.replace(sc.loop, t_final=1.0)
+    scalar = simulate(loop, sc.solver)
+    n = scalar.states.shape[1] + scalar.adaptive.shape[1]
+    per_state = simulate(loop, dataclasses.replace(sc.solver, atol=[sc.solver.atol] * n))
+    np.testing.assert_array_equal(per_state.states, scalar.states)
+    np.testing.assert_array_equal(per_state.adaptive, scalar.adaptive)
+    with pytest.raises(ConfigurationError, match=f"has 3 entries but the loop has {n} states"):
+        simulate(loop, dataclasses.replace(sc.solver, atol=[1e-9] * 3))

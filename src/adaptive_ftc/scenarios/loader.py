@@ -806,7 +806,14 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     try:
         from adaptive_ftc.sim.compose import generate
 
-        generate(loop, sdot=solver.sdot_for(loop))  # checks every part without compiling
+        _, _, gen, layout = generate(loop, sdot=solver.sdot_for(loop))  # checks every part
+        if isinstance(solver.atol, tuple):  # one atol per state: as many as the loop has
+            names = [*loop.plant.state_names, *gen.adaptive_names, *layout["extra_names"]]
+            try:
+                solver.atol_for(int(layout["ny_all"]), names)
+            except ConfigurationError as exc:
+                ctx.add("solver", str(exc))
+                raise _Problems from None
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
         raise _Problems from None

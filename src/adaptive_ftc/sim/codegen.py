@@ -47,7 +47,8 @@ _BEGIN = "# --- template: begin ---"
 _lock = threading.RLock()
 _modules: dict[str, types.ModuleType] = {}
 _kept: dict[str, tuple] = {}
-_METHODS = ("rk4", "dopri5", "rodasp", "auto")  # the integrators a loop module may define
+#: the integrators a loop module may define
+_METHODS = ("rk4", "dopri5", "rodasp", "rodas5p", "auto")
 _stats = {"generated": 0, "loaded": 0, "in_memory": 0}
 
 

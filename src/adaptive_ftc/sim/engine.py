@@ -21,7 +21,7 @@ __all__ = ["SolverOptions", "integrate_only", "simulate"]
 
 _SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 #: Compiled adaptive-step methods (``sim/templates/adaptive.py``; evidence in docs/solvers.md).
-_ADAPTIVE_METHODS = ("dopri5", "rodasp", "auto")
+_ADAPTIVE_METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
 _METHODS = ("rk4", *_ADAPTIVE_METHODS, "accurate", *_SCIPY_METHODS)
 
 
@@ -34,7 +34,9 @@ class SolverOptions:
     method
         ``"rk4"``: compiled fixed-step RK4 (default; step ``dt``).
         ``"dopri5"``: compiled Dormand-Prince 5(4), for non-stiff loops.
-        ``"rodasp"``: compiled Rosenbrock RODASP 4(3), L-stable, for stiff loops (wing rock).
+        ``"rodasp"``: compiled Rosenbrock RODASP 4(3), L-stable, for stiff loops.
+        ``"rodas5p"``: compiled Rosenbrock Rodas5P 5(4) with a 4th-order dense output, for
+        stiff loops at tight tolerances (wing rock).
         ``"auto"``: DOPRI5 switching to RODASP while the loop is stiff.
         ``"accurate"``: ``"auto"`` (kept for old scenario files); with the default tolerances.
         Any :func:`scipy.integrate.solve_ivp` method name runs scipy (slow; a cross-check).
@@ -42,8 +44,10 @@ class SolverOptions:
     dt
         Step of the fixed-step path (seconds); steps also land on every failure time.
     rtol, atol, max_step
-        Tolerances (error control on every state: ``|err_i| <= atol + rtol |y_i|``) and the
-        largest step of the adaptive-step paths.
+        Tolerances (error control on every state: ``|err_i| <= atol_i + rtol |y_i|``) and the
+        largest step of the adaptive-step paths. ``atol`` is one number for every state or a
+        sequence with one number per state of the loop, in its state order (plant states,
+        adaptive states, extra states such as filters); a list is stored as a tuple.
     record_dt
         Spacing of the recorded samples.
     sdot
@@ -59,7 +63,7 @@ class SolverOptions:
     method: str = "rk4"
     dt: float = 1e-3
     rtol: float = 1e-8
-    atol: float = 1e-10
+    atol: float | tuple[float, ...] = 1e-10
     max_step: float = math.inf
     record_dt: float = 0.01
     sdot: str = "auto"
@@ -74,10 +78,29 @@ class SolverOptions:
                 f"Unknown solver method {self.method!r}."
                 f"{did_you_mean(str(self.method), _METHODS)} Use one of {', '.join(_METHODS)}."
             )
+        if isinstance(self.atol, (list, tuple, np.ndarray)):
+            atol = tuple(self.atol)
+            if not atol:
+                raise ConfigurationError(
+                    "`atol` of SolverOptions must be a positive number or one positive number "
+                    "per state; got an empty sequence."
+                )
+            for i, v in enumerate(atol):
+                if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)):
+                    raise ConfigurationError(
+                        f"`atol[{i}]` of SolverOptions must be a positive number; got {v!r}."
+                    )
+                if not (v > 0 and math.isfinite(v)):
+                    raise ConfigurationError(
+                        f"`atol[{i}]` of SolverOptions must be positive and finite; got {v!r}."
+                    )
+            object.__setattr__(self, "atol", tuple(float(v) for v in atol))
+        elif isinstance(self.atol, np.floating):
+            object.__setattr__(self, "atol", float(self.atol))
         for key in (
             "dt",
             "rtol",
-            "atol",
+            *(() if isinstance(self.atol, tuple) else ("atol",)),
             "max_step",
             "record_dt",
             "filter_tau",
@@ -108,6 +131,19 @@ class SolverOptions:
         if self.method == "accurate":
             return "auto"
         return self.method if self.method in ("rk4", *_ADAPTIVE_METHODS) else None
+
+    def atol_for(self, n: int, names=None) -> np.ndarray:
+        """The absolute tolerance of each of the ``n`` states (``names``: their names, for the
+        error message)."""
+        if not isinstance(self.atol, tuple):
+            return np.full(n, float(self.atol))
+        if len(self.atol) != n:
+            listed = f" ({', '.join(names)})" if names is not None else ""
+            raise ConfigurationError(
+                f"`atol` of SolverOptions has {len(self.atol)} entries but the loop has {n} "
+                f"states{listed}; give one number, or one per state in that order."
+            )
+        return np.array(self.atol, dtype=float)
 
     @property
     def scipy_method(self) -> str:
@@ -188,6 +224,11 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
     asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
     t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
     bps = np.array(asm.breakpoints)
+    n = asm.y0.size
+    names = (
+        [_state_label(loop, asm, i) for i in range(n)] if isinstance(solver.atol, tuple) else None
+    )
+    atol = solver.atol_for(n, names)
     stats = np.zeros(5, dtype=np.int64)
     start = time.perf_counter()
     method = solver.compiled_method
@@ -224,7 +265,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
                     asm.data,
                     W,
                     float(solver.rtol),
-                    float(solver.atol),
+                    atol,
                     h_max,
                     bound,
                     stop,
@@ -252,7 +293,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
         else:
             message = _diverged_message(loop, asm, float(t_stop), int(bad), solver)
     else:
-        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop)
+        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop, atol)
     wall = time.perf_counter() - start
     nrec, message = _check_envelope(loop, Y, t_rec, nrec, message)
     return asm, t_rec, Y, phases, nrec, message, wall, stats
@@ -388,7 +429,12 @@ def _diverged_message(
 
 
 def _integrate_scipy(
-    asm: Assembled, bps: np.ndarray, t_rec: np.ndarray, solver: SolverOptions, loop: ClosedLoop
+    asm: Assembled,
+    bps: np.ndarray,
+    t_rec: np.ndarray,
+    solver: SolverOptions,
+    loop: ClosedLoop,
+    atol: np.ndarray,
 ):
     from scipy.integrate import solve_ivp
 
@@ -427,7 +473,7 @@ def _integrate_scipy(
                 method=solver.scipy_method,
                 t_eval=t_eval,
                 rtol=solver.rtol,
-                atol=solver.atol,
+                atol=atol if isinstance(solver.atol, tuple) else solver.atol,
                 max_step=solver.max_step,
                 events=blowup,
             )
