@@ -102,6 +102,9 @@ def test_stiff_inverse_loops_run_with_stiffness_switching_at_the_same_accuracy(h
     assert chosen == replace(solver, method="auto", rtol=1e-6, atol=1e-9)  # yardstick accuracy
     loose = replace(solver, rtol=1e-4, atol=1e-6)
     assert baseline_solver("oracle", loose) == replace(loose, method="auto")  # never tightened
+    # a per-state atol of the adaptive loop (its states, not the baseline's): the smallest
+    per_state = replace(solver, atol=(1e-8, 1e-6, 1e-7))
+    assert baseline_solver("oracle", per_state).atol == 1e-8
     explicit, switching = _run(loop, solver), _run(loop, chosen)
     e0, s0 = _initial_errors(loop)
 
