@@ -95,6 +95,9 @@ _MAX_POINTS = 4000  # samples per line after thinning (rendering cost grows with
 _ROW_HEIGHT = 2.3
 #: Default resolution of PNG files (dots per inch).
 DPI = 150
+#: zlib level of PNG files (PIL's default is 6): 13 % less time per figure for 7-20 % larger
+#: files, measured on the hypersonic figures (``aftc reproduce`` writes 80 of them)
+PNG_COMPRESS = 3
 _ZOOM_FRACTION = 0.01  # events shorter than this fraction of the time axis get a zoom panel
 
 
@@ -831,7 +834,10 @@ def save_figure(
     first = None
     for fmt in fmts:
         target = path.with_suffix(f".{fmt}")
-        fp.figure.savefig(target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title))
+        extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS}} if fmt == "png" else {}
+        fp.figure.savefig(
+            target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title), **extra
+        )
         first = first or target
     return first
 
