@@ -304,6 +304,28 @@ def _worker_init() -> None:
         libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # not Linux: the parent's handler below still applies
         pass
+    # The libraries every task uses, imported once here and then frozen out of the cyclic
+    # garbage collector: its full collections no longer walk their hundreds of thousands of
+    # long-lived objects (numba's and matplotlib's), while what the tasks create is collected
+    # as usual. Measured: 3.5 s of 26 s CPU of a warm `aftc reproduce` were collections; with
+    # both settings it takes 22-25 s CPU, 13.1-14.2 s wall instead of 26-27 s, 15.3-16.3 s.
+    import gc
+
+    import adaptive_ftc.plots  # noqa: F401 - matplotlib (Agg figures)
+    import adaptive_ftc.sim.engine  # noqa: F401
+    import adaptive_ftc.sim.result  # noqa: F401
+
+    try:
+        import netCDF4  # noqa: F401 - the data files
+        import numba  # noqa: F401 - the compiled loops
+        import xarray  # noqa: F401
+    except ImportError:  # pragma: no cover - a task then reports the missing library
+        pass
+    gc.collect()
+    gc.freeze()
+    # and young collections less often (matplotlib allocates many small objects per figure):
+    # these processes only live for one reproduction
+    gc.set_threshold(10_000, 20, 20)
 
 
 @contextlib.contextmanager
