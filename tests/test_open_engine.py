@@ -568,37 +568,23 @@ def test_generated_code_calls_the_c_librarys_math_functions():
 def test_loops_compile_with_numba_profiling_on(tmp_path):
     # NUMBA_ENABLE_PROFILING (perf maps) turns on debug info, whose first-line finder failed
     # on the generated no-op ``jump`` (a docstring alone), reported as a plant index error
-    env = {**os.environ, "ADAPTIVE_FTC_CACHE_DIR": str(tmp_path), "NUMBA_ENABLE_PROFILING": "1"}
-    code = (
-        "from dataclasses import replace\n"
-        "from adaptive_ftc import load_scenario, simulate\n"
-        "sc = load_scenario('wingrock-free-1deg')\n"
-        "print(simulate(replace(sc.loop, t_final=0.1), sc.solver).status)\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
-    )
-    assert out.returncode == 0, out.stderr[-2000:]
-    assert out.stdout.split()[-1] == "completed"
+    code = "print(simulate(replace(sc.loop, t_final=0.1), sc.solver).status)\n"
+    out = _in_a_new_process(code, tmp_path, NUMBA_ENABLE_PROFILING="1")
+    assert out.split()[-1] == "completed"
 
 
 def test_loops_compile_at_their_own_llvm_level_and_leave_numbas_setting_alone(tmp_path):
     # the generated loops compile at -O2 (as fast or faster on them, same numbers); numba's
     # process-wide setting is untouched for any other numba code
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
-    env["ADAPTIVE_FTC_CACHE_DIR"] = str(tmp_path)
     code = (
-        "from dataclasses import replace\n"
         "import numba\n"
         "from numba.core import config, event\n"
-        "from adaptive_ftc import load_scenario, simulate\n"
         "seen = []\n"
         "class Spy(event.Listener):\n"
         "    def on_start(self, e):\n"
         "        seen.append((e.data['dispatcher'].py_func.__module__, int(config.OPT)))\n"
         "    def on_end(self, e):\n"
         "        pass\n"
-        "sc = load_scenario('wingrock-free-1deg')\n"
         "with event.install_listener('numba:compile', Spy()):\n"
         "    simulate(replace(sc.loop, t_final=0.1), sc.solver)\n"
         "    numba.njit(lambda x: x + 1)(1.0)\n"
@@ -606,8 +592,26 @@ def test_loops_compile_at_their_own_llvm_level_and_leave_numbas_setting_alone(tm
         "user = {o for m, o in seen if m == '__main__'}\n"
         "print(sorted(loops), sorted(user), int(config.OPT))\n"
     )
+    out = _in_a_new_process(code, tmp_path, NUMBA_OPT=None)
+    assert out.split("\n")[-2] == "[2] [3] 3"
+
+
+def _in_a_new_process(code: str, cache, **env) -> str:
+    """Run ``code`` in a fresh interpreter with the free wing-rock scenario loaded as ``sc``
+    (a small loop), an empty loop cache and ``env`` (``None``: variable unset); its stdout."""
+    full = {**os.environ, "ADAPTIVE_FTC_CACHE_DIR": str(cache)}
+    for key, value in env.items():
+        if value is None:
+            full.pop(key, None)
+        else:
+            full[key] = value
+    head = (
+        "from dataclasses import replace\n"
+        "from adaptive_ftc import load_scenario, simulate\n"
+        "sc = load_scenario('wingrock-free-1deg')\n"
+    )
     out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+        [sys.executable, "-c", head + code], env=full, capture_output=True, text=True, timeout=300
     )
     assert out.returncode == 0, out.stderr[-2000:]
-    assert out.stdout.split("\n")[-2] == "[2] [3] 3"
+    return out.stdout
