@@ -472,7 +472,17 @@ def run_reproduction(
         out = _variants(sc, all_baselines=baselines)
         return out if fair_baselines else [v for v in out if v not in _DESIGN_BASELINES]
 
-    sim_tasks = [(sc.name, v) for sc in scenarios for v in variants(sc)]
+    # round robin: every scenario's first variant, then every second one... The variants of a
+    # scenario share their compiled loop; run back to back, two workers would both compile it
+    # on a cold cache (nearly every structure twice). This way the second variant of a
+    # scenario starts after the first, and loads what the other worker compiled.
+    per_scenario = [[(sc.name, v) for v in variants(sc)] for sc in scenarios]
+    sim_tasks = [
+        runs[k]
+        for k in range(max(map(len, per_scenario), default=0))
+        for runs in per_scenario
+        if k < len(runs)
+    ]
     by_name = {sc.name: sc for sc in scenarios}
 
     executor: cf.Executor
