@@ -193,3 +193,22 @@ def test_report_shows_a_failed_claim_with_its_number(tmp_path):
     assert 'class="badge fail">0/1<' in page  # summary table
     assert "figure failed: file not written" in page
     assert "∞" in page
+
+
+def test_runs_that_share_a_compiled_loop_are_not_queued_together():
+    # on a cold cache two workers would compile one loop twice at once: every loop's first
+    # run comes before any loop's second run (the Nussbaum and sign scenarios come in pairs
+    # that differ only in numbers, and a scenario's variants share its loop)
+    from adaptive_ftc.reproduce import _compile_order, _variants
+    from adaptive_ftc.sim.compose import source_of
+
+    names = ["hypersonic-nussbaum-s1-neg", "hypersonic-nussbaum-s1-pos", "pendulum-direct"]
+    scs = [load_scenario(n) for n in names]
+    tasks = [(sc.name, v) for sc in scs for v in _variants(sc)]
+    order = _compile_order(scs, tasks)
+    assert sorted(order) == sorted(tasks)
+    texts = {sc.name: source_of(sc.loop, sdot=sc.solver.sdot_for(sc.loop)) for sc in scs}
+    assert texts[names[0]] == texts[names[1]] != texts[names[2]]
+    kinds = [(texts[n], v in ("nominal-inverse", "oracle")) for n, v in order]
+    first_repeat = next(i for i, k in enumerate(kinds) if k in kinds[:i])
+    assert len(set(kinds[:first_repeat])) == len(set(kinds))  # every loop once, then repeats

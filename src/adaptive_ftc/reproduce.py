@@ -125,6 +125,38 @@ def _prepare(name: str, quick: bool) -> Scenario:
     return sc
 
 
+def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
+    """``tasks`` reordered so that no two runs of one compiled loop start together.
+
+    Runs that share a compiled loop (a scenario's adaptive, frozen, failure-free and fixed-gain
+    variants; scenarios that differ only in numbers, such as the two Nussbaum initial signs)
+    would, back to back, be compiled by both workers at once on a cold cache. First the first
+    run of every loop, then the second ones...: by the time a loop runs again, one worker has
+    compiled it and the other loads it from the disk cache. Measured on a cold ``aftc
+    reproduce``: the variants back to back took 4m08s (7m36s CPU), round robin over scenarios
+    2m16s (4m09s CPU).
+    """
+    import hashlib
+
+    from adaptive_ftc.sim.compose import generate
+
+    loops = {}
+    for sc in scenarios:
+        try:
+            text = generate(sc.loop, sdot=sc.solver.sdot_for(sc.loop))[0]
+        except Exception:  # noqa: BLE001 - the run itself will report it
+            text = sc.name
+        loops[sc.name] = (hashlib.sha256(text.encode()).hexdigest(), sc.solver.method)
+    seen: Counter = Counter()
+    ranked = []
+    for i, (name, variant) in enumerate(tasks):
+        # the exact-inverse baselines have a loop (and solver) of their own
+        key = (*loops[name], variant in ("nominal-inverse", "oracle"))
+        ranked.append((seen[key], i, (name, variant)))
+        seen[key] += 1
+    return [task for *_, task in sorted(ranked)]
+
+
 def _has_baseline_claim(sc: Scenario) -> bool:
     return any(c.get("baseline_ratio") is not None for c in sc.claims)
 
@@ -472,17 +504,7 @@ def run_reproduction(
         out = _variants(sc, all_baselines=baselines)
         return out if fair_baselines else [v for v in out if v not in _DESIGN_BASELINES]
 
-    # round robin: every scenario's first variant, then every second one... The variants of a
-    # scenario share their compiled loop; run back to back, two workers would both compile it
-    # on a cold cache (nearly every structure twice). This way the second variant of a
-    # scenario starts after the first, and loads what the other worker compiled.
-    per_scenario = [[(sc.name, v) for v in variants(sc)] for sc in scenarios]
-    sim_tasks = [
-        runs[k]
-        for k in range(max(map(len, per_scenario), default=0))
-        for runs in per_scenario
-        if k < len(runs)
-    ]
+    sim_tasks = _compile_order(scenarios, [(sc.name, v) for sc in scenarios for v in variants(sc)])
     by_name = {sc.name: sc for sc in scenarios}
 
     executor: cf.Executor
