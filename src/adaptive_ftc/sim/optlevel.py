@@ -2,9 +2,9 @@
 
 numba optimises at ``-O3`` unless ``NUMBA_OPT`` says otherwise. On our loops ``-O2`` is as
 fast or faster (measured with ``NUMBA_OPT=2`` vs ``3`` on seven catalogue scenarios, every
-method: never slower; hypersonic-direct-s1 on RK4 dt 1e-3, the C benchmark's loop, 6-7 %
-faster) and gives the same numbers: ``-O3`` adds loop unrolling and vectorisation that
-small loops over a few states do not repay.
+method, two interleaved pairs: equal within the noise, about 1 %, or faster;
+hypersonic-direct-s1 on RK4 dt 1e-3, the C benchmark's loop, 6-7 % faster) and gives the same
+numbers (all 29 catalogue trajectories bit-identical).
 
 numba reads its level from ``numba.core.config.OPT`` whenever it builds its LLVM pass
 pipelines, so the loops' dispatchers (:func:`at_loop_level`) set it for their own
