@@ -75,7 +75,7 @@ class FailureEstimation(AdaptiveController):
     def emit_control(self, g, blocks, extra_at: int) -> list[str]:
         basis = self.basis_for(g.m)
         lines = [
-            "@hot",
+            "@inl",
             "def basis(t, c, w):",
             '    """Known failure basis varpi_j(t) of every actuator, flattened (2.62)."""',
         ]

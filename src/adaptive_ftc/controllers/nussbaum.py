@@ -71,7 +71,7 @@ class NussbaumAdaptive(AdaptiveController):
         g.y0_extra.append(float(self.tau0))
         text = g.constant_block(self.nussbaum_expression().node, {"tau": "tau"})
         g.defs.append(
-            "@hot\ndef nussbaum(tau, c):\n"
+            "@inl\ndef nussbaum(tau, c):\n"
             '    """The Nussbaum function N(tau) (4.15); its numbers are in c."""\n'
             f"    return {text}"
         )

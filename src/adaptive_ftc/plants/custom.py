@@ -332,7 +332,7 @@ class ExpressionPlant(_NamedPlant):
         lines, _ = self._layout()
         return "\n".join(
             [
-                "@hot",
+                "@inl",
                 "def plant_dynamics(t, x, uf, c, xdot):",
                 f'    """Equations of plant {self.name!r} (from the scenario file)."""',
                 *lines,

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 from numba import njit as hot
+from numba import njit as inl
 from numba import njit as jit
 
 
@@ -24,7 +25,7 @@ def leaves_envelope(Y, D):  # placeholder: first plant state outside the plant's
 
 
 # --- template: begin ---
-@hot
+@inl
 def first_bad(Y, bound, D):
     """Index of the first state that is non-finite, not below ``bound`` in size or (a plant
     state) outside the plant's envelope; -1 if none."""
@@ -34,7 +35,7 @@ def first_bad(Y, bound, D):
     return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
-@hot
+@inl
 def record_hermite(out_Y, r, tr, t, h, Y, k1, yn, fe):
     """Cubic Hermite interpolant between ``(t, Y, k1)`` and ``(t + h, yn, fe)`` at ``tr``."""
     s = (tr - t) / h
