@@ -291,7 +291,7 @@ def study(
         )  # fmt: skip
     gen.integrate_rk4(
         y0, tiny, 1e-7, tiny, D, asm.work(), BOUND, np.zeros(1, np.int64), np.zeros((2, n)),
-        np.zeros(2, np.int64), np.zeros(5, np.int64),
+        np.zeros(2, np.int64), np.zeros(5, np.int64), np.empty((8, n)),
     )  # fmt: skip
 
     rows: list[Row] = []
@@ -302,10 +302,11 @@ def study(
         ph = np.zeros(t_rec.size, dtype=np.int64)
         stats = np.zeros(5, dtype=np.int64)
         W = asm.work()
+        work = np.empty((8, n))
 
         def run():
             return gen.integrate_rk4(
-                y0, breaks, dt, t_rec, D, W, BOUND, np.zeros(1, np.int64), Y, ph, stats
+                y0, breaks, dt, t_rec, D, W, BOUND, np.zeros(1, np.int64), Y, ph, stats, work
             )
 
         row = Row("rk4", f"dt={dt:.3g}", run)

@@ -252,6 +252,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
                     Y,
                     phases,
                     stats,
+                    np.empty((8, asm.y0.size)),
                 )
         else:
             integrator = getattr(asm.module, f"integrate_{method}")

@@ -5,13 +5,15 @@ into a module that defines, at module level,
 
 - ``rhs(t, Y, ph, D, W, dY)``: the closed-loop derivative, written into ``dY`` in place;
 - ``make_work(D)``: the work arrays ``W`` that ``rhs`` uses;
-- ``jit``: the numba decorator (``numba.njit(cache=..., nogil=True, error_model="numpy")``).
+- ``jit``: the numba decorator (``numba.njit(cache=..., nogil=True, error_model="numpy")``);
+- ``inl``: the decorator of small helpers that numba pastes into their callers
+  (``numba.njit(..., inline="always")``: no call, no compilation of their own).
 
 The integrators call the global ``rhs`` directly (a function passed as an argument would defeat
 numba's disk cache). Everything above the marker is a stand-in so that this file imports, lints
 and can be tested on its own; :func:`bind` executes the template against any jitted ``rhs``.
 
-Entry points (same signature; each calls its own copy of the core ``_solve``, pasted by
+Entry points (same signature; each is its own copy of the core ``_solve``, pasted by
 :func:`specialise` with the other method's code dropped, so a ``dopri5`` loop compiles no
 Rosenbrock code: on hypersonic-direct-s1 the whole cold compile fell from 11-12 s to 8.4 s)::
 
@@ -89,6 +91,12 @@ import numba
 TEMPLATE_MARKER = "# --- template: begin ---"
 
 jit = numba.njit(nogil=True, error_model="numpy")
+inl = numba.njit(nogil=True, error_model="numpy", inline="always")
+
+#: the docstring of every entry point after its first line
+_ENTRY_DOC = """    Returns ``(n_recorded, status, t_stop, bad_index)``; the arguments, statuses and
+    ``stats`` are documented in ``adaptive_ftc/sim/templates/adaptive.py``.
+    """
 
 
 def rhs(t, Y, ph, D, W, dY):  # pragma: no cover - stand-in, replaced by the generated module
@@ -123,31 +131,51 @@ def make_work(D):  # pragma: no cover - stand-in, replaced by the generated modu
 
 # Stand-ins of the constants and entry cores that :func:`specialise` writes into the text.
 _DOPRI5 = _RODASP = _SWITCH = _RODAS5P = True
-_solve_dopri5 = _solve_rodasp = _solve_rodas5p = _solve_auto = None
 
-#: per entry point: (name of the core, _DOPRI5, _RODASP, _SWITCH, _RODAS5P); ``_RODASP`` means
-#: Rosenbrock steps, with the Rodas5P tableau where ``_RODAS5P``
+#: per entry point: (name, _DOPRI5, _RODASP, _SWITCH, _RODAS5P, first docstring line);
+#: ``_RODASP`` means Rosenbrock steps, with the Rodas5P tableau where ``_RODAS5P``
 _CORES = (
-    ("_solve_dopri5", True, False, False, False),
-    ("_solve_rodasp", False, True, False, False),
-    ("_solve_rodas5p", False, True, False, True),
-    ("_solve_auto", True, True, True, False),
-)
+    (
+        "integrate_dopri5",
+        True, False, False, False,
+        "Dormand-Prince 5(4), adaptive step, restarts at every break (non-stiff loops).",
+    ),
+    (
+        "integrate_rodasp",
+        False, True, False, False,
+        "RODASP Rosenbrock 4(3), L-stable, finite-difference Jacobian (stiff loops).",
+    ),
+    (
+        "integrate_rodas5p",
+        False, True, False, True,
+        "Rodas5P Rosenbrock 5(4), stiffly accurate, 4th-order dense output (stiff loops).",
+    ),
+    (
+        "integrate_auto",
+        True, True, True, False,
+        "Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff.",
+    ),
+)  # fmt: skip
 
 
 def specialise(text: str) -> str:
-    """Paste the core ``_solve`` of ``text`` once per entry point with its method constants
-    as literals (Python drops a block under ``if False``), so that ``integrate_dopri5``
-    compiles no Rosenbrock code and ``integrate_rodasp`` no Dormand-Prince code.
+    """Paste the core ``_solve`` of ``text`` once per entry point, named ``integrate_<method>``,
+    with its method constants as literals (Python drops a block under ``if False``), so that
+    ``integrate_dopri5`` compiles no Rosenbrock code and ``integrate_rodasp`` no Dormand-Prince
+    code.
 
     Measured on hypersonic-direct-s1 (``dopri5``): the core's own compile time fell from 3.7 s
-    (both methods, one core) to about 1.5 s.
+    (both methods, one core) to about 1.5 s. The cores are the entry points themselves: a
+    wrapper calling the core cost numba a second optimisation and code generation of the whole
+    linked loop (0.5-1 s per loop on a cold cache).
     """
     head, rest = text.split("@jit\ndef _solve(", 1)
-    body, tail = rest.split("\n\n\n", 1)
+    body, _, tail = rest.partition("\n\n\n")
+    signature, doc_rest = body.split('"""', 1)
+    doc_rest = doc_rest.split('"""', 1)[1]
     cores = []
-    for name, dopri5, rodasp, switch, rodas5p in _CORES:
-        core = f"@jit\ndef {name}(" + body
+    for name, dopri5, rodasp, switch, rodas5p, doc in _CORES:
+        core = f'@jit\ndef {name}({signature}"""{doc}\n\n{_ENTRY_DOC}"""{doc_rest}'
         for const, value in (
             ("_DOPRI5", dopri5),
             ("_RODASP", rodasp),
@@ -156,7 +184,7 @@ def specialise(text: str) -> str:
         ):
             core = re.sub(rf"\b{const}\b", str(value), core)
         cores.append(core)
-    return head + "\n\n\n".join(cores) + "\n\n\n" + tail
+    return head + "\n\n\n".join(cores) + ("\n\n\n" + tail if tail else "\n")
 
 
 def template_text() -> str:
@@ -195,6 +223,7 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
         leaves_envelope=numba.njit(_no_envelope),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
+        inl=numba.njit(nogil=True, error_model="numpy", inline="always"),
     )
     exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
     return mod
@@ -307,7 +336,7 @@ _PH = np.array(
 )
 
 
-@jit
+@inl
 def _first_bad(Y, bound, D):
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
@@ -315,7 +344,7 @@ def _first_bad(Y, bound, D):
     return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
-@jit
+@inl
 def _err_max(e, y0, y1, rtol, atol):
     """Max-norm of ``e`` scaled by ``atol + rtol max(|y0|, |y1|)``; inf if not finite."""
     m = 0.0
@@ -328,7 +357,7 @@ def _err_max(e, y0, y1, rtol, atol):
     return m
 
 
-@jit
+@inl
 def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
     """Initial step size (Hairer, Norsett & Wanner I, II.4); one rhs evaluation."""
     n = Y.size
@@ -361,7 +390,7 @@ def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
     return h
 
 
-@jit
+@inl
 def _lu_factor(A, piv, dinv):
     """In-place LU with partial pivoting (rows swapped whole), the pivots' reciprocals in
     ``dinv``; False if singular."""
@@ -421,7 +450,7 @@ def _lu_solve_t(A, piv, dinv, b):
             b[p] = tmp
 
 
-@jit
+@inl
 def _lu_solve_t2(A, piv, dinv, b, c):
     """:func:`_lu_solve_t` for two right-hand sides at once (independent chains overlap)."""
     n = A.shape[0]
@@ -452,7 +481,7 @@ def _lu_solve_t2(A, piv, dinv, b, c):
             c[p] = tmp
 
 
-@jit
+@inl
 def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     """Write the records ``t_rec[r] < limit`` of the step ``[t, t1]``; returns the new ``r``.
 
@@ -478,7 +507,7 @@ def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     return r
 
 
-@jit
+@inl
 def _dense_terms(k1, k2, k3, k4, k5, i):
     """The two RODASP dense-output combinations of the stages at component ``i``."""
     h2 = _RH21 * k1[i] + _RH22 * k2[i] + _RH23 * k3[i] + _RH24 * k4[i] + _RH25 * k5[i]
@@ -486,7 +515,7 @@ def _dense_terms(k1, k2, k3, k4, k5, i):
     return h2, h3
 
 
-@jit
+@inl
 def _dense_terms5(ks, i):
     """The three Rodas5P dense-output combinations ``K1, K2, K3`` of the stages at ``i``."""
     a = 0.0
@@ -502,7 +531,7 @@ def _dense_terms5(ks, i):
 
 @jit
 def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats):
-    """Shared core, pasted three times by :func:`specialise` with the constants ``_DOPRI5``
+    """Shared core, pasted as each ``integrate_<method>`` by :func:`specialise` with ``_DOPRI5``
     (Dormand-Prince steps), ``_RODASP`` (Rosenbrock steps) and ``_SWITCH`` (stiffness
     switching) written as literals: each entry point compiles only its method's code."""
     n = y0.size
@@ -947,91 +976,3 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
         out_phase[r] = nph - 1
         r += 1
     return r, 0, t_end, -1
-
-
-@jit
-def integrate_dopri5(
-    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
-):
-    """Dormand-Prince 5(4), adaptive step, restarts at every break (non-stiff loops)."""
-    return _solve_dopri5(
-        y0,
-        t_breaks,
-        t_rec,
-        D,
-        W,
-        rtol,
-        atol,
-        h_max,
-        bound,
-        stop,
-        out_Y,
-        out_phase,
-        stats,
-    )
-
-
-@jit
-def integrate_rodasp(
-    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
-):
-    """RODASP Rosenbrock 4(3), L-stable, finite-difference Jacobian (stiff loops)."""
-    return _solve_rodasp(
-        y0,
-        t_breaks,
-        t_rec,
-        D,
-        W,
-        rtol,
-        atol,
-        h_max,
-        bound,
-        stop,
-        out_Y,
-        out_phase,
-        stats,
-    )
-
-
-@jit
-def integrate_rodas5p(
-    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
-):
-    """Rodas5P Rosenbrock 5(4), stiffly accurate, 4th-order dense output (stiff loops)."""
-    return _solve_rodas5p(
-        y0,
-        t_breaks,
-        t_rec,
-        D,
-        W,
-        rtol,
-        atol,
-        h_max,
-        bound,
-        stop,
-        out_Y,
-        out_phase,
-        stats,
-    )
-
-
-@jit
-def integrate_auto(
-    y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats
-):
-    """Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff."""
-    return _solve_auto(
-        y0,
-        t_breaks,
-        t_rec,
-        D,
-        W,
-        rtol,
-        atol,
-        h_max,
-        bound,
-        stop,
-        out_Y,
-        out_phase,
-        stats,
-    )
