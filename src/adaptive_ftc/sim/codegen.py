@@ -151,15 +151,31 @@ def _user() -> str:
         return os.environ.get("USERNAME", "user")
 
 
+_hashes: dict[tuple, str] = {}
+
+
 def _source_hash(modules: list[str]) -> str:
-    h = hashlib.sha256()
+    """Hash of the source files of ``modules``, remembered per file stamp (a campaign keys a
+    loop per member: reading and hashing the files each time cost ~0.3 ms of each run)."""
+    stamps = []
     for name in sorted(set(modules)):
         mod = sys.modules.get(name) or importlib.import_module(name)
         path = getattr(mod, "__file__", None)
-        h.update(name.encode())
-        if path and os.path.exists(path):
-            h.update(Path(path).read_bytes())
-    return h.hexdigest()
+        try:
+            st = os.stat(path) if path else None
+        except OSError:
+            st = None
+        stamps.append((name, path, st.st_mtime_ns if st else 0, st.st_size if st else 0))
+    stamp = tuple(stamps)
+    digest = _hashes.get(stamp)
+    if digest is None:
+        h = hashlib.sha256()
+        for name, path, _, size in stamps:
+            h.update(name.encode())
+            if size:
+                h.update(Path(path).read_bytes())
+        digest = _hashes[stamp] = h.hexdigest()
+    return digest
 
 
 def _key(source: str, imports: list[str]) -> str:
