@@ -291,7 +291,7 @@ def study(
         )  # fmt: skip
     gen.integrate_rk4(
         y0, tiny, 1e-7, tiny, D, asm.work(), BOUND, np.zeros(1, np.int64), np.zeros((2, n)),
-        np.zeros(2, np.int64), np.zeros(5, np.int64), np.empty((8, n)),
+        np.zeros(2, np.int64), np.zeros(5, np.int64), *np.empty((8, n)),
     )  # fmt: skip
 
     rows: list[Row] = []
@@ -306,7 +306,7 @@ def study(
 
         def run():
             return gen.integrate_rk4(
-                y0, breaks, dt, t_rec, D, W, BOUND, np.zeros(1, np.int64), Y, ph, stats, work
+                y0, breaks, dt, t_rec, D, W, BOUND, np.zeros(1, np.int64), Y, ph, stats, *work
             )
 
         row = Row("rk4", f"dt={dt:.3g}", run)

@@ -49,6 +49,23 @@ def test_error_names_the_context_and_suggests_a_fix():
         Expression("u^3", VARS)
 
 
+def test_parsed_trees_are_shared_but_errors_keep_their_own_context():
+    """A campaign parses the same texts once per member: trees are remembered per (text,
+    variables), derivatives per (tree, variable); errors are never remembered, so each names
+    its own context."""
+    a = Expression("0.75*u**3 - 0.2*sin(t)", VARS, context="member 1")
+    b = Expression("0.75*u**3 - 0.2*sin(t)", VARS, context="member 2")
+    assert a.node is b.node
+    assert Expression("0.75*u**3 - 0.2*sin(t)", ("t", "u")).node == a.node
+    assert a.derivative("u").node is b.derivative("u").node
+    assert str(a.derivative("t")) == str(Expression(str(a), VARS).derivative("t"))
+    for where in ("file1.toml", "file2.toml"):
+        with pytest.raises(ExpressionError, match=rf"in {where}"):
+            Expression("sinn(t)", VARS, context=where)
+    with pytest.raises(ExpressionError, match="Bad expression"):  # a known text, other names
+        Expression("0.75*u**3 - 0.2*sin(t)", ("t",), context="no u here")
+
+
 def test_thesis_patterns_evaluate_as_written():
     f = Expression("0.1 + 0.05*cos(0.5*t) - 0.08*sin(0.5*t)", VARS)
     t = np.linspace(0, 10, 7)

@@ -385,7 +385,7 @@ def test_recording_semantics_match_rk4(mod):
     ph4 = np.full(t_rec.size, -1, dtype=np.int64)
     res = ns["integrate_rk4"](
         np.array([1.0, 0.0]), breaks, 1e-3, t_rec, D, (np.zeros(1),), 1e8,
-        np.zeros(1, dtype=np.int64), Y4, ph4, np.zeros(5, dtype=np.int64), np.empty((8, 2)),
+        np.zeros(1, dtype=np.int64), Y4, ph4, np.zeros(5, dtype=np.int64), *np.empty((8, 2)),
     )  # fmt: skip
     for method in METHODS:
         Y, phase, nrec, status, t_stop, *_ = solve(mod, method, [1.0, 0.0], breaks, t_rec, D)

@@ -95,8 +95,27 @@ def _err(text: str, what: str, context: str) -> ExpressionError:
     return ExpressionError(f"Bad expression '{text}'{where}: {what}")
 
 
+#: parsed trees of strings, per (text, variables): a campaign parses the same failure and
+#: reference texts for every member (trees are tuples, so sharing them is safe)
+_PARSED: dict[tuple[str, tuple[str, ...]], Node] = {}
+_DERIVED: dict[tuple[Node, str], Node] = {}
+_MEMO_SIZE = 4096
+
+
 def parse(text: str, variables: tuple[str, ...], *, context: str = "") -> Node:
     """Parse ``text`` into a node tree, allowing only ``variables`` and known functions."""
+    if type(text) is str:
+        key = (text, tuple(variables))
+        node = _PARSED.get(key)
+        if node is None:
+            node = _parse(text, key[1], context)
+            if len(_PARSED) < _MEMO_SIZE:
+                _PARSED[key] = node
+        return node
+    return _parse(text, variables, context)
+
+
+def _parse(text: str, variables: tuple[str, ...], context: str) -> Node:
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise _err(str(text), "expected a number or a string expression.", context)
     if isinstance(text, (int, float)):
@@ -525,11 +544,16 @@ class Expression:
             (e.g. a product of 200 factors ``t*t*...*t``; write ``t**200`` instead).
         """
         limit = MAX_DERIVATIVE_NODES
-        if _tree_size(self.node) > limit:
-            raise self._too_big(var)
-        d = _diff(self.node, var)
-        if _tree_size(d) > limit:
-            raise self._too_big(var)
+        key = (self.node, var)
+        d = _DERIVED.get(key)
+        if d is None:
+            if _tree_size(self.node) > limit:
+                raise self._too_big(var)
+            d = _diff(self.node, var)
+            if _tree_size(d) > limit:
+                raise self._too_big(var)
+            if len(_DERIVED) < _MEMO_SIZE:
+                _DERIVED[key] = d
         return Expression._from_node(d, self.variables)
 
     def _too_big(self, var: str) -> ExpressionError:

@@ -252,7 +252,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
                     Y,
                     phases,
                     stats,
-                    np.empty((8, asm.y0.size)),
+                    *np.empty((8, asm.y0.size)),  # scratch: 8 separate rows
                 )
         else:
             integrator = getattr(asm.module, f"integrate_{method}")

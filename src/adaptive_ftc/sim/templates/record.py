@@ -39,22 +39,17 @@ POS = VEL = (0,)
 
 # --- template: begin ---
 @hot
-def signals(T, Ys, phases, D, W, out, work):
+def signals(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot):
     """One row of ``out`` per recorded time. Columns: y(p), yd(p), yd_dot(p), e(p), edot(p),
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
 
-    ``work``: zeros of length ``Ys.shape[1] + 2 M + 2 NX``, given by the caller. The rows
-    allocate nothing, so they run without reference counting (no reference-count operations
-    on the views of every row), and ``signals`` is its own entry point (no wrapper for numba
-    to optimise and generate again with the right-hand side inside)."""
-    n_y = Ys.shape[1]
-    dY = work[:n_y]
-    zero = work[n_y : n_y + M]
-    unit = work[n_y + M : n_y + 2 * M]
-    x0dot = work[n_y + 2 * M : n_y + 2 * M + NX]
-    x1dot = work[n_y + 2 * M + NX : n_y + 2 * M + 2 * NX]
+    ``dY`` (``Ys.shape[1]``), ``zero``, ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros
+    given by the caller. The rows allocate nothing, so they run without reference counting
+    (no reference-count operations on the views of every row), and ``signals`` is its own
+    entry point (no wrapper for numba to optimise and generate again with the right-hand side
+    inside)."""
     c = D.c
     v0 = VEL[0]
     sig = W[SIG : SIG + N_SIG]
