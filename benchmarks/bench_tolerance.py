@@ -77,7 +77,6 @@ WINGROCK_SPEEDUP = 5.0
 NONSTIFF = ("hypersonic-direct-s1", "hypersonic-direct-s2")
 NONSTIFF_RATIO = 1.5
 METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
-_BOUND: dict[int, object] = {}
 
 
 @dataclass
@@ -235,13 +234,11 @@ def _interleaved(a: Row, b: Row, rounds: int):
 
 
 def _loop_module(asm):
-    gen = asm.module
-    if hasattr(gen, "integrate_rodasp"):
-        return gen
-    # a generated module without the adaptive template: bind the template to its rhs
-    if id(gen) not in _BOUND:
-        _BOUND[id(gen)] = template.bind(gen.rhs, None, name=f"bench_{id(gen)}", jump=gen.jump)
-    return _BOUND[id(gen)]
+    """The compiled integrators (shared by every loop; they call ``asm``'s rhs and jump through
+    the addresses in ``asm.data``)."""
+    from adaptive_ftc.sim.compose import integrators
+
+    return integrators()
 
 
 def study(
@@ -259,7 +256,6 @@ def study(
     solver = sc.solver
     asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
     mod = _loop_module(asm)
-    gen = asm.module
     D, y0 = asm.data, asm.y0
     breaks = np.array(asm.breakpoints, dtype=float)
     n = y0.size
@@ -289,7 +285,7 @@ def study(
             y0, tiny, tiny, D, asm.work(), 1e-6, np.full(n, 1e-9), math.inf, BOUND,
             np.zeros(1, np.int64), np.zeros((2, n)), np.zeros(2, np.int64), np.zeros(5, np.int64),
         )  # fmt: skip
-    gen.integrate_rk4(
+    mod.integrate_rk4(
         y0, tiny, 1e-7, tiny, D, asm.work(), BOUND, np.zeros(1, np.int64), np.zeros((2, n)),
         np.zeros(2, np.int64), np.zeros(5, np.int64), *np.empty((8, n)),
     )  # fmt: skip
@@ -305,7 +301,7 @@ def study(
         work = np.empty((8, n))
 
         def run():
-            return gen.integrate_rk4(
+            return mod.integrate_rk4(
                 y0, breaks, dt, t_rec, D, W, BOUND, np.zeros(1, np.int64), Y, ph, stats, *work
             )
 

@@ -23,6 +23,7 @@ from adaptive_ftc import (
     LinearRegressor,
     LossOfEffectiveness,
     SignEstimation,
+    SolverOptions,
     Stuck,
     load_scenario,
     simulate,
@@ -191,8 +192,51 @@ def test_two_hundred_members_that_differ_only_in_numbers_compile_once():
     after = codegen.stats()
     assert after["generated"] == before["generated"]
     assert after["loaded"] == before["loaded"]  # no new module for any member
-    module = assemble(loops[0]).module
-    assert len(getattr(module, f"integrate_{sc.solver.compiled_method}").signatures) == 1
+    integrator = assemble(loops[0]).integrator(sc.solver.compiled_method)
+    assert len(integrator.signatures) == 1
+
+
+def test_loops_of_different_structures_share_one_compiled_integrator():
+    """The integrators call each loop's own rhs and jump through addresses in its data: a new
+    structure compiles its rhs and signals, never another RK4 or DOPRI5."""
+    from adaptive_ftc.sim.compose import integrators
+
+    solver = SolverOptions(method="rk4", dt=1e-3)
+    direct = replace(load_scenario("hypersonic-direct-s1").loop, t_final=0.3)
+    nussbaum = replace(load_scenario("hypersonic-nussbaum-s1-pos").loop, t_final=0.3)
+    assert source_of(direct) != source_of(nussbaum)
+    import numba
+
+    a, b = assemble(direct), assemble(nussbaum)
+    assert a.module is not b.module and a.integrator("rk4") is b.integrator("rk4")
+    assert numba.typeof(a.data) == numba.typeof(b.data)  # one signature serves both
+    before = set(integrators().integrate_rk4.signatures)
+    ra, rb = simulate(direct, solver), simulate(nussbaum, solver)
+    assert ra.status == rb.status == "completed"
+    assert len(set(integrators().integrate_rk4.signatures) - before) <= 1  # at most 1 compile
+    # each loop ran its own equations: the same numbers as its rhs evaluated from Python
+    for asm, r in ((a, ra), (b, rb)):
+        y = np.concatenate([r.states[-1], r.adaptive[-1]])
+        y = np.concatenate([y, np.zeros(asm.y0.size - y.size)])
+        assert np.all(np.isfinite(asm.derivative(r.time[-1], y, 0)))
+    assert not np.allclose(ra.states, rb.states)
+
+
+def test_an_address_call_refuses_other_argument_types_at_compile_time():
+    # the integrators call rhs through its address: arguments of other types than those it
+    # was compiled for would be read as garbage, so the call refuses them when it compiles
+    import numba
+
+    from adaptive_ftc.sim.fptr import call_rhs
+
+    data = assemble(replace(load_scenario("hypersonic-direct-s1").loop, t_final=0.1)).data
+
+    @numba.njit
+    def strided(ptr, Y, D):
+        call_rhs(ptr, 0.0, Y[::2], 0, D, Y, Y)
+
+    with pytest.raises(numba.core.errors.TypingError, match="through an address needs"):
+        strided(0, np.zeros(10), data)
 
 
 def test_the_generated_module_reads_like_the_thesis():
@@ -203,9 +247,10 @@ def test_the_generated_module_reads_like_the_thesis():
         "plant_dynamics(",
         "theta_law(",
         "nussbaum(",
-        "def integrate_rk4(",
+        "def signals(",
     ):
         assert needle in text
+    assert "def integrate_rk4(" not in text  # shared by every loop: compose.integrators()
     failures = text[text.index("def failure(") : text.index("def rhs(")]
     assert "c[o + " in failures and "0.75" not in failures  # failure numbers are data
 
@@ -230,6 +275,7 @@ def test_the_cache_survives_a_new_process_and_is_keyed_by_content(tmp_path):
     assert int(runs[0].stdout.split()[-1]) > 0  # first process compiles
     assert int(runs[1].stdout.split()[-1]) == 0  # second process loads from the disk cache
     assert len(list((tmp_path / "loops").glob("loop_*.py"))) == 1
+    assert len(list((tmp_path / "loops").glob("integrators_*.py"))) == 1  # shared by all loops
 
 
 _DECORATED = """
@@ -350,6 +396,29 @@ def _ok(t, x, u, p, xdot):
 def test_a_plant_that_breaks_the_designs_assumptions_is_refused(equations, kw, message):
     with pytest.raises(ConfigurationError, match=message):
         _custom(equations, **kw)
+
+
+def _late_index(t, x, u, p, xdot):
+    j = 0 if t < 0.05 else 5  # u has two entries: out of bounds once the run is under way
+    xdot[0] = x[1]
+    xdot[1] = -p.k * x[0] + u[0] + u[1] + 0.0 * u[j]
+
+
+@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+def test_a_user_plants_index_error_inside_the_integrator_is_a_clear_error(method):
+    # the shared integrators call the loop's rhs by address: the bounds-checked index of the
+    # user's equations must still come back as a clear error, not a crash
+    plant_obj = _custom(_late_index)
+    loop = ClosedLoop(
+        plant=plant_obj,
+        controller=DirectAdaptive(regressor=LinearRegressor(inputs=("e",))),
+        allocation=(1.0, 1.0),
+        reference=("0.1*sin(t)",),
+        initial_state=(0.0, 0.0),
+        t_final=0.2,
+    )
+    with pytest.raises(ConfigurationError, match="index outside an array"):
+        simulate(loop, SolverOptions(method=method))
 
 
 def _set(xdot, a, b):

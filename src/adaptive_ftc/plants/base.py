@@ -76,7 +76,9 @@ class Plant(ABC):
                 "give it one (see adaptive_ftc.plants.pendulum for a complete plant), or use "
                 "CustomPlant / the @plant decorator."
             )
-        checked = not type(self).__module__.startswith("adaptive_ftc.")
+        # bounds-checked unless the equations are the library's own (a CustomPlant's are the
+        # user's function, although the class is the library's)
+        checked = not getattr(self.equations, "__module__", "").startswith("adaptive_ftc.")
         g.use("plant_dynamics", self.equations, checked=checked)
         return ""
 

@@ -6,9 +6,10 @@ failure values and times, initial state). The structure becomes the text of a Py
 reads like hand-written code; the numbers travel as data. Two loops that differ only in numbers
 share one module, compiled once and cached on disk.
 
-Cache layout: ``<cache dir>/loops/loop_<key>.py`` with numba's cache files in ``__pycache__``
-beside it. The key hashes the generated text, the source of every module it imports, and the
-numba and package versions, so an edited part never runs stale code. The cache directory is
+Cache layout: ``<cache dir>/loops/loop_<key>.py`` (and ``integrators_<key>.py``, the
+integrators every loop shares) with numba's cache files in ``__pycache__`` beside it. The
+key hashes the generated text, the source of every module it imports, and the numba and
+package versions, so an edited part never runs stale code. The cache directory is
 ``$ADAPTIVE_FTC_CACHE_DIR``, else ``$XDG_CACHE_HOME/adaptive-ftc`` (``~/.cache/adaptive-ftc``);
 when no directory is writable, loops are compiled in memory (slower first runs, same results).
 Modules whose parts are not importable (functions defined in ``__main__`` or a notebook) are
@@ -251,6 +252,7 @@ def load_module(
     *,
     imports: list[str],
     inject: Mapping[str, object] | None = None,
+    kind: str = "loop",
 ) -> types.ModuleType:
     """Compile (or load from the cache) the generated module ``source``.
 
@@ -263,6 +265,9 @@ def load_module(
     inject
         Objects to place in the module before it runs (parts that cannot be imported, such as
         functions defined in ``__main__``); such modules are compiled in memory only.
+    kind
+        What the module holds (``"loop"``, or ``"integrators"`` for the shared integrators):
+        the start of its file and module names.
     """
     _bind_libm()
     key = _key(source, imports)
@@ -273,7 +278,7 @@ def load_module(
     with _lock:
         if memo in _modules:
             return _modules[memo]
-        name = f"adaptive_ftc_loop_{key}"
+        name = f"adaptive_ftc_{kind}_{key}"
         folder = None if inject else cache_dir()
         if folder is None:
             module = types.ModuleType(name)
@@ -287,7 +292,7 @@ def load_module(
                 raise
             _stats["in_memory"] += 1
         else:
-            path = folder / f"loop_{key}.py"
+            path = folder / f"{kind}_{key}.py"
             if not path.exists() or path.read_text() != source:
                 tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
                 tmp.write_text(source)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 import math
 import re
+import threading
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -77,9 +78,13 @@ class LoopData(NamedTuple):
         return self._table(int(self.i[_I_MEAS]), (int(self.i[_I_NPH]), int(self.i[_I_NX])))
 
 
-# the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``)
+# the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``), then the
+# envelope (its start in ``c``, its length) and the addresses of the compiled ``rhs`` and
+# ``jump`` that the shared integrators call (``sim/fptr.py``; set by :func:`assemble`)
+_HEADER = ("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS", "ENV", "NENV", "RHS", "JUMP")
 _I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = range(8)
-_I_HEAD = 8  # the failure instance per (interval, actuator) starts here in ``i``
+_I_ENV, _I_NENV, _I_RHS, _I_JUMP = range(8, 12)
+_I_HEAD = len(_HEADER)  # the failure instance per (interval, actuator) starts here in ``i``
 
 
 #: The work array of one run, as named slices in this order: controller signals
@@ -252,6 +257,12 @@ class Assembled:
         """A fresh work array for one run (never shared between threads)."""
         return np.zeros(self.layout["w:size"].stop)
 
+    def integrator(self, method: str):
+        """The compiled ``integrate_<method>`` (``rk4``, ``dopri5``, ``rodasp``, ``rodas5p``,
+        ``auto``): shared by every loop, it calls this loop's ``rhs`` and ``jump`` through the
+        addresses in ``data.i`` (see :func:`integrators`)."""
+        return getattr(integrators(), f"integrate_{method}")
+
     def derivative(self, t: float, y: np.ndarray, phase: int) -> np.ndarray:
         """Closed-loop derivative at ``(t, y)`` in failure phase ``phase`` (allocating)."""
         dY = np.zeros(self.y0.size)
@@ -274,10 +285,96 @@ class Assembled:
         self.module.signals(T, Y, phases, self.data, self.work(), out, *scratch, x1dot)
 
 
+# ----------------------------------------------------------------------------- integrators
+_INTEGRATORS_HEAD = '''"""The integrators shared by every closed loop (written by sim/compose.py).
+
+A loop's ``rhs`` and ``jump`` are called through the addresses in ``D.i`` (sim/fptr.py), so
+this module compiles once per machine and numba version, not once per loop structure; the
+envelope check reads its bounds from ``D`` as well.
+"""
+# ruff: noqa
+import math
+
+import numpy as np
+from numba import njit
+
+from adaptive_ftc.sim.fptr import call_jump, call_rhs
+from adaptive_ftc.sim.optlevel import at_loop_level
+
+jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))
+hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
+inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+
+{constants}
+
+
+# hot, not inl: pasted into an integrator that counts references (the adaptive-step ones
+# allocate), the arrays passed would be counted at every call (measured: DOPRI5 runs 30 % slower)
+@hot
+def rhs(t, Y, ph, D, W, dY):
+    """The loop's right-hand side, compiled in the loop's own module."""
+    call_rhs(D.i[I_RHS], t, Y, ph, D, W, dY)
+
+
+@hot
+def jump(t, Y, ph, D, W):
+    """The loop's state update at the start of interval ``ph``."""
+    call_jump(D.i[I_JUMP], t, Y, ph, D, W)
+
+
+@hot
+def leaves_envelope(Y, D):
+    """Index of the first plant state outside the plant's envelope, else -1."""
+    at = D.i[I_ENV]
+    for i in range(D.i[I_NENV]):
+        if not (abs(Y[i]) <= D.c[at + i]):
+            return i
+    return -1
+'''
+
+_integrators_lock = threading.Lock()
+_integrators: list = []
+
+
+def integrators():
+    """The module of the shared compiled integrators (generated, cached on disk like a loop)."""
+    with _integrators_lock:
+        if not _integrators:
+            constants = "\n".join(f"I_{name} = {k}" for k, name in enumerate(_HEADER))
+            text = "\n\n".join(
+                [
+                    _INTEGRATORS_HEAD.format(constants=constants),
+                    codegen.template("rk4"),
+                    codegen.template("adaptive"),
+                ]
+            )
+            imports = ["adaptive_ftc.sim.fptr", "adaptive_ftc.sim.optlevel"]
+            _integrators.append(codegen.load_module(text, imports=imports, kind="integrators"))
+        return _integrators[0]
+
+
+def _addresses(module, data: LoopData) -> tuple[int, int]:
+    """Addresses of ``module``'s compiled ``rhs`` and ``jump`` for ``data``'s types (compiled
+    or loaded from the cache on first use; remembered on the module)."""
+    import numba
+
+    from adaptive_ftc.sim import fptr
+
+    dtype = numba.typeof(data)
+    memo = module.__dict__.setdefault("_ADDRESSES", {})
+    found = memo.get(dtype)
+    if found is None:
+        found = memo[dtype] = (
+            fptr.address(module.rhs, fptr.signature_rhs(dtype)),
+            fptr.address(module.jump, fptr.signature_jump(dtype)),
+        )
+    return found
+
+
 # ----------------------------------------------------------------------------- generation
 def _reference(g: Generator) -> str:
     lines = [
-        "@hot",  # also called from Python (assemble, filtered s')
+        "@inl",
         "def reference(t, c, out):",
         '    """Desired outputs and their first two derivatives (taken symbolically)."""',
     ]
@@ -293,6 +390,14 @@ def _reference(g: Generator) -> str:
     # stored after all are computed: a store to ``out`` between them could alias ``c`` and
     # keep the compiler from sharing sin(w t) and cos(w t) between y_d and its derivatives
     lines += [f"    out[{k}] = r{k}" for k in range(3 * len(g.loop.reference))]
+    lines += [
+        "",
+        "",
+        "@hot",
+        "def reference_at(t, c, out):",
+        '    """:func:`reference` for Python (compiled only when called from there)."""',
+        "    reference(t, c, out)",
+    ]
     return "\n".join(lines)
 
 
@@ -680,18 +785,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         jump_src.append("    return")
     jump_src = "\n".join(jump_src)
     env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
-    env_src = [
-        "@inl",
-        "def leaves_envelope(Y, D):",
-        '    """Index of the first plant state outside the plant\'s envelope, else -1."""',
-    ]
-    if env:
-        env_src += [
-            f"    for i in range({len(env)}):",
-            "        if not (abs(Y[i]) <= D.c[ENV + i]):",
-            "            return i",
-        ]
-    env_src = "\n".join([*env_src, "    return -1"])
     plant_vals, plant_expr = _pack_plant(g, plant.parameter_values())
     gains = ctrl.gains()
     gains_alias = g.use_class("Gains", type(gains))
@@ -743,7 +836,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "from adaptive_ftc.sim.optlevel import at_loop_level",
     ]
     jits = ["filtered_error", "robust_q", "weighted_sum", *_guarded()]
-    mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib"]
+    mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
     for alias, target in sorted(g.imports.items()):
         if alias in g.classes:
             if target:
@@ -797,10 +890,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         dfail_src,
         "\n".join(body),
         jump_src,
-        env_src,
         tables_src,
-        codegen.template("rk4"),
-        codegen.template("adaptive"),
         codegen.template("record"),
     ]
     # ------------------------------------------------------------ numbers and layout
@@ -868,10 +958,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     layout["w:size"] = slice(0, at)
     consts_lines += [
         "# the header of D.i: sizes, then where the tables start (in D.i or D.c)",
-        *[
-            f"I_{name} = {k}"
-            for k, name in enumerate(("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"))
-        ],
+        *[f"I_{name} = {k}" for k, name in enumerate(_HEADER)],
         f"I_HEAD = {_I_HEAD}",
         f"NX = {nx}",
         f"P = {p}",
@@ -891,7 +978,9 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
     inst_at = _I_HEAD + fphase.size
     samp_at = inst_at + inst.size
+    env_at = layout["c:envelope"]
     header = [nph, m, nx, len(fshape), inst_at, samp_at, act_at, meas_at]
+    header += [env_at.start, env_at.stop - env_at.start, 0, 0]  # addresses: see assemble()
     ints = np.concatenate(
         [
             np.array(header, dtype=np.int64),
@@ -1010,6 +1099,15 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
             f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
+    try:  # rhs and jump compile (or load) here: the integrators call them by address
+        data.i[_I_RHS], data.i[_I_JUMP] = _addresses(module, data)
+    except Exception as exc:
+        from adaptive_ftc.sim.engine import _compile_error
+
+        err, chain = _compile_error(loop, exc)
+        if err is exc:
+            raise
+        raise err from (exc if chain else None)
     asm = Assembled(
         module=module,
         data=data,
@@ -1024,7 +1122,7 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     )
     if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
         ref = np.zeros(3 * p)
-        module.reference(float(loop.t0), data.c, ref)
+        module.reference_at(float(loop.t0), data.c, ref)
         lam = data.c[layout["c:lam"]]
         x0 = y0[:nx]
         for i in range(p):

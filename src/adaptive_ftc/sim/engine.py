@@ -240,7 +240,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
         if method == "rk4":
 
             def run(stop):
-                return asm.module.integrate_rk4(
+                return asm.integrator("rk4")(
                     asm.y0,
                     bps,
                     float(solver.dt),
@@ -255,7 +255,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions):
                     *np.empty((8, asm.y0.size)),  # scratch: 8 separate rows
                 )
         else:
-            integrator = getattr(asm.module, f"integrate_{method}")
+            integrator = asm.integrator(method)
             h_max = float(min(solver.max_step, 1e300))
 
             def run(stop):
@@ -325,34 +325,42 @@ def _compiled_call(loop: ClosedLoop, run):
     errors that name the plant."""
     try:
         return _interruptible(run)
-    except IndexError as exc:
+    except Exception as exc:
+        err, chain = _compile_error(loop, exc)
+        if err is exc:
+            raise
+        raise err from (exc if chain else None)
+
+
+def _compile_error(loop: ClosedLoop, exc: Exception) -> tuple[Exception, bool]:
+    """The clear error for ``exc`` raised while compiling or running ``loop``'s compiled code
+    (``exc`` itself when it is none of numba's), and whether to chain ``exc`` to it."""
+    if isinstance(exc, IndexError):
         if _inside_numba(exc):  # the compiler's own error, not an index of the plant's
-            raise ConfigurationError(
+            return ConfigurationError(
                 f"The closed loop of plant '{loop.plant.name}' cannot be compiled: numba failed "
                 f"inside its compiler (IndexError: {exc}). Unset NUMBA_DEBUGINFO / "
                 "NUMBA_ENABLE_PROFILING if set, and report the plant's equations."
-            ) from exc
-        raise ConfigurationError(
+            ), True
+        return ConfigurationError(
             f"The equations of plant '{loop.plant.name}' index outside an array ({exc}): "
             f"x has {loop.plant.n_states} states, u has {loop.plant.n_actuators} actuators and "
             "xdot has one entry per state."
-        ) from None
-    except Exception as exc:
-        import numba.core.errors
+        ), False
+    import numba.core.errors
 
-        if not (
-            isinstance(exc, numba.core.errors.NumbaError)
-            or type(exc).__module__.startswith("numba.")
-        ):
-            raise
-        first = next((ln for ln in str(exc).splitlines() if ln.strip()), str(exc))
-        where = [ln.strip() for ln in str(exc).splitlines() if ln.strip().startswith("File ")]
-        raise ConfigurationError(
-            f"The closed loop of plant '{loop.plant.name}' cannot be compiled: {first.strip()}"
-            + (f" ({where[-1]})" if where else "")
-            + ". Plant equations must use numbers, arrays, indexing, loops and the math "
-            "module only (the subset numba compiles)."
-        ) from None
+    if not (
+        isinstance(exc, numba.core.errors.NumbaError) or type(exc).__module__.startswith("numba.")
+    ):
+        return exc, False
+    first = next((ln for ln in str(exc).splitlines() if ln.strip()), str(exc))
+    where = [ln.strip() for ln in str(exc).splitlines() if ln.strip().startswith("File ")]
+    return ConfigurationError(
+        f"The closed loop of plant '{loop.plant.name}' cannot be compiled: {first.strip()}"
+        + (f" ({where[-1]})" if where else "")
+        + ". Plant equations must use numbers, arrays, indexing, loops and the math "
+        "module only (the subset numba compiles)."
+    ), False
 
 
 def _inside_numba(exc: BaseException) -> bool:

@@ -1,17 +1,18 @@
-"""Compiled adaptive-step integrators, pasted as text into each generated closed-loop module.
+"""Compiled adaptive-step integrators, pasted as text into the shared integrator module.
 
 The text after the line ``# --- template: begin ---`` is the template: the code generator pastes it
-into a module that defines, at module level,
+(with ``templates/rk4.py``) into the module of integrators that every closed loop shares
+(``compose.integrators``), which defines, at module level,
 
 - ``rhs(t, Y, ph, D, W, dY)``: the closed-loop derivative, written into ``dY`` in place;
 - ``make_work(D)``: the work arrays ``W`` that ``rhs`` uses;
-- ``jit``: the numba decorator (``numba.njit(cache=..., nogil=True, error_model="numpy")``);
-- ``inl``: the decorator of small helpers that numba pastes into their callers
-  (``numba.njit(..., inline="always")``: no call, no compilation of their own).
+- ``jit``: the numba decorator (``numba.njit(cache=..., nogil=True, error_model="numpy")``).
 
-The integrators call the global ``rhs`` directly (a function passed as an argument would defeat
-numba's disk cache). Everything above the marker is a stand-in so that this file imports, lints
-and can be tested on its own; :func:`bind` executes the template against any jitted ``rhs``.
+There ``rhs`` and ``jump`` call the loop's own compiled functions through the addresses in
+``D.i`` (``sim/fptr.py``): one compiled integrator per method serves every loop, compiled once
+per machine. (A function passed as an argument would defeat numba's disk cache.)
+Everything above the marker is a stand-in so that this file imports, lints and can be tested
+on its own; :func:`bind` executes the template against any jitted ``rhs``.
 
 Entry points (same signature; each is its own copy of the core ``_solve``, pasted by
 :func:`specialise` with the other method's code dropped, so a ``dopri5`` loop compiles no
@@ -91,7 +92,6 @@ import numba
 TEMPLATE_MARKER = "# --- template: begin ---"
 
 jit = numba.njit(nogil=True, error_model="numpy")
-inl = numba.njit(nogil=True, error_model="numpy", inline="always")
 
 #: the docstring of every entry point after its first line
 _ENTRY_DOC = """    Returns ``(n_recorded, status, t_stop, bad_index)``; the arguments, statuses and
@@ -223,7 +223,6 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
         leaves_envelope=numba.njit(_no_envelope),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
-        inl=numba.njit(nogil=True, error_model="numpy", inline="always"),
     )
     exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
     return mod
@@ -336,7 +335,7 @@ _PH = np.array(
 )
 
 
-@inl
+@jit
 def _first_bad(Y, bound, D):
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
@@ -344,7 +343,7 @@ def _first_bad(Y, bound, D):
     return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
-@inl
+@jit
 def _err_max(e, y0, y1, rtol, atol):
     """Max-norm of ``e`` scaled by ``atol + rtol max(|y0|, |y1|)``; inf if not finite."""
     m = 0.0
@@ -357,7 +356,7 @@ def _err_max(e, y0, y1, rtol, atol):
     return m
 
 
-@inl
+@jit
 def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
     """Initial step size (Hairer, Norsett & Wanner I, II.4); one rhs evaluation."""
     n = Y.size
@@ -390,7 +389,7 @@ def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
     return h
 
 
-@inl
+@jit
 def _lu_factor(A, piv, dinv):
     """In-place LU with partial pivoting (rows swapped whole), the pivots' reciprocals in
     ``dinv``; False if singular."""
@@ -450,7 +449,7 @@ def _lu_solve_t(A, piv, dinv, b):
             b[p] = tmp
 
 
-@inl
+@jit
 def _lu_solve_t2(A, piv, dinv, b, c):
     """:func:`_lu_solve_t` for two right-hand sides at once (independent chains overlap)."""
     n = A.shape[0]
@@ -481,7 +480,7 @@ def _lu_solve_t2(A, piv, dinv, b, c):
             c[p] = tmp
 
 
-@inl
+@jit
 def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     """Write the records ``t_rec[r] < limit`` of the step ``[t, t1]``; returns the new ``r``.
 
@@ -507,7 +506,7 @@ def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     return r
 
 
-@inl
+@jit
 def _dense_terms(k1, k2, k3, k4, k5, i):
     """The two RODASP dense-output combinations of the stages at component ``i``."""
     h2 = _RH21 * k1[i] + _RH22 * k2[i] + _RH23 * k3[i] + _RH24 * k4[i] + _RH25 * k5[i]
@@ -515,7 +514,7 @@ def _dense_terms(k1, k2, k3, k4, k5, i):
     return h2, h3
 
 
-@inl
+@jit
 def _dense_terms5(ks, i):
     """The three Rodas5P dense-output combinations ``K1, K2, K3`` of the stages at ``i``."""
     a = 0.0
