@@ -280,9 +280,8 @@ class Assembled:
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
         """Recompute the recorded signals (see ``templates/record.py``) into ``out``."""
         m = int(self.data.i[_I_M])
-        scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(m), np.zeros(self.n_x))
-        x1dot = np.zeros(self.n_x)  # scratch of templates/record.py
-        self.module.signals(T, Y, phases, self.data, self.work(), out, *scratch, x1dot)
+        scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
+        self.module.signals(T, Y, phases, self.data, self.work(), out, *scratch)
 
 
 # ----------------------------------------------------------------------------- integrators

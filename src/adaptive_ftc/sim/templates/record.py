@@ -39,14 +39,14 @@ POS = VEL = (0,)
 
 # --- template: begin ---
 @hot
-def signals(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot):
+def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
     """One row of ``out`` per recorded time. Columns: y(p), yd(p), yd_dot(p), e(p), edot(p),
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
 
-    ``dY`` (``Ys.shape[1]``), ``zero``, ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros
-    given by the caller. The rows allocate nothing, so they run without reference counting
+    ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
+    the caller. The rows allocate nothing, so they run without reference counting
     (no reference-count operations on the views of every row), and ``signals`` is its own
     entry point (no wrapper for numba to optimise and generate again with the right-hand side
     inside)."""
@@ -87,13 +87,17 @@ def signals(T, Ys, phases, D, W, out, dY, zero, unit, x0dot, x1dot):
         out[n, col] = misc[0]
         out[n, col + 1] = misc[1]
         x = Y[:NX]
-        plant_dynamics(t, x, zero, plant_params(D), x0dot)
         gain = 0.0
-        for j in range(M):
+        # j = -1: the plant's rate at zero command (x0dot); then with each unit command. One
+        # call site: numba pastes the plant's equations into signals once, not twice
+        for j in range(-1, M):
             for i in range(M):
                 unit[i] = 0.0
-            unit[j] = 1.0
-            plant_dynamics(t, x, unit, plant_params(D), x1dot)
+            if j >= 0:
+                unit[j] = 1.0
+            plant_dynamics(t, x, unit, plant_params(D), x0dot if j < 0 else x1dot)
+            if j < 0:
+                continue
             gj = x1dot[v0] - x0dot[v0]
             k = instance(ph, j, D)
             df = 1.0 if k < 0 else dfailure(k, t, x, u[j], D)
