@@ -78,7 +78,8 @@ class Plant(ABC):
             )
         # bounds-checked unless the equations are the library's own (a CustomPlant's are the
         # user's function, although the class is the library's)
-        checked = not getattr(self.equations, "__module__", "").startswith("adaptive_ftc.")
+        module = getattr(self.equations, "__module__", None) or ""
+        checked = not module.startswith("adaptive_ftc.")
         g.use("plant_dynamics", self.equations, checked=checked)
         return ""
 
