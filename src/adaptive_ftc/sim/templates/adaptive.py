@@ -132,30 +132,24 @@ def make_work(D):  # pragma: no cover - stand-in, replaced by the generated modu
 # Stand-ins of the constants and entry cores that :func:`specialise` writes into the text.
 _DOPRI5 = _RODASP = _SWITCH = _RODAS5P = True
 
-#: per entry point: (name, _DOPRI5, _RODASP, _SWITCH, _RODAS5P, first docstring line);
-#: ``_RODASP`` means Rosenbrock steps, with the Rodas5P tableau where ``_RODAS5P``
+#: per entry point: (name, _DOPRI5, _RODASP, _SWITCH, _RODAS5P); ``_RODASP`` means Rosenbrock
+#: steps, with the Rodas5P tableau where ``_RODAS5P``
 _CORES = (
-    (
-        "integrate_dopri5",
-        True, False, False, False,
-        "Dormand-Prince 5(4), adaptive step, restarts at every break (non-stiff loops).",
-    ),
-    (
-        "integrate_rodasp",
-        False, True, False, False,
-        "RODASP Rosenbrock 4(3), L-stable, finite-difference Jacobian (stiff loops).",
-    ),
-    (
-        "integrate_rodas5p",
-        False, True, False, True,
-        "Rodas5P Rosenbrock 5(4), stiffly accurate, 4th-order dense output (stiff loops).",
-    ),
-    (
-        "integrate_auto",
-        True, True, True, False,
-        "Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff.",
-    ),
-)  # fmt: skip
+    ("integrate_dopri5", True, False, False, False),
+    ("integrate_rodasp", False, True, False, False),
+    ("integrate_rodas5p", False, True, False, True),
+    ("integrate_auto", True, True, True, False),
+)
+#: the first line of each entry point's docstring
+_DOCS = {
+    "integrate_dopri5": "Dormand-Prince 5(4), adaptive step, restarts at every break "
+    "(non-stiff loops).",
+    "integrate_rodasp": "RODASP Rosenbrock 4(3), L-stable, finite-difference Jacobian "
+    "(stiff loops).",
+    "integrate_rodas5p": "Rodas5P Rosenbrock 5(4), stiffly accurate, 4th-order dense output "
+    "(stiff loops).",
+    "integrate_auto": "Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff.",
+}
 
 
 def specialise(text: str) -> str:
@@ -174,8 +168,8 @@ def specialise(text: str) -> str:
     signature, doc_rest = body.split('"""', 1)
     doc_rest = doc_rest.split('"""', 1)[1]
     cores = []
-    for name, dopri5, rodasp, switch, rodas5p, doc in _CORES:
-        core = f'@jit\ndef {name}({signature}"""{doc}\n\n{_ENTRY_DOC}"""{doc_rest}'
+    for name, dopri5, rodasp, switch, rodas5p in _CORES:
+        core = f'@jit\ndef {name}({signature}"""{_DOCS[name]}\n\n{_ENTRY_DOC}"""{doc_rest}'
         for const, value in (
             ("_DOPRI5", dopri5),
             ("_RODASP", rodasp),
