@@ -222,6 +222,15 @@ def test_loops_of_different_structures_share_one_compiled_integrator():
     assert not np.allclose(ra.states, rb.states)
 
 
+def test_data_without_compiled_addresses_is_refused_not_called():
+    asm = assemble(replace(load_scenario("hypersonic-direct-s1").loop, t_final=0.1))
+    asm.integrator("rk4")  # assemble() wrote the addresses
+    bare = replace(asm, data=asm.data._replace(i=asm.data.i.copy()))
+    bare.data.i[:] = 0  # e.g. a LoopData built by hand
+    with pytest.raises(ConfigurationError, match="call assemble"):
+        bare.integrator("rk4")
+
+
 def test_an_address_call_refuses_other_argument_types_at_compile_time():
     # the integrators call rhs through its address: arguments of other types than those it
     # was compiled for would be read as garbage, so the call refuses them when it compiles

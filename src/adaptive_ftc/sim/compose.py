@@ -261,6 +261,11 @@ class Assembled:
         """The compiled ``integrate_<method>`` (``rk4``, ``dopri5``, ``rodasp``, ``rodas5p``,
         ``auto``): shared by every loop, it calls this loop's ``rhs`` and ``jump`` through the
         addresses in ``data.i`` (see :func:`integrators`)."""
+        if not (self.data.i[_I_RHS] and self.data.i[_I_JUMP]):  # a call to address 0 crashes
+            raise ConfigurationError(
+                "This loop's data holds no compiled rhs/jump addresses (made or copied outside "
+                "assemble(), or unpickled in another process): call assemble(loop) here."
+            )
         return getattr(integrators(), f"integrate_{method}")
 
     def derivative(self, t: float, y: np.ndarray, phase: int) -> np.ndarray:
