@@ -322,7 +322,7 @@ def stats() -> dict[str, int]:
     numba compilations of loop entry points (``compiled``; 0 when every loop hit the cache)."""
     compiled = 0
     for mod in list(_modules.values()):
-        for fn in ("rhs", "signals", *(f"integrate_{m}" for m in _METHODS)):
+        for fn in ("rhs", "control_gain", "signals", *(f"integrate_{m}" for m in _METHODS)):
             disp = getattr(mod, fn, None)
             if disp is not None and hasattr(disp, "stats"):
                 compiled += sum(disp.stats.cache_misses.values())

@@ -79,11 +79,15 @@ class LoopData(NamedTuple):
 
 
 # the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``), then the
-# envelope (its start in ``c``, its length) and the addresses of the compiled ``rhs`` and
-# ``jump`` that the shared integrators call (``sim/fptr.py``; set by :func:`assemble`)
-_HEADER = ("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS", "ENV", "NENV", "RHS", "JUMP")
+# envelope (its start in ``c``, its length), the addresses of the compiled ``rhs``, ``jump``
+# and ``control_gain`` that the shared integrators and ``signals`` call (``sim/fptr.py``; set
+# by :func:`assemble`) and where the table of ``signals`` starts (``templates/record.py``)
+_HEADER = (
+    *("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"),
+    *("ENV", "NENV", "RHS", "JUMP", "GAIN", "SIGT"),
+)
 _I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = range(8)
-_I_ENV, _I_NENV, _I_RHS, _I_JUMP = range(8, 12)
+_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT = range(8, 14)
 _I_HEAD = len(_HEADER)  # the failure instance per (interval, actuator) starts here in ``i``
 
 
@@ -93,6 +97,8 @@ _I_HEAD = len(_HEADER)  # the failure instance per (interval, actuator) starts h
 #: gain, s' used, reference valid, reference time, computing a sample], design basis values,
 #: scratch derivative (for ``jump``), the failure values remembered per actuator (``fc``).
 _WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb", "scr", "fc")
+#: the work buffers whose places the shared ``signals`` reads (``templates/record.py``)
+_SIGNAL_WORK = ("sig", "ref", "xdot", "q", "u0", "u", "uf", "misc")
 
 
 @dataclass
@@ -261,12 +267,17 @@ class Assembled:
         """The compiled ``integrate_<method>`` (``rk4``, ``dopri5``, ``rodasp``, ``rodas5p``,
         ``auto``): shared by every loop, it calls this loop's ``rhs`` and ``jump`` through the
         addresses in ``data.i`` (see :func:`integrators`)."""
-        if not (self.data.i[_I_RHS] and self.data.i[_I_JUMP]):  # a call to address 0 crashes
+        return getattr(self._shared(), f"integrate_{method}")
+
+    def _shared(self):
+        """The shared compiled module, once this loop's addresses are known to be set."""
+        i = self.data.i
+        if not (i[_I_RHS] and i[_I_JUMP] and i[_I_GAIN]):  # a call to address 0 crashes
             raise ConfigurationError(
                 "This loop's data holds no compiled rhs/jump addresses (made or copied outside "
                 "assemble(), or unpickled in another process): call assemble(loop) here."
             )
-        return getattr(integrators(), f"integrate_{method}")
+        return integrators()
 
     def derivative(self, t: float, y: np.ndarray, phase: int) -> np.ndarray:
         """Closed-loop derivative at ``(t, y)`` in failure phase ``phase`` (allocating)."""
@@ -283,10 +294,39 @@ class Assembled:
         return W[self.layout["w:phi"]].copy()
 
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
-        """Recompute the recorded signals (see ``templates/record.py``) into ``out``."""
+        """Recompute the recorded signals into ``out`` (the shared ``signals`` of
+        ``templates/record.py``, which calls this loop's ``rhs`` and ``control_gain``)."""
         m = int(self.data.i[_I_M])
         scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
-        self.module.signals(T, Y, phases, self.data, self.work(), out, *scratch)
+        self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch)
+
+
+# the loop's own part of the recorded signals; the shared ``signals`` (templates/record.py)
+# calls it by address once per recorded row, after ``rhs`` (which left u in W)
+_CONTROL_GAIN = '''@hot
+def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
+    """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
+    the rate of output 1 per unit command of actuator j; df_j/du: its failure's slope)."""
+    c = D.c
+    v0 = VEL[0]
+    u = W[U : U + N_U]
+    x = Y[:NX]
+    gain = 0.0
+    # j = -1: the plant's rate at zero command (x0dot); then with each unit command. One
+    # call site: numba pastes the plant's equations once
+    for j in range(-1, M):
+        for i in range(M):
+            unit[i] = 0.0
+        if j >= 0:
+            unit[j] = 1.0
+        plant_dynamics(t, x, unit, plant_params(D), x0dot if j < 0 else x1dot)
+        if j < 0:
+            continue
+        gj = x1dot[v0] - x0dot[v0]
+        k = instance(ph, j, D)
+        df = 1.0 if k < 0 else dfailure(k, t, x, u[j], D)
+        gain += gj * c[RMAT + j] * df
+    return gain'''
 
 
 # ----------------------------------------------------------------------------- integrators
@@ -302,12 +342,14 @@ import math
 import numpy as np
 from numba import njit
 
-from adaptive_ftc.sim.fptr import call_jump, call_rhs
+from adaptive_ftc.controllers.laws import filtered_error
+from adaptive_ftc.sim.fptr import call_gain, call_jump, call_rhs
 from adaptive_ftc.sim.optlevel import at_loop_level
 
 jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))
 hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
 inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+filtered_error = inl(filtered_error)
 
 {constants}
 
@@ -350,16 +392,21 @@ def integrators():
                     _INTEGRATORS_HEAD.format(constants=constants),
                     codegen.template("rk4"),
                     codegen.template("adaptive"),
+                    codegen.template("record"),
                 ]
             )
-            imports = ["adaptive_ftc.sim.fptr", "adaptive_ftc.sim.optlevel"]
+            imports = [
+                "adaptive_ftc.controllers.laws",
+                "adaptive_ftc.sim.fptr",
+                "adaptive_ftc.sim.optlevel",
+            ]
             _integrators.append(codegen.load_module(text, imports=imports, kind="integrators"))
         return _integrators[0]
 
 
-def _addresses(module, data: LoopData) -> tuple[int, int]:
-    """Addresses of ``module``'s compiled ``rhs`` and ``jump`` for ``data``'s types (compiled
-    or loaded from the cache on first use; remembered on the module)."""
+def _addresses(module, data: LoopData) -> tuple[int, int, int]:
+    """Addresses of ``module``'s compiled ``rhs``, ``jump`` and ``control_gain`` for ``data``'s
+    types (compiled or loaded from the cache on first use; remembered on the module)."""
     import numba
 
     from adaptive_ftc.sim import fptr
@@ -371,6 +418,7 @@ def _addresses(module, data: LoopData) -> tuple[int, int]:
         found = memo[dtype] = (
             fptr.address(module.rhs, fptr.signature_rhs(dtype)),
             fptr.address(module.jump, fptr.signature_jump(dtype)),
+            fptr.address(module.control_gain, fptr.signature_gain(dtype)),
         )
     return found
 
@@ -895,7 +943,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "\n".join(body),
         jump_src,
         tables_src,
-        codegen.template("record"),
+        _CONTROL_GAIN,
     ]
     # ------------------------------------------------------------ numbers and layout
     settings = {
@@ -984,13 +1032,19 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     samp_at = inst_at + inst.size
     env_at = layout["c:envelope"]
     header = [nph, m, nx, len(fshape), inst_at, samp_at, act_at, meas_at]
-    header += [env_at.start, env_at.stop - env_at.start, 0, 0]  # addresses: see assemble()
+    sig_table = [p] + [layout[f"w:{w}"].start for w in _SIGNAL_WORK]
+    sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel]
+    samp_flags = (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel()
+    sigt_at = samp_at + samp_flags.size
+    # the addresses are written by assemble()
+    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at]
     ints = np.concatenate(
         [
             np.array(header, dtype=np.int64),
             fphase.ravel(),
             inst.ravel(),
-            (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel(),
+            samp_flags,
+            np.array(sig_table, dtype=np.int64),
         ]
     ).astype(np.int64)
     data = LoopData(c=c_all, i=ints, p=plant.parameter_values() if plant_expr == "D.p" else ())
@@ -1104,7 +1158,7 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
     try:  # rhs and jump compile (or load) here: the integrators call them by address
-        data.i[_I_RHS], data.i[_I_JUMP] = _addresses(module, data)
+        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, data)
     except Exception as exc:
         from adaptive_ftc.sim.engine import _compile_error
 

@@ -21,7 +21,15 @@ from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.core.extending import intrinsic
 
-__all__ = ["address", "call_jump", "call_rhs", "signature_jump", "signature_rhs"]
+__all__ = [
+    "address",
+    "call_gain",
+    "call_jump",
+    "call_rhs",
+    "signature_gain",
+    "signature_jump",
+    "signature_rhs",
+]
 
 _VEC = types.Array(types.float64, 1, "C")
 
@@ -34,6 +42,12 @@ def signature_rhs(data_type) -> tuple:
 def signature_jump(data_type) -> tuple:
     """Argument types of ``jump(t, Y, ph, D, W)`` as the integrators call it."""
     return (types.float64, _VEC, types.int64, data_type, _VEC)
+
+
+def signature_gain(data_type) -> tuple:
+    """Argument types of ``control_gain(t, Y, ph, D, W, unit, x0dot, x1dot)`` as the shared
+    ``signals`` calls it."""
+    return (types.float64, _VEC, types.int64, data_type, _VEC, _VEC, _VEC, _VEC)
 
 
 def address(dispatcher, sig: tuple) -> int:
@@ -52,13 +66,13 @@ def _check(args: tuple, expected: tuple, what: str) -> None:
         )
 
 
-def _call(context, builder, argtys, args, fptr):
-    fnty = context.call_conv.get_function_type(types.none, argtys)
+def _call(context, builder, argtys, args, fptr, restype=types.none):
+    fnty = context.call_conv.get_function_type(restype, argtys)
     fn = builder.inttoptr(fptr, fnty.as_pointer())
-    status, _ = context.call_conv.call_function(builder, fn, types.none, argtys, args)
+    status, out = context.call_conv.call_function(builder, fn, restype, argtys, args)
     with cgutils.if_unlikely(builder, status.is_error):
         context.call_conv.return_status_propagate(builder, status)
-    return context.get_dummy_value()
+    return context.get_dummy_value() if restype is types.none else out
 
 
 @intrinsic
@@ -83,3 +97,17 @@ def call_jump(typingctx, fptr, t, Y, ph, D, W):
         return _call(context, builder, signature.args[1:], llargs[1:], llargs[0])
 
     return types.none(fptr, *args), codegen
+
+
+@intrinsic
+def call_gain(typingctx, fptr, t, Y, ph, D, W, unit, x0dot, x1dot):
+    """``control_gain(t, Y, ph, D, W, unit, x0dot, x1dot)`` at address ``fptr`` (a float)."""
+    args = (t, Y, ph, D, W, unit, x0dot, x1dot)
+    _check(args, signature_gain(D), "control_gain")
+
+    def codegen(context, builder, signature, llargs):
+        return _call(
+            context, builder, signature.args[1:], llargs[1:], llargs[0], restype=types.float64
+        )
+
+    return types.float64(fptr, *args), codegen

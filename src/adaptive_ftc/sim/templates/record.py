@@ -1,21 +1,19 @@
 """Recorded signals of a closed loop, recomputed at the recorded states (template).
 
-The placeholders above the marker exist only so this file imports and lints on its own.
+The text after the marker is pasted into the module of integrators that every loop shares
+(``compose.integrators``): one compiled ``signals`` serves every loop. It reads the loop's
+layout (outputs, places in the work array ``W`` and in ``D.c``) from the table at
+``D.i[I_SIGT]``, calls the loop's ``rhs`` by address for each row and the loop's own
+``control_gain`` (its plant's equations and failure derivatives, compiled in the loop's module)
+by the address ``D.i[I_GAIN]``. The placeholders above the marker exist only so this file
+imports and lints on its own.
 """
 
 # ruff: noqa: F811
 from numba import njit as hot
 
 
-def rhs(t, Y, ph, D, W, dY):  # placeholders: every generated module defines its own
-    raise NotImplementedError
-
-
-def plant_dynamics(t, x, uf, p, xdot):
-    raise NotImplementedError
-
-
-def dfailure(k, t, x, u, D):
+def rhs(t, Y, ph, D, W, dY):  # placeholders: the integrators module defines them
     raise NotImplementedError
 
 
@@ -23,18 +21,12 @@ def filtered_error(e, edot, lam):
     raise NotImplementedError
 
 
-def plant_params(D):
+def call_gain(fptr, t, Y, ph, D, W, unit, x0dot, x1dot):
     raise NotImplementedError
 
 
-def instance(ph, j, D):
-    raise NotImplementedError
-
-
-# module constants of every generated loop (sizes and places in the work array)
-NX = P = M = SIG = N_SIG = REF = N_REF = XDOT = N_XDOT = Q = N_Q = U0 = N_U0 = U = N_U = 0
-UF = N_UF = MISC = N_MISC = LAM = RMAT = 0
-POS = VEL = (0,)
+# places in the header of D.i (the integrators module defines them)
+I_NX = I_M = I_GAIN = I_SIGT = 0
 
 
 # --- template: begin ---
@@ -46,61 +38,46 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
     sdot_used.
 
     ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
-    the caller. The rows allocate nothing, so they run without reference counting
-    (no reference-count operations on the views of every row), and ``signals`` is its own
-    entry point (no wrapper for numba to optimise and generate again with the right-hand side
-    inside)."""
+    the caller. The rows allocate nothing, so they run without reference counting. The table
+    at ``D.i[I_SIGT]``: ``P, SIG, REF, XDOT, Q, U0, U, UF, MISC, LAM, RMAT`` then the ``P``
+    position and the ``P`` rate indices of the outputs (``compose._signal_table``)."""
     c = D.c
-    v0 = VEL[0]
-    sig = W[SIG : SIG + N_SIG]
-    ref = W[REF : REF + N_REF]
-    xdot = W[XDOT : XDOT + N_XDOT]
-    q = W[Q : Q + N_Q]
-    u0 = W[U0 : U0 + N_U0]
-    u = W[U : U + N_U]
-    uf = W[UF : UF + N_UF]
-    misc = W[MISC : MISC + N_MISC]
+    s = D.i[I_SIGT]
+    P = D.i[s]
+    SIG, REF, XDOT, Q = D.i[s + 1], D.i[s + 2], D.i[s + 3], D.i[s + 4]
+    U0, U, UF, MISC = D.i[s + 5], D.i[s + 6], D.i[s + 7], D.i[s + 8]
+    LAM = D.i[s + 9]
+    pos = s + 11
+    vel = pos + P
+    NX = D.i[I_NX]
+    M = D.i[I_M]
     for n in range(T.size):
         t = T[n]
         Y = Ys[n]
         ph = phases[n]
-        misc[3] = 0.0  # the reference cache must not carry over between rows
+        W[MISC + 3] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
         for i in range(P):
+            pi = D.i[pos + i]
+            vi = D.i[vel + i]
             # the true tracking errors (the controller's own, in sig, may be measured ones)
-            e = ref[3 * i] - Y[POS[i]]
-            ed = ref[3 * i + 1] - Y[VEL[i]]
-            out[n, i] = Y[POS[i]]
-            out[n, P + i] = ref[3 * i]
-            out[n, 2 * P + i] = ref[3 * i + 1]
+            e = W[REF + 3 * i] - Y[pi]
+            ed = W[REF + 3 * i + 1] - Y[vi]
+            out[n, i] = Y[pi]
+            out[n, P + i] = W[REF + 3 * i]
+            out[n, 2 * P + i] = W[REF + 3 * i + 1]
             out[n, 3 * P + i] = e
             out[n, 4 * P + i] = ed
             out[n, 5 * P + i] = filtered_error(e, ed, c[LAM + i])
-            out[n, 6 * P + i] = ref[3 * i + 2] - xdot[VEL[i]] + c[LAM + i] * sig[NX + P + i]
-            out[n, 7 * P + i] = q[i]
-            out[n, 8 * P + i] = u0[i]
+            out[n, 6 * P + i] = W[REF + 3 * i + 2] - W[XDOT + vi] + c[LAM + i] * W[SIG + NX + P + i]
+            out[n, 7 * P + i] = W[Q + i]
+            out[n, 8 * P + i] = W[U0 + i]
         col = 9 * P
         for j in range(M):
-            out[n, col + j] = u[j]
-            out[n, col + M + j] = uf[j]
+            out[n, col + j] = W[U + j]
+            out[n, col + M + j] = W[UF + j]
         col += 2 * M
-        out[n, col] = misc[0]
-        out[n, col + 1] = misc[1]
-        x = Y[:NX]
-        gain = 0.0
-        # j = -1: the plant's rate at zero command (x0dot); then with each unit command. One
-        # call site: numba pastes the plant's equations into signals once, not twice
-        for j in range(-1, M):
-            for i in range(M):
-                unit[i] = 0.0
-            if j >= 0:
-                unit[j] = 1.0
-            plant_dynamics(t, x, unit, plant_params(D), x0dot if j < 0 else x1dot)
-            if j < 0:
-                continue
-            gj = x1dot[v0] - x0dot[v0]
-            k = instance(ph, j, D)
-            df = 1.0 if k < 0 else dfailure(k, t, x, u[j], D)
-            gain += gj * c[RMAT + j] * df
-        out[n, col + 2] = gain
-        out[n, col + 3] = misc[2]
+        out[n, col] = W[MISC]
+        out[n, col + 1] = W[MISC + 1]
+        out[n, col + 2] = call_gain(D.i[I_GAIN], t, Y, ph, D, W, unit, x0dot, x1dot)
+        out[n, col + 3] = W[MISC + 2]
