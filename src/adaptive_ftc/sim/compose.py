@@ -581,14 +581,15 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
             "def failure_cached(k, j, t, x, u, D, fc):",
             '    """failure(k, ...) of actuator j, remembered while t and k stay the same when the',
             '    pattern depends on t alone (fc[3 j:3 j + 3] = [t, k + 1, value])."""',
-            "    if TIME_ONLY[D.i[D.i[I_INST] + 2 * k]] == 0:",
-            "        return failure(k, t, x, u, D)",
-            "    if fc[3 * j] == t and fc[3 * j + 1] == k + 1:",
+            "    cached = TIME_ONLY[D.i[D.i[I_INST] + 2 * k]] != 0",
+            "    if cached and fc[3 * j] == t and fc[3 * j + 1] == k + 1:",
             "        return fc[3 * j + 2]",
+            "    # one call site: numba pastes the patterns here once, not twice",
             "    v = failure(k, t, x, u, D)",
-            "    fc[3 * j] = t",
-            "    fc[3 * j + 1] = k + 1",
-            "    fc[3 * j + 2] = v",
+            "    if cached:",
+            "        fc[3 * j] = t",
+            "        fc[3 * j + 1] = k + 1",
+            "        fc[3 * j + 2] = v",
             "    return v",
         ]
     return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn), any(time_only)
@@ -600,6 +601,19 @@ _AFFINE_RAMPED = (
     "(u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))",
     "(1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))",
 )
+
+
+def _used_views(body: list[str]) -> list[str]:
+    """``body`` without the work-array views it never uses (``wb = W[WB:WB + N_WB]``...): numba
+    types and lowers every statement, used or not."""
+    text = "\n".join(body)
+    keep = []
+    for ln in body:
+        m = re.match(r"    (\w+) = W\[[A-Z_0-9]+:[A-Z_0-9]+ \+ N_[A-Z_0-9]+\]$", ln)
+        if m and len(re.findall(rf"\b{m.group(1)}\b", text)) < 2:
+            continue
+        keep.append(ln)
+    return keep
 
 
 def _shift(text: str, by: int) -> str:
@@ -638,8 +652,11 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
-    control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
-    adapt_src = [ln.replace("D.gains.", "gains(D).") for ln in adapt_src]
+    # the design's gains are built once per call (``gs``): numba pastes ``gains`` at every
+    # call site, so each use would construct (and compile) them again
+    uses_gains = any("D.gains." in ln for ln in (*control_src, *adapt_src))
+    control_src = [ln.replace("D.gains.", "gs.") for ln in control_src]
+    adapt_src = [ln.replace("D.gains.", "gs.") for ln in adapt_src]
     filt = extra_at + len(g.y0_extra)
     if sdot == "filtered":
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
@@ -670,6 +687,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         f'    """Closed-loop derivative of {plant.name} + {ctrl.code_label()} (in place)."""',
         f"    x = Y[0:{nx}]",
         "    c = D.c",
+        *(["    gs = gains(D)"] if uses_gains else []),
         *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
         f"    for i in range({nx}):",
         "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
@@ -940,7 +958,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         *g.defs,
         fail_src,
         dfail_src,
-        "\n".join(body),
+        "\n".join(_used_views(body)),
         jump_src,
         tables_src,
         _CONTROL_GAIN,
