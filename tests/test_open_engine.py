@@ -694,3 +694,19 @@ def _in_a_new_process(code: str, cache, **env) -> str:
     )
     assert out.returncode == 0, out.stderr[-2000:]
     return out.stdout
+
+
+def test_is_compiled_needs_the_loop_and_the_shared_integrators(tmp_path):
+    # `aftc simulate` says "compiling" when is_compiled() is False: a cached loop whose shared
+    # integrators are not (yet, or any more) cached still compiles
+    code = (
+        "from adaptive_ftc.sim.compose import is_compiled\n"
+        "print(is_compiled(sc.loop))\n"
+        "simulate(replace(sc.loop, t_final=0.1), sc.solver)\n"
+    )
+    assert _in_a_new_process(code, tmp_path).split()[-1] == "False"
+    check = "from adaptive_ftc.sim.compose import is_compiled\nprint(is_compiled(sc.loop))\n"
+    assert _in_a_new_process(check, tmp_path).split()[-1] == "True"
+    for index in (tmp_path / "loops" / "__pycache__").glob("integrators_*.nbi"):
+        index.unlink()
+    assert _in_a_new_process(check, tmp_path).split()[-1] == "False"

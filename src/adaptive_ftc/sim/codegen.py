@@ -192,9 +192,14 @@ def _memo(key: str, inject: Mapping[str, object] | None) -> str:
     return key + "".join(f":{n}={id(o):x}" for n, o in sorted((inject or {}).items()))
 
 
-def is_cached(source: str, imports: list[str], inject: Mapping[str, object] | None = None) -> bool:
+def is_cached(
+    source: str,
+    imports: list[str],
+    inject: Mapping[str, object] | None = None,
+    kind: str = "loop",
+) -> bool:
     """Whether the module ``source`` is loaded in this process or compiled in the disk cache
-    (numba's own ``NUMBA_CACHE_DIR`` included)."""
+    (numba's own ``NUMBA_CACHE_DIR`` included); ``kind`` as in :func:`load_module`."""
     key = _key(source, imports)
     if _memo(key, inject) in _modules:
         return True
@@ -208,7 +213,7 @@ def is_cached(source: str, imports: list[str], inject: Mapping[str, object] | No
     if numba.config.CACHE_DIR:  # numba then keeps every index there
         sub = UserProvidedCacheLocator.get_suitable_cache_subpath(str(folder / "x.py"))
         places.insert(0, Path(numba.config.CACHE_DIR) / sub)
-    return any(any(p.glob(f"loop_{key}*.nbi")) for p in places)
+    return any(any(p.glob(f"{kind}_{key}*.nbi")) for p in places)
 
 
 @functools.cache

@@ -382,25 +382,32 @@ _integrators_lock = threading.Lock()
 _integrators: list = []
 
 
+_INTEGRATORS_IMPORTS = [
+    "adaptive_ftc.controllers.laws",
+    "adaptive_ftc.sim.fptr",
+    "adaptive_ftc.sim.optlevel",
+]
+
+
+def _integrators_source() -> str:
+    constants = "\n".join(f"I_{name} = {k}" for k, name in enumerate(_HEADER))
+    return "\n\n".join(
+        [
+            _INTEGRATORS_HEAD.format(constants=constants),
+            codegen.template("rk4"),
+            codegen.template("adaptive"),
+            codegen.template("record"),
+        ]
+    )
+
+
 def integrators():
     """The module of the shared compiled integrators (generated, cached on disk like a loop)."""
     with _integrators_lock:
         if not _integrators:
-            constants = "\n".join(f"I_{name} = {k}" for k, name in enumerate(_HEADER))
-            text = "\n\n".join(
-                [
-                    _INTEGRATORS_HEAD.format(constants=constants),
-                    codegen.template("rk4"),
-                    codegen.template("adaptive"),
-                    codegen.template("record"),
-                ]
-            )
-            imports = [
-                "adaptive_ftc.controllers.laws",
-                "adaptive_ftc.sim.fptr",
-                "adaptive_ftc.sim.optlevel",
-            ]
-            _integrators.append(codegen.load_module(text, imports=imports, kind="integrators"))
+            text = _integrators_source()
+            module = codegen.load_module(text, imports=_INTEGRATORS_IMPORTS, kind="integrators")
+            _integrators.append(module)
         return _integrators[0]
 
 
@@ -1134,9 +1141,13 @@ def _guarded() -> list[str]:
 
 
 def is_compiled(loop: ClosedLoop, *, sdot: str = "exact") -> bool:
-    """Whether ``loop``'s structure is already compiled (in this process or the disk cache)."""
+    """Whether ``loop``'s structure, and the integrators every loop shares, are already
+    compiled (in this process or the disk cache)."""
     text, _, g, layout = generate(loop, sdot=sdot)
-    return codegen.is_cached(text, layout["mods"], g.inject)
+    shared = _integrators_source()
+    return codegen.is_cached(text, layout["mods"], g.inject) and codegen.is_cached(
+        shared, _INTEGRATORS_IMPORTS, kind="integrators"
+    )
 
 
 def source_of(loop: ClosedLoop, *, sdot: str = "exact") -> str:
