@@ -710,3 +710,21 @@ def test_is_compiled_needs_the_loop_and_the_shared_integrators(tmp_path):
     for index in (tmp_path / "loops" / "__pycache__").glob("integrators_*.nbi"):
         index.unlink()
     assert _in_a_new_process(check, tmp_path).split()[-1] == "False"
+
+
+def test_the_generated_code_runs_in_python_with_numba_disabled(tmp_path):
+    # NUMBA_DISABLE_JIT=1 steps through the generated modules in Python (a debugging aid): the
+    # shared integrators then call the loop's Python functions for its addresses
+    sc = load_scenario("hypersonic-direct-s1")
+    loop = replace(sc.loop, t_final=0.05)
+    ref = simulate(loop, sc.solver)
+    code = (
+        "sc = load_scenario('hypersonic-direct-s1')\n"
+        "r = simulate(replace(sc.loop, t_final=0.05), sc.solver)\n"
+        "print(r.status, repr(float(r.states[-1, 0])), repr(float(r.control_gain[-1])))\n"
+    )
+    status, alpha, gain = _in_a_new_process(code, tmp_path, NUMBA_DISABLE_JIT="1").split()[-3:]
+    assert status == "completed"
+    assert math.isclose(float(alpha), ref.states[-1, 0], rel_tol=1e-9, abs_tol=1e-15)
+    assert ref.control_gain[-1] != 0.0
+    assert math.isclose(float(gain), ref.control_gain[-1], rel_tol=1e-9)

@@ -343,8 +343,9 @@ import numpy as np
 from numba import njit
 
 from adaptive_ftc.controllers.laws import filtered_error
-from adaptive_ftc.sim.fptr import call_gain, call_jump, call_rhs
+from adaptive_ftc.sim.fptr import call_gain, call_jump, call_rhs, python_function
 from adaptive_ftc.sim.optlevel import at_loop_level
+from numba.core.config import DISABLE_JIT
 
 jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))
 hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
@@ -354,18 +355,34 @@ filtered_error = inl(filtered_error)
 {constants}
 
 
-# hot, not inl: pasted into an integrator that counts references (the adaptive-step ones
-# allocate), the arrays passed would be counted at every call (measured: DOPRI5 runs 30 % slower)
-@hot
-def rhs(t, Y, ph, D, W, dY):
-    """The loop's right-hand side, compiled in the loop's own module."""
-    call_rhs(D.i[I_RHS], t, Y, ph, D, W, dY)
+if not DISABLE_JIT:
+    # hot, not inl: pasted into an integrator that counts references (the adaptive-step ones
+    # allocate), the arrays passed would be counted at every call (measured: DOPRI5 30 % slower)
+    @hot
+    def rhs(t, Y, ph, D, W, dY):
+        """The loop's right-hand side, compiled in the loop's own module."""
+        call_rhs(D.i[I_RHS], t, Y, ph, D, W, dY)
 
+    @hot
+    def jump(t, Y, ph, D, W):
+        """The loop's state update at the start of interval ``ph``."""
+        call_jump(D.i[I_JUMP], t, Y, ph, D, W)
 
-@hot
-def jump(t, Y, ph, D, W):
-    """The loop's state update at the start of interval ``ph``."""
-    call_jump(D.i[I_JUMP], t, Y, ph, D, W)
+    @hot
+    def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
+        """The loop's control gain at a recorded row (for signals)."""
+        return call_gain(D.i[I_GAIN], t, Y, ph, D, W, unit, x0dot, x1dot)
+
+else:  # NUMBA_DISABLE_JIT=1: the same calls, in Python, to the loop's Python functions
+
+    def rhs(t, Y, ph, D, W, dY):
+        python_function(D.i[I_RHS])(t, Y, ph, D, W, dY)
+
+    def jump(t, Y, ph, D, W):
+        python_function(D.i[I_JUMP])(t, Y, ph, D, W)
+
+    def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
+        return python_function(D.i[I_GAIN])(t, Y, ph, D, W, unit, x0dot, x1dot)
 
 
 @hot

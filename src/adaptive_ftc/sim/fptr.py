@@ -23,6 +23,7 @@ from numba.core.extending import intrinsic
 
 __all__ = [
     "address",
+    "python_function",
     "call_gain",
     "call_jump",
     "call_rhs",
@@ -50,9 +51,23 @@ def signature_gain(data_type) -> tuple:
     return (types.float64, _VEC, types.int64, data_type, _VEC, _VEC, _VEC, _VEC)
 
 
+#: with ``NUMBA_DISABLE_JIT=1`` (stepping through the generated code in Python) an "address"
+#: is the id of the Python function, looked up here by :func:`python_function`
+_PYTHON: dict[int, object] = {}
+
+
+def python_function(addr: int):
+    """The Python function that :func:`address` registered as ``addr`` (no-JIT mode)."""
+    return _PYTHON[int(addr)]
+
+
 def address(dispatcher, sig: tuple) -> int:
     """Compile (or load) ``dispatcher`` for ``sig`` and return the address of the compiled
-    function (numba's calling convention)."""
+    function (numba's calling convention); with ``NUMBA_DISABLE_JIT=1``, a key of
+    :func:`python_function`."""
+    if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: a plain Python function
+        _PYTHON[id(dispatcher)] = dispatcher
+        return id(dispatcher)
     dispatcher.compile(sig)
     cres = dispatcher.overloads[sig]
     return int(cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name))

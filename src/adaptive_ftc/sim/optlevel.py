@@ -47,6 +47,8 @@ def at_loop_level(decorator: Callable) -> Callable:
 
     def wrap(func):
         dispatcher = decorator(func)
+        if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: the plain function
+            return dispatcher
         compile_ = dispatcher.compile
 
         def compile(sig):

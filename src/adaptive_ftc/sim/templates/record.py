@@ -5,8 +5,8 @@ The text after the marker is pasted into the module of integrators that every lo
 layout (outputs, places in the work array ``W`` and in ``D.c``) from the table at
 ``D.i[I_SIGT]``, calls the loop's ``rhs`` by address for each row and the loop's own
 ``control_gain`` (its plant's equations and failure derivatives, compiled in the loop's module)
-by the address ``D.i[I_GAIN]``. The placeholders above the marker exist only so this file
-imports and lints on its own.
+by its address (the shims of ``compose._INTEGRATORS_HEAD``). The placeholders above the
+marker exist only so this file imports and lints on its own.
 """
 
 # ruff: noqa: F811
@@ -21,12 +21,12 @@ def filtered_error(e, edot, lam):
     raise NotImplementedError
 
 
-def call_gain(fptr, t, Y, ph, D, W, unit, x0dot, x1dot):
+def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):  # the loop's, by the address in D.i
     raise NotImplementedError
 
 
 # places in the header of D.i (the integrators module defines them)
-I_NX = I_M = I_GAIN = I_SIGT = 0
+I_NX = I_M = I_SIGT = 0
 
 
 # --- template: begin ---
@@ -79,5 +79,5 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
         col += 2 * M
         out[n, col] = W[MISC]
         out[n, col + 1] = W[MISC + 1]
-        out[n, col + 2] = call_gain(D.i[I_GAIN], t, Y, ph, D, W, unit, x0dot, x1dot)
+        out[n, col + 2] = control_gain(t, Y, ph, D, W, unit, x0dot, x1dot)
         out[n, col + 3] = W[MISC + 2]
