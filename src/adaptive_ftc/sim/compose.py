@@ -13,10 +13,10 @@ What a loop *is* decides the text; its numbers go into :class:`LoopData`. Set
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import re
-import threading
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -395,10 +395,6 @@ def leaves_envelope(Y, D):
     return -1
 '''
 
-_integrators_lock = threading.Lock()
-_integrators: list = []
-
-
 _INTEGRATORS_IMPORTS = [
     "adaptive_ftc.controllers.laws",
     "adaptive_ftc.sim.fptr",
@@ -418,14 +414,13 @@ def _integrators_source() -> str:
     )
 
 
+@functools.cache
 def integrators():
-    """The module of the shared compiled integrators (generated, cached on disk like a loop)."""
-    with _integrators_lock:
-        if not _integrators:
-            text = _integrators_source()
-            module = codegen.load_module(text, imports=_INTEGRATORS_IMPORTS, kind="integrators")
-            _integrators.append(module)
-        return _integrators[0]
+    """The module of the shared compiled integrators (generated, cached on disk like a loop;
+    ``load_module`` gives every caller the same module, threads included)."""
+    return codegen.load_module(
+        _integrators_source(), imports=_INTEGRATORS_IMPORTS, kind="integrators"
+    )
 
 
 def _addresses(module, data: LoopData) -> tuple[int, int, int]:
@@ -631,14 +626,16 @@ _AFFINE_RAMPED = (
 def _used_views(body: list[str]) -> list[str]:
     """``body`` without the work-array views it never uses (``wb = W[WB:WB + N_WB]``...): numba
     types and lowers every statement, used or not."""
-    text = "\n".join(body)
-    keep = []
-    for ln in body:
-        m = re.match(r"    (\w+) = W\[[A-Z_0-9]+:[A-Z_0-9]+ \+ N_[A-Z_0-9]+\]$", ln)
-        if m and len(re.findall(rf"\b{m.group(1)}\b", text)) < 2:
-            continue
-        keep.append(ln)
-    return keep
+    views = {_view(name): name for name in _WORK}
+    rest = "\n".join(ln for ln in body if ln not in views)
+    used = set(re.findall(r"[A-Za-z_]\w*", rest))  # one pass: this runs for every loop built
+    return [ln for ln in body if ln not in views or views[ln] in used]
+
+
+def _view(name: str) -> str:
+    """The line of the right-hand side that names the work-array buffer ``name``."""
+    up = name.upper()
+    return f"    {name} = W[{up}:{up} + N_{up}]"
 
 
 def _shift(text: str, by: int) -> str:
@@ -711,7 +708,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         f'    """Closed-loop derivative of {plant.name} + {ctrl.code_label()} (in place)."""',
         f"    x = Y[0:{nx}]",
         "    c = D.c",
-        *[f"    {name} = W[{name.upper()}:{name.upper()} + N_{name.upper()}]" for name in _WORK],
+        *[_view(name) for name in _WORK],
         f"    for i in range({nx}):",
         "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
         if has_meas
@@ -1202,15 +1199,10 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
             f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
-    try:  # rhs and jump compile (or load) here: the integrators call them by address
-        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, data)
-    except Exception as exc:
-        from adaptive_ftc.sim.engine import _compile_error
+    from adaptive_ftc.sim.engine import clear_compile_errors
 
-        err, chain = _compile_error(loop, exc)
-        if err is exc:
-            raise
-        raise err from (exc if chain else None)
+    with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
+        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, data)
     asm = Assembled(
         module=module,
         data=data,

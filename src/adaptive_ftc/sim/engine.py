@@ -3,6 +3,7 @@ or an accurate variable-step scipy path."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
@@ -323,8 +324,16 @@ def _check_envelope(loop: ClosedLoop, Y: np.ndarray, t_rec: np.ndarray, nrec: in
 def _compiled_call(loop: ClosedLoop, run):
     """Run the compiled loop, turning compiler and bounds errors of user parts into clear
     errors that name the plant."""
-    try:
+    with clear_compile_errors(loop):
         return _interruptible(run)
+
+
+@contextlib.contextmanager
+def clear_compile_errors(loop: ClosedLoop):
+    """Compile or run ``loop``'s compiled code: numba's errors (and a bounds-checked index of
+    the plant's equations) become a :class:`ConfigurationError` naming the plant."""
+    try:
+        yield
     except Exception as exc:
         err, chain = _compile_error(loop, exc)
         if err is exc:
