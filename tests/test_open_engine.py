@@ -32,7 +32,7 @@ from adaptive_ftc import (
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants import CustomPlant, ExpressionPlant, Pendulum, Plant, check_plant, plant
 from adaptive_ftc.sim import codegen
-from adaptive_ftc.sim.compose import assemble, source_of
+from adaptive_ftc.sim.compose import assemble, generate, source_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -618,7 +618,7 @@ def test_failure_free_and_oracle_runs_share_the_compiled_code_of_their_loop():
     assert any(
         type(f).__name__ not in ("LossOfEffectiveness", "Stuck") for f in loop.failures.failures
     )
-    assert "if s == 2:" in source_of(loop)  # a third failure shape, beyond a*u + b
+    assert any(pt is not None for pt in generate(loop)[3]["patterns"])  # beyond a*u + b
     healthy = loop.without_failures()
     assert not healthy.failures.failures and healthy.dormant_failures
     assert source_of(healthy) == source_of(loop)
@@ -728,3 +728,53 @@ def test_the_generated_code_runs_in_python_with_numba_disabled(tmp_path):
     assert math.isclose(float(alpha), ref.states[-1, 0], rel_tol=1e-9, abs_tol=1e-15)
     assert ref.control_gain[-1] != 0.0
     assert math.isclose(float(gain), ref.control_gain[-1], rel_tol=1e-9)
+
+
+def test_failure_patterns_compile_on_their_own_and_never_change_the_loops_structure():
+    """A failure pattern that is not affine (of t alone, of the state, of u) is a small module
+    of its own called through its address: loops that differ only in their failures share
+    one compiled structure, and the patterns compute what they say."""
+    from adaptive_ftc import NonAffine
+
+    base = replace(load_scenario("hypersonic-direct-s1").loop, t_final=1.0)
+    solver = SolverOptions(method="rk4", dt=1e-3, record_dt=0.01)
+    affine = replace(
+        base, failures=(LossOfEffectiveness(actuator=2, onset=0.2, effectiveness=0.5),)
+    )
+    of_time = replace(base, failures=(Stuck(actuator=2, onset=0.2, value="0.01 + 0.02*cos(3*t)"),))
+    of_state = replace(
+        base,
+        failures=(NonAffine(actuator=1, onset=0.3, output="0.5*u - 0.25*u**3 + 0.1*alpha"),),
+    )
+    assert source_of(affine) == source_of(of_time) == source_of(of_state)
+    simulate(affine, solver)  # the structure compiles (or loads) here
+    before = codegen.stats()["compiled"]
+    r_time, r_state = simulate(of_time, solver), simulate(of_state, solver)
+    assert codegen.stats()["compiled"] == before  # only the patterns' own small modules
+    # the applied outputs are the patterns evaluated independently at the recorded times
+    t = r_time.time
+    after = t > 0.2 - 1e-9  # the sample at the onset is failed
+    np.testing.assert_allclose(
+        r_time.u_applied[after, 1], 0.01 + 0.02 * np.cos(3 * t[after]), rtol=0, atol=1e-15
+    )
+    u, alpha = r_state.u_cmd[:, 0], r_state.states[:, 0]
+    after = r_state.time > 0.3 - 1e-9
+    expected = 0.5 * u - 0.25 * u**3 + 0.1 * alpha
+    np.testing.assert_allclose(r_state.u_applied[after, 0], expected[after], rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(r_state.u_applied[~after, 0], u[~after], rtol=0, atol=0)
+    # the slope enters the recorded control gain: 0.5 - 0.75 u^2 times the healthy gain
+    healthy = simulate(replace(of_state, failures=()), solver)
+    assert not np.allclose(r_state.control_gain[after], healthy.control_gain[after])
+
+
+def test_a_failure_pattern_call_refuses_other_argument_types_at_compile_time():
+    import numba
+
+    from adaptive_ftc.sim.fptr import call_pattern
+
+    @numba.njit
+    def strided(ptr, x):
+        return call_pattern(ptr, 0.0, x[::2], 0.0, x, 0)
+
+    with pytest.raises(numba.core.errors.TypingError, match="failure pattern through an address"):
+        strided(0, np.zeros(10))

@@ -23,7 +23,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
-from adaptive_ftc.faults.models import Failure
 from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.sim import codegen
 from adaptive_ftc.sim.system import ClosedLoop
@@ -59,8 +58,10 @@ class LoopData(NamedTuple):
 
     @property
     def inst(self) -> np.ndarray:
-        """Per failure instance: [shape (generated branch), offset in ``c``] (a view)."""
-        return self._table(int(self.i[_I_INST]), (int(self.i[_I_NINST]), 2), ints=True)
+        """Per failure instance: [kind (0 affine, 1 incipient affine, 2 a pattern of t
+        alone, 3 any other pattern), offset of its numbers in ``c``, addresses of the
+        pattern's compiled value and slope (kinds 2, 3)] (a view)."""
+        return self._table(int(self.i[_I_INST]), (int(self.i[_I_NINST]), 4), ints=True)
 
     @property
     def samp(self) -> np.ndarray:
@@ -510,49 +511,52 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
 
 
 def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], bps):
-    """Failure dispatch functions and the per-interval instance table."""
+    """The per-interval instance table and, per failure instance, its kind, numbers and (for
+    a pattern that is not affine) the text of its pattern and slope.
+
+    Affine failures (kinds 0 and 1) are evaluated in the loop itself; any other pattern
+    (kind 2: of ``t`` alone, remembered per actuator while ``t`` stays the same; kind 3: of the
+    states or ``u`` too) is compiled in a small module of its own and called through the
+    address that :func:`assemble` writes into the instance table. So the loop's text does not
+    depend on which failures it has: a structure compiles once whatever the scenario's
+    failure patterns, and each pattern text once (both cached on disk).
+    """
     loop = g.loop
     nph = len(bps) - 1
     fphase = -np.ones((nph, g.m), dtype=np.int64)
-    inst_shape: list[int] = []
-    inst_off: list[int] = []
+    kinds: list[int] = []
+    offsets: list[int] = []
+    patterns: list[tuple[str, str] | None] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
-    drawn: list[tuple[Failure, tuple[str, str], list[float]]] = []
     # every failure of the schedule, active in this window or not: a shortened run (quick
-    # mode, a test) shares the compiled structure of the full one
-    # (and the dormant failures of a failure-free run: it shares the failing run's code)
+    # mode, a test) shares the numbers' layout of the full one
     for f in (*loop.failures.failures, *loop.dormant_failures):
         ctx = f"{type(f).__name__} on actuator {f.actuator} (onset {f.onset:g} s)"
         e = f.expression(variables, context=ctx)
         raw = Expression(f.pattern(), variables, context=ctx) if f.ramp > 0 else e
         draw = raw.derivative("u")
+        pattern = None
         if raw.used <= {"u"} and draw.is_constant:
             # a*u + b with constant a, b (loss of effectiveness, stuck, bias, affine,
-            # reversal), abrupt or incipient: two shapes present in every loop, so failures
-            # of these models never change the compiled structure, only the numbers
+            # reversal), abrupt or incipient
             a_, b_ = float(draw.node[1]), float(raw(u=0.0))
             if f.ramp > 0:
-                key, numbers = _AFFINE_RAMPED, [float(f.onset), float(f.ramp), 1.0, a_, b_]
+                kind, numbers = 1, [float(f.onset), float(f.ramp), 1.0, a_, b_]
             else:
-                key, numbers = _AFFINE, [a_, b_]
+                kind, numbers = 0, [a_, b_]
         else:
             local: list[float] = []
             text = codegen.emit(e.node, names, local)
             dlocal: list[float] = []
             dtext = codegen.emit(e.derivative("u").node, names, dlocal)
-            # the derivative's numbers follow the pattern's
-            key, numbers = (text, _shift(dtext, len(local))), local + dlocal
-        drawn.append((f, key, numbers))
-    # shape numbers: the two affine shapes first, the others sorted (a set of shapes gives
-    # the same code whatever the order of the failures); a shape of t alone is remembered per
-    # actuator while t stays the same (failure_cached)
-    others = sorted({key for _, key, _ in drawn} - {_AFFINE, _AFFINE_RAMPED})
-    shapes = {key: n for n, key in enumerate([_AFFINE, _AFFINE_RAMPED, *others])}
-    for f, key, numbers in drawn:
-        seen[id(f)] = len(inst_shape)
-        inst_shape.append(shapes[key])
-        inst_off.append(len(consts))
+            # the slope's numbers follow the pattern's
+            pattern, numbers = (text, _shift(dtext, len(local))), local + dlocal
+            kind = 3 if re.search(r"\b(u|x)\b", text) else 2
+        seen[id(f)] = len(kinds)
+        kinds.append(kind)
+        offsets.append(len(consts))
+        patterns.append(pattern)
         consts.extend(numbers)
     # the failure acting on each actuator in each interval (at its midpoint; a later failure
     # of the schedule on the same actuator wins, as in FailureSchedule.active)
@@ -560,67 +564,121 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
     mids = 0.5 * (edges[:-1] + edges[1:])
     for f in loop.failures.failures:
         fphase[(f.onset <= mids) & (mids < f.end), f.actuator - 1] = seen[id(f)]
-    fn, dfn = (
+    return bps, fphase, kinds, offsets, patterns, consts
+
+
+#: the failed output of instance k (row [kind, offset, value address, slope address] of the
+#: instance table), its remembered form for the allocation, and its slope: the same text in
+#: every loop. ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) -
+#: u)`` are evaluated here, any other pattern through its address. Measured on
+#: hypersonic-direct-s1 (a pattern of t alone from 40 s), against the patterns pasted in: the
+#: call costs 1-2 % of the run; affine failures cost the same as before (the batch benchmark)
+_FAILURE_SRC = '''@inl
+def failure(k, t, x, u, D):
+    """Applied output of a failed actuator (failure instance k)."""
+    c = D.c
+    at = D.i[I_INST] + 4 * k
+    s = D.i[at]
+    o = D.i[at + 1]
+    if s == 0:
+        return c[o + 0] * u + c[o + 1]
+    if s == 1:
+        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))
+    return call_pattern(D.i[at + 2], t, x, u, c, o)
+
+
+@inl
+def failure_cached(k, j, t, x, u, D, fc):
+    """failure(k, ...) of actuator j, a pattern of t alone (kind 2) remembered while t and
+    k stay the same (fc[3 j:3 j + 3] = [t, k + 1, value])."""
+    c = D.c
+    at = D.i[I_INST] + 4 * k
+    s = D.i[at]
+    o = D.i[at + 1]
+    if s == 0:
+        return c[o + 0] * u + c[o + 1]
+    if s == 1:
+        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))
+    if s == 2:
+        if fc[3 * j] == t and fc[3 * j + 1] == k + 1:
+            return fc[3 * j + 2]
+        v = call_pattern(D.i[at + 2], t, x, u, c, o)
+        fc[3 * j] = t
+        fc[3 * j + 1] = k + 1
+        fc[3 * j + 2] = v
+        return v
+    return call_pattern(D.i[at + 2], t, x, u, c, o)
+
+
+@inl
+def dfailure(k, t, x, u, D):
+    """d(applied output)/du of failure instance k."""
+    c = D.c
+    at = D.i[I_INST] + 4 * k
+    s = D.i[at]
+    o = D.i[at + 1]
+    if s == 0:
+        return c[o + 0]
+    if s == 1:
+        return (1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))
+    return call_pattern(D.i[at + 3], t, x, u, c, o)'''
+
+_PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
+
+
+def _pattern_source(text: str, dtext: str) -> str:
+    """The module of one failure pattern (not affine): its value and its slope in ``u``."""
+    guarded = _guarded()
+    return "\n".join(
         [
-            "@inl",
-            "def failure(k, t, x, u, D):",
-            '    """Applied output of a failed actuator (pattern of failure instance k)."""',
-            "    c = D.c",
-            "    at = D.i[I_INST] + 2 * k",
-            "    s = D.i[at]",
-            "    o = D.i[at + 1]",
-        ],
-        [
-            "@inl",
-            "def dfailure(k, t, x, u, D):",
-            '    """d(applied output)/du of failure instance k."""',
-            "    c = D.c",
-            "    at = D.i[I_INST] + 2 * k",
-            "    s = D.i[at]",
-            "    o = D.i[at + 1]",
-        ],
-    )
-    time_only = tuple(
-        int(key not in (_AFFINE, _AFFINE_RAMPED) and not re.search(r"\b(u|x)\b", key[0]))
-        for key in shapes
-    )
-    for (text, dtext), s in shapes.items():
-        fn.append(f"    if s == {s}:\n        return {text}")
-        dfn.append(f"    if s == {s}:\n        return {dtext}")
-    fn.append("    return u")
-    dfn.append("    return 1.0")
-    if any(time_only):
-        fn += [
+            '"""A failure pattern, compiled on its own (written by sim/compose.py); loops call',
+            'it through its address (sim/fptr.py), so it compiles once, whatever the loop."""',
+            "# ruff: noqa",
+            "import math",
+            "",
+            "from numba import cfunc, njit",
+            "from numba.core.config import DISABLE_JIT",
+            "",
+            "from adaptive_ftc.sim.fptr import SIGNATURE_PATTERN",
+            "from adaptive_ftc.sim.mathlib import " + ", ".join(guarded),
+            "",
+            "# C functions (x and c are pointers): the loop calls them as reading memory only",
+            "hot = (lambda f: f) if DISABLE_JIT else cfunc(",
+            '    SIGNATURE_PATTERN, cache=CACHE, error_model="numpy", nopython=True',
+            ")",
+            'inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")',
+            *[f"{name} = inl({name})" for name in guarded],
             "",
             "",
-            f"TIME_ONLY = {time_only!r}  # per shape: the pattern depends on t alone",
+            "@hot",
+            "def value(t, x, u, c, o):",
+            '    """The failed output (its numbers in c from o on)."""',
+            f"    return {text}",
             "",
             "",
-            "@inl",
-            "def failure_cached(k, j, t, x, u, D, fc):",
-            '    """failure(k, ...) of actuator j, remembered while t and k stay the same when the',
-            '    pattern depends on t alone (fc[3 j:3 j + 3] = [t, k + 1, value])."""',
-            # two call sites (numba pastes the patterns twice, ~0.13 s more compile): the
-            # one-site version, with its extra branches, ran 2.5 % slower
-            "    if TIME_ONLY[D.i[D.i[I_INST] + 2 * k]] == 0:",
-            "        return failure(k, t, x, u, D)",
-            "    if fc[3 * j] == t and fc[3 * j + 1] == k + 1:",
-            "        return fc[3 * j + 2]",
-            "    v = failure(k, t, x, u, D)",
-            "    fc[3 * j] = t",
-            "    fc[3 * j + 1] = k + 1",
-            "    fc[3 * j + 2] = v",
-            "    return v",
+            "@hot",
+            "def slope(t, x, u, c, o):",
+            '    """d(failed output)/du."""',
+            f"    return {dtext}",
+            "",
         ]
-    return bps, fphase, inst_shape, inst_off, consts, "\n".join(fn), "\n".join(dfn), any(time_only)
+    )
 
 
-#: ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) - u)``.
-_AFFINE = ("c[o + 0] * u + c[o + 1]", "c[o + 0]")
-_AFFINE_RAMPED = (
-    "(u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))",
-    "(1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))",
-)
+def _pattern_module(pattern: tuple[str, str]):
+    return codegen.load_module(_pattern_source(*pattern), imports=_PATTERN_IMPORTS, kind="pattern")
+
+
+def _pattern_addresses(pattern: tuple[str, str]) -> tuple[int, int]:
+    """Addresses of the compiled ``value`` and ``slope`` of ``pattern`` (its module compiled
+    or loaded from the cache on first use; remembered on the module)."""
+    from adaptive_ftc.sim import fptr
+
+    module = _pattern_module(pattern)
+    found = module.__dict__.get("_ADDRESSES")
+    if found is None:
+        found = module._ADDRESSES = (fptr.address(module.value), fptr.address(module.slope))
+    return found
 
 
 def _used_views(body: list[str]) -> list[str]:
@@ -683,9 +741,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
     ny = filt + (p if sdot == "filtered" else 0)
     bps, samp, sample_index = _intervals(loop)
-    bps, fphase, fshape, foff, fconsts, fail_src, dfail_src, cache_failures = _failures(
-        g, variables, names, bps
-    )
+    bps, fphase, fkind, foff, fpatterns, fconsts = _failures(g, variables, names, bps)
     # actuator, sensor and sampling parts (beyond the thesis): states after the controller's
     has_act = loop.has_actuator_dynamics
     sampled = loop.sample_time > 0
@@ -761,9 +817,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             else []
         ),
         "        k = instance(ph, j, D)",
-        "        uf[j] = acc if k < 0 else failure_cached(k, j, t, x, acc, D, fc)"
-        if cache_failures
-        else "        uf[j] = acc if k < 0 else failure(k, t, x, acc, D)",
+        "        uf[j] = acc if k < 0 else failure_cached(k, j, t, x, acc, D, fc)",
         "    plant_dynamics(t, x, uf, plant_params(D), xdot)",
         f"    for i in range({nx}):",
         "        dY[i] = xdot[i]",
@@ -922,6 +976,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "from numba import njit",
         "",
         "from adaptive_ftc.controllers.laws import filtered_error, robust_q, weighted_sum",
+        "from adaptive_ftc.sim.fptr import call_pattern",
         "from adaptive_ftc.sim.mathlib import " + ", ".join(_guarded()),
         "from adaptive_ftc.sim.optlevel import at_loop_level",
     ]
@@ -976,8 +1031,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         ref_src,
         *([plant_src] if plant_src else []),
         *g.defs,
-        fail_src,
-        dfail_src,
+        _FAILURE_SRC,
         "\n".join(_used_views(body)),
         jump_src,
         tables_src,
@@ -1036,7 +1090,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "misc": 8,
         "wb": max(g.n_w, 1),
         "scr": ny_all if (sampled or has_act) else 1,
-        "fc": 3 * m if cache_failures else 1,
+        "fc": 3 * m,
     }
     consts_lines.append("# places of the buffers in the work array W")
     at = 0
@@ -1057,9 +1111,10 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         f"VEL = {tuple(vel)!r}",
     ]
     text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
-    inst = np.zeros((len(fshape), 2), dtype=np.int64)
-    for n_, (sh, of) in enumerate(zip(fshape, foff, strict=True)):
-        inst[n_] = (sh, of + fail_base)
+    # [kind, offset, value address, slope address]: the addresses are written by assemble()
+    inst = np.zeros((len(fkind), 4), dtype=np.int64)
+    for n_, (kind, of) in enumerate(zip(fkind, foff, strict=True)):
+        inst[n_, :2] = (kind, of + fail_base)
     nph = len(bps) - 1
     act_table = _actuator_table(loop, bps) if has_act else np.zeros((nph, m, 6))
     meas_table = _measurements(loop, sample_index) if has_meas else np.zeros((nph, nx))
@@ -1069,7 +1124,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     inst_at = _I_HEAD + fphase.size
     samp_at = inst_at + inst.size
     env_at = layout["c:envelope"]
-    header = [nph, m, nx, len(fshape), inst_at, samp_at, act_at, meas_at]
+    header = [nph, m, nx, len(fkind), inst_at, samp_at, act_at, meas_at]
     sig_table = [p] + [layout[f"w:{w}"].start for w in _SIGNAL_WORK]
     sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel]
     samp_flags = (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel()
@@ -1104,6 +1159,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         n_phi=n_phi,
         theta_slices=tuple(theta_slices),
         mods=mods,
+        patterns=tuple(fpatterns),
     )
     return text, data, g, layout
 
@@ -1158,8 +1214,14 @@ def is_compiled(loop: ClosedLoop, *, sdot: str = "exact") -> bool:
     compiled (in this process or the disk cache)."""
     text, _, g, layout = generate(loop, sdot=sdot)
     shared = _integrators_source()
-    return codegen.is_cached(text, layout["mods"], g.inject) and codegen.is_cached(
-        shared, _INTEGRATORS_IMPORTS, kind="integrators"
+    patterns = {pt for pt in layout["patterns"] if pt is not None}
+    return (
+        codegen.is_cached(text, layout["mods"], g.inject)
+        and codegen.is_cached(shared, _INTEGRATORS_IMPORTS, kind="integrators")
+        and all(
+            codegen.is_cached(_pattern_source(*pt), _PATTERN_IMPORTS, kind="pattern")
+            for pt in patterns
+        )
     )
 
 
@@ -1203,6 +1265,10 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
 
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
         data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, data)
+        inst = data.inst
+        for n_, pattern in enumerate(layout["patterns"]):
+            if pattern is not None:  # the failure patterns that are not affine
+                inst[n_, 2], inst[n_, 3] = _pattern_addresses(pattern)
     asm = Assembled(
         module=module,
         data=data,
