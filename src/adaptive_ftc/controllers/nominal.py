@@ -153,30 +153,25 @@ class NominalInverse(AdaptiveController):
         g.n_w = max(g.n_w, p * p + 2 * p)
         f_at = p * p + p  # wb: [G (p*p, row-major) | v (p) | f (p)]
         v_at = p * p
-        # the oracle goes through the failure functions of the current interval
-        zero = [
-            "        k = instance(ph, j, D) if D.gains.oracle != 0.0 else -1",
-            "        uf[j] = 0.0 if k < 0 else failure(k, t, xs, 0.0, D)",
-        ]
-        step = [
-            "            k = instance(ph, j, D) if D.gains.oracle != 0.0 else -1",
-            "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
-        ]
+        # the oracle goes through the failure functions of the current interval; the model at
+        # zero command (kk = -1) and along each output's allocation row share one call site:
+        # numba pastes the plant's equations once per site (spacecraft: rhs compile 2.9 s ->
+        # see the closing note)
         what = "the healthy model, or the failed actuators' true outputs (oracle)"
         lines = [
             f"    # u0 from y'' = f + G u0 along u = R^T u0, with {what} (controllers/nominal.py)",
             f"    xs = sig[0:{nx}]",
-            f"    for j in range({m}):",
-            *zero,
-            "    plant_dynamics(t, xs, uf, plant_params(D), xdot)",
-            *[f"    wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
-            f"    for kk in range({p}):",
+            f"    for kk in range(-1, {p}):",
             f"        for j in range({m}):",
-            f"            a = c[RMAT + kk * {m} + j] * D.gains.probe",
-            *step,
+            f"            a = 0.0 if kk < 0 else c[RMAT + kk * {m} + j] * D.gains.probe",
+            "            k = instance(ph, j, D) if D.gains.oracle != 0.0 else -1",
+            "            uf[j] = a if k < 0 else failure(k, t, xs, a, D)",
             "        plant_dynamics(t, xs, uf, plant_params(D), xdot)",
+            "        if kk < 0:  # f, the model's y'' at zero command",
+            *[f"            wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
+            "        else:  # column kk of G",
             *[
-                f"        wb[{i * p} + kk] = (xdot[{vel[i]}] - wb[{f_at + i}]) / D.gains.probe"
+                f"            wb[{i * p} + kk] = (xdot[{vel[i]}] - wb[{f_at + i}]) / D.gains.probe"
                 for i in range(p)
             ],
             "    # target y'' = y_d'' + lambda e' + k s + k0 tanh(s/eps0), so that with an exact",

@@ -309,8 +309,11 @@ def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
     """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
     the rate of output 1 per unit command of actuator j; df_j/du: its failure's slope)."""
     c = D.c
-    v0 = VEL[0]
-    u = W[U : U + N_U]
+    s = D.i[I_SIGT]
+    v0 = D.i[s + 11 + D.i[s]]  # VEL[0]
+    U = D.i[s + 6]
+    RMAT = D.i[s + 10]
+    u = W[U : U + M]
     x = Y[:NX]
     gain = 0.0
     # j = -1: the plant's rate at zero command (x0dot); then with each unit command. One
@@ -424,9 +427,10 @@ def integrators():
     )
 
 
-def _addresses(module, data: LoopData) -> tuple[int, int, int]:
-    """Addresses of ``module``'s compiled ``rhs``, ``jump`` and ``control_gain`` for ``data``'s
-    types (compiled or loaded from the cache on first use; remembered on the module)."""
+def _addresses(module, gain_module, data: LoopData) -> tuple[int, int, int]:
+    """Addresses of ``module``'s compiled ``rhs`` and ``jump`` and ``gain_module``'s
+    ``control_gain`` for ``data``'s types (compiled or loaded from the cache on first use;
+    remembered on the modules)."""
     import numba
 
     from adaptive_ftc.sim import fptr
@@ -438,9 +442,12 @@ def _addresses(module, data: LoopData) -> tuple[int, int, int]:
         found = memo[dtype] = (
             fptr.address(module.rhs, fptr.signature_rhs(dtype)),
             fptr.address(module.jump, fptr.signature_jump(dtype)),
-            fptr.address(module.control_gain, fptr.signature_gain(dtype)),
         )
-    return found
+    gmemo = gain_module.__dict__.setdefault("_ADDRESSES", {})
+    gain = gmemo.get(dtype)
+    if gain is None:
+        gain = gmemo[dtype] = fptr.address(gain_module.control_gain, fptr.signature_gain(dtype))
+    return (*found, gain)
 
 
 # ----------------------------------------------------------------------------- generation
@@ -607,10 +614,10 @@ def failure_cached(k, j, t, x, u, D, fc):
         fc[3 * j + 1] = k + 1
         fc[3 * j + 2] = v
         return v
-    return call_pattern(D.i[at + 2], t, x, u, c, o)
+    return call_pattern(D.i[at + 2], t, x, u, c, o)'''
 
-
-@inl
+#: the slope of failure instance k (for the control gain; the same text in every module)
+_DFAILURE_SRC = '''@inl
 def dfailure(k, t, x, u, D):
     """d(applied output)/du of failure instance k."""
     c = D.c
@@ -698,6 +705,122 @@ def _view(name: str) -> str:
 
 def _shift(text: str, by: int) -> str:
     return re.sub(r"c\[o \+ (\d+)\]", lambda mt: f"c[o + {int(mt.group(1)) + by}]", text)
+
+
+def _module_header(g: Generator, title: str, *, laws: bool) -> tuple[list[str], list[str]]:
+    """The head of a generated module (docstring, imports of the parts ``g`` collected, the
+    decorators) and the modules whose source keys its cache."""
+    imports = [
+        "import math",
+        "",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        *(["from adaptive_ftc.controllers.laws import " + ", ".join(_LAWS)] if laws else []),
+        "from adaptive_ftc.sim.fptr import call_pattern",
+        "from adaptive_ftc.sim.mathlib import " + ", ".join(_guarded()),
+        "from adaptive_ftc.sim.optlevel import at_loop_level",
+    ]
+    jits = [*(_LAWS if laws else ()), *_guarded()]
+    mods = [
+        *(["adaptive_ftc.controllers.laws"] if laws else []),
+        "adaptive_ftc.sim.mathlib",
+        "adaptive_ftc.sim.fptr",
+    ]
+    for alias, target in sorted(g.imports.items()):
+        if alias in g.classes:
+            if target:
+                mod, cls = target.split(":")
+                imports.append(f"from {mod} import {cls} as {alias}")
+                mods.append(mod)
+            continue
+        if target:
+            mod, fn = target.split(":")
+            owner, _, attr = fn.partition(".")
+            if attr:  # a function kept by the decorated object that took its name
+                imports.append(f"from {mod} import {owner} as _owner_{alias}")
+                imports.append(
+                    f"_py_{alias} = getattr(_owner_{alias}.{attr}, 'py_func', "
+                    f"_owner_{alias}.{attr})"
+                )
+            else:
+                imports.append(f"from {mod} import {fn} as _py_{alias}")
+            mods.append(mod)
+        jits.append(alias)
+    header = [
+        f'"""{title}',
+        "",
+        "Written by adaptive_ftc.sim.compose; numbers live in LoopData, not here.",
+        '"""',
+        "# ruff: noqa",
+        *imports,
+        "",
+        "# jit: functions that allocate; hot: the right-hand side and its parts, which never",
+        "# allocate and so run without reference counting (the generated code's inner loop)",
+        "# both compile at the loops' LLVM level (adaptive_ftc.sim.optlevel: -O2)",
+        'jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))',
+        'hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))',
+        "# inl: small helpers and the parts' functions, pasted by numba into every caller (no",
+        "# call, no compilation of their own): loops run 7-12 % faster and compile sooner",
+        'inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")',
+        "_part = inl",
+        '_user_part = njit(nogil=True, error_model="numpy", _nrt=False, boundscheck=True)',
+    ]
+    for name in jits:
+        src = f"_py_{name}" if name in g.imports else name
+        deco = "_user_part" if name in g.checked else "_part"
+        header.append(f"{name} = {deco}({src})")
+    return header, mods
+
+
+_LAWS = ("filtered_error", "robust_q", "weighted_sum")
+
+
+def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], dict]:
+    """The module of ``loop``'s plant that computes the recorded control gain (its
+    ``control_gain``, called by the shared ``signals`` through its address), with the modules
+    that key its cache and the parts to inject.
+
+    It depends on the plant alone (the loop's sizes and places are read from ``D.i``), so
+    every design on one plant shares it: 6 compiles for the catalogue's 22 loops instead of
+    22 (0.25-0.6 s each).
+    """
+    plant = loop.plant
+    g = Generator(loop=loop, sdot=sdot)
+    plant_src = plant.dynamics_source(g)
+    _, plant_expr = _pack_plant(g, plant.parameter_values())
+    header, mods = _module_header(
+        g, f"Generated control gain of plant {plant.name!r} (any design).", laws=False
+    )
+    consts = "\n".join(
+        [
+            "# the header of D.i (sizes, where the tables start)",
+            *[f"I_{name} = {k}" for k, name in enumerate(_HEADER)],
+            f"I_HEAD = {_I_HEAD}",
+            f"NX = {g.nx}",
+            f"M = {g.m}",
+        ]
+    )
+    tables = "\n".join(
+        [
+            "@inl",
+            "def plant_params(D):",
+            '    """The plant parameters (at the place in D.c named by the signal table)."""',
+            "    c = D.c",
+            "    s = D.i[I_SIGT]",
+            "    PLANT = D.i[s + 11 + 2 * D.i[s]]",
+            f"    return {plant_expr}",
+            "",
+            "",
+            "@inl",
+            "def instance(ph, j, D):",
+            '    """Failure instance of actuator j in interval ph (-1: healthy)."""',
+            "    return D.i[I_HEAD + ph * M + j]",
+        ]
+    )
+    parts = ["\n".join(header), consts, *([plant_src] if plant_src else []), *g.defs]
+    parts += [tables, _DFAILURE_SRC, _CONTROL_GAIN]
+    return "\n\n".join(parts) + "\n", mods, dict(g.inject)
 
 
 def generate(loop: ClosedLoop, *, sdot: str = "exact"):
@@ -969,63 +1092,11 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         ]
     )
     # ------------------------------------------------------------ imports and module
-    imports = [
-        "import math",
-        "",
-        "import numpy as np",
-        "from numba import njit",
-        "",
-        "from adaptive_ftc.controllers.laws import filtered_error, robust_q, weighted_sum",
-        "from adaptive_ftc.sim.fptr import call_pattern",
-        "from adaptive_ftc.sim.mathlib import " + ", ".join(_guarded()),
-        "from adaptive_ftc.sim.optlevel import at_loop_level",
-    ]
-    jits = ["filtered_error", "robust_q", "weighted_sum", *_guarded()]
-    mods = ["adaptive_ftc.controllers.laws", "adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
-    for alias, target in sorted(g.imports.items()):
-        if alias in g.classes:
-            if target:
-                mod, cls = target.split(":")
-                imports.append(f"from {mod} import {cls} as {alias}")
-                mods.append(mod)
-            continue
-        if target:
-            mod, fn = target.split(":")
-            owner, _, attr = fn.partition(".")
-            if attr:  # a function kept by the decorated object that took its name
-                imports.append(f"from {mod} import {owner} as _owner_{alias}")
-                imports.append(
-                    f"_py_{alias} = getattr(_owner_{alias}.{attr}, 'py_func', "
-                    f"_owner_{alias}.{attr})"
-                )
-            else:
-                imports.append(f"from {mod} import {fn} as _py_{alias}")
-            mods.append(mod)
-        jits.append(alias)
-    header = [
-        f'"""Generated closed loop: plant {plant.name!r}, design {ctrl.code_label()}, '
-        f"{p} output(s), {m} actuator(s), s' {sdot}.",
-        "",
-        "Written by adaptive_ftc.sim.compose; numbers live in LoopData, not here.",
-        '"""',
-        "# ruff: noqa",
-        *imports,
-        "",
-        "# jit: functions that allocate; hot: the right-hand side and its parts, which never",
-        "# allocate and so run without reference counting (the generated code's inner loop)",
-        "# both compile at the loops' LLVM level (adaptive_ftc.sim.optlevel: -O2)",
-        'jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))',
-        'hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))',
-        "# inl: small helpers and the parts' functions, pasted by numba into every caller (no",
-        "# call, no compilation of their own): loops run 7-12 % faster and compile sooner",
-        'inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")',
-        "_part = inl",
-        '_user_part = njit(nogil=True, error_model="numpy", _nrt=False, boundscheck=True)',
-    ]
-    for name in jits:
-        src = f"_py_{name}" if name in g.imports else name
-        deco = "_user_part" if name in g.checked else "_part"
-        header.append(f"{name} = {deco}({src})")
+    title = (
+        f"Generated closed loop: plant {plant.name!r}, design {ctrl.code_label()}, "
+        f"{p} output(s), {m} actuator(s), s' {sdot}."
+    )
+    header, mods = _module_header(g, title, laws=True)
     text_parts = [
         "\n".join(header),
         ref_src,
@@ -1035,7 +1106,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         "\n".join(_used_views(body)),
         jump_src,
         tables_src,
-        _CONTROL_GAIN,
     ]
     # ------------------------------------------------------------ numbers and layout
     settings = {
@@ -1126,7 +1196,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     env_at = layout["c:envelope"]
     header = [nph, m, nx, len(fkind), inst_at, samp_at, act_at, meas_at]
     sig_table = [p] + [layout[f"w:{w}"].start for w in _SIGNAL_WORK]
-    sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel]
+    sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel, layout["c:plant"].start]
     samp_flags = (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel()
     sigt_at = samp_at + samp_flags.size
     # the addresses are written by assemble()
@@ -1160,6 +1230,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         theta_slices=tuple(theta_slices),
         mods=mods,
         patterns=tuple(fpatterns),
+        gain=_gain_module_source(loop, sdot),
     )
     return text, data, g, layout
 
@@ -1217,6 +1288,7 @@ def is_compiled(loop: ClosedLoop, *, sdot: str = "exact") -> bool:
     patterns = {pt for pt in layout["patterns"] if pt is not None}
     return (
         codegen.is_cached(text, layout["mods"], g.inject)
+        and codegen.is_cached(*layout["gain"], kind="gain")
         and codegen.is_cached(shared, _INTEGRATORS_IMPORTS, kind="integrators")
         and all(
             codegen.is_cached(_pattern_source(*pt), _PATTERN_IMPORTS, kind="pattern")
@@ -1264,7 +1336,11 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     from adaptive_ftc.sim.engine import clear_compile_errors
 
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
-        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, data)
+        gain_text, gain_mods, gain_inject = layout["gain"]
+        gain_module = codegen.load_module(
+            gain_text, imports=gain_mods, inject=gain_inject, kind="gain"
+        )
+        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, gain_module, data)
         inst = data.inst
         for n_, pattern in enumerate(layout["patterns"]):
             if pattern is not None:  # the failure patterns that are not affine
