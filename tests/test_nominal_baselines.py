@@ -89,19 +89,19 @@ def test_robust_term_gives_the_nonlinear_s_dynamics(hyper):
     np.testing.assert_allclose(r.s[:, 0], ref.y[1], rtol=0, atol=1e-6)
 
 
-def test_stiff_inverse_loops_run_with_stiffness_switching_at_the_same_accuracy(hyper):
+def test_stiff_inverse_loops_run_with_a_stiff_method_at_the_same_accuracy(hyper):
     """With a small eps0 the exact inverse gives s' = -k s - k0 tanh(s/eps0), stiff near
-    s = 0 (slope k0/eps0 = 2e4): the baselines of a DOPRI5 scenario run with stiffness
-    switching, agree with an independent stiff integration and take far fewer steps."""
+    s = 0 (slope k0/eps0 = 2e4): the baselines of a DOPRI5 scenario run with Rodas5P, agree
+    with an independent stiff integration and take far fewer steps."""
     k0, eps0 = 20.0, 1e-3
     loop = replace(hyper, controller=NominalInverse(lam=LAM, k=K, k0=k0, eps0=eps0), t_final=2.0)
     solver = SolverOptions(method="dopri5", rtol=1e-8, atol=1e-11, record_dt=0.01)
     assert baseline_solver("fixed-gain", solver) == solver  # the adaptive structure, unchanged
     chosen = baseline_solver("oracle", solver)
     assert chosen == baseline_solver("nominal-inverse", solver)
-    assert chosen == replace(solver, method="auto", rtol=1e-6, atol=1e-9)  # yardstick accuracy
+    assert chosen == replace(solver, method="rodas5p", rtol=1e-6, atol=1e-9)  # yardsticks
     loose = replace(solver, rtol=1e-4, atol=1e-6)
-    assert baseline_solver("oracle", loose) == replace(loose, method="auto")  # never tightened
+    assert baseline_solver("oracle", loose) == replace(loose, method="rodas5p")  # not tightened
     # a per-state atol of the adaptive loop (its states, not the baseline's): the smallest
     per_state = replace(solver, atol=(1e-8, 1e-6, 1e-7))
     assert baseline_solver("oracle", per_state).atol == 1e-8

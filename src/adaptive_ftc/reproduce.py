@@ -163,23 +163,35 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
         return memo[(name, exact)], solver.method
 
     keys = [key(*task) for task in tasks]
+    plants = [by_name[name].loop.plant.name for name, _ in tasks]
     # the shared integrators' compile cost, largest first (measured: auto 5.0 s, the
     # Rosenbrock methods 2.1 s, DOPRI5 2.4 s with its helpers, RK4 0.9 s)
     cost = {"auto": 4, "rodas5p": 3, "rodasp": 3, "dopri5": 2, "rk4": 1}
     first_of_method: dict[str, int] = {}
     for i, (_, method) in enumerate(keys):
         first_of_method.setdefault(method, i)
-    seen: Counter = Counter()
-    ranked = []
-    for i, task in enumerate(tasks):
-        k = keys[i]
-        if first_of_method.get(k[1]) == i:
-            rank = (0, -cost.get(k[1], 0), i)
+    openers = sorted(first_of_method.values(), key=lambda i: (-cost.get(keys[i][1], 0), i))
+    seen: Counter = Counter(keys[i][0] for i in openers)
+    # then the first run of every other loop, one plant after another (the plant's control
+    # gain is a module of its own: two new loops of one plant back to back would compile it
+    # twice), then the second runs of every loop...
+    firsts: dict[str, list[int]] = {}
+    later = []
+    for i in range(len(tasks)):
+        if i in openers:
+            continue
+        text = keys[i][0]
+        if seen[text] == 0:
+            firsts.setdefault(plants[i], []).append(i)
         else:
-            rank = (1 + seen[k], 0, i)
-        ranked.append((rank, task))
-        seen[k] += 1
-    return [task for _, task in sorted(ranked)]
+            later.append(((seen[text], i), i))
+        seen[text] += 1
+    queues = list(firsts.values())
+    round_robin = [
+        q[n] for n in range(max(map(len, queues), default=0)) for q in queues if n < len(q)
+    ]
+    order = openers + round_robin + [i for _, i in sorted(later)]
+    return [tasks[i] for i in order]
 
 
 def _has_baseline_claim(sc: Scenario) -> bool:
