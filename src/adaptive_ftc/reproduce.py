@@ -190,7 +190,13 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     round_robin = [
         q[n] for n in range(max(map(len, queues), default=0)) for q in queues if n < len(q)
     ]
-    order = openers + round_robin + [i for _, i in sorted(later)]
+    # second runs in the order their loops were first run: the first of them is not the loop
+    # the other worker may still be compiling
+    where = {}
+    for n, i in enumerate(openers + round_robin):
+        where.setdefault(keys[i][0], n)
+    later.sort(key=lambda item: (item[0][0], where.get(keys[item[1]][0], 0), item[1]))
+    order = openers + round_robin + [i for _, i in later]
     return [tasks[i] for i in order]
 
 
