@@ -81,8 +81,10 @@ class LoopData(NamedTuple):
 
 # the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``), then the
 # envelope (its start in ``c``, its length), the addresses of the compiled ``rhs``, ``jump``
-# and ``control_gain`` that the shared integrators and ``signals`` call (``sim/fptr.py``; set
-# by :func:`assemble`) and where the table of ``signals`` starts (``templates/record.py``)
+# (0 for a continuous loop: none) and the plant's ``control_gain`` that the shared integrators
+# and ``signals`` call (``sim/fptr.py``; set by :func:`assemble`) and where the table of
+# ``signals`` starts (``templates/record.py``: the places of the signal buffers, then the
+# outputs' position and velocity states, then where the plant's numbers start in ``c``)
 _HEADER = (
     *("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"),
     *("ENV", "NENV", "RHS", "JUMP", "GAIN", "SIGT"),
@@ -296,7 +298,8 @@ class Assembled:
 
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
-        ``templates/record.py``, which calls this loop's ``rhs`` and ``control_gain``)."""
+        ``templates/record.py``, which calls this loop's ``rhs`` and its plant's
+        ``control_gain``)."""
         m = int(self.data.i[_I_M])
         scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
         self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch)

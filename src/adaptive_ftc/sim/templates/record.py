@@ -3,9 +3,10 @@
 The text after the marker is pasted into the module of integrators that every loop shares
 (``compose.integrators``): one compiled ``signals`` serves every loop. It reads the loop's
 layout (outputs, places in the work array ``W`` and in ``D.c``) from the table at
-``D.i[I_SIGT]``, calls the loop's ``rhs`` by address for each row and the loop's own
-``control_gain`` (its plant's equations and failure derivatives, compiled in the loop's module)
-by its address (the shims of ``compose._INTEGRATORS_HEAD``). The placeholders above the
+``D.i[I_SIGT]``, calls the loop's ``rhs`` by address for each row and its plant's
+``control_gain`` (the plant's equations and the failures' slopes, compiled once per plant in a
+module of its own, whatever the design) by its address (the shims of
+``compose._INTEGRATORS_HEAD``). The placeholders above the
 marker exist only so this file imports and lints on its own.
 """
 
