@@ -590,17 +590,19 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
 #: u)`` are evaluated here, any other pattern through its address. Measured on
 #: hypersonic-direct-s1 (a pattern of t alone from 40 s), against the patterns pasted in: the
 #: call costs 1-2 % of the run; affine failures cost the same as before (the batch benchmark)
-_FAILURE_SRC = '''@inl
-def failure(k, t, x, u, D):
-    """Applied output of a failed actuator (failure instance k)."""
-    c = D.c
+#: the affine kinds, evaluated in the loop (the head of both functions below)
+_AFFINE_BRANCHES = """    c = D.c
     at = D.i[I_INST] + 4 * k
     s = D.i[at]
     o = D.i[at + 1]
     if s == 0:
         return c[o + 0] * u + c[o + 1]
     if s == 1:
-        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))
+        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))"""  # noqa: E501
+_FAILURE_SRC = f'''@inl
+def failure(k, t, x, u, D):
+    """Applied output of a failed actuator (failure instance k)."""
+{_AFFINE_BRANCHES}
     return call_pattern(D.i[at + 2], t, x, u, c, o)
 
 
@@ -608,14 +610,7 @@ def failure(k, t, x, u, D):
 def failure_cached(k, j, t, x, u, D, fc):
     """failure(k, ...) of actuator j, a pattern of t alone (kind 2) remembered while t and
     k stay the same (fc[3 j:3 j + 3] = [t, k + 1, value])."""
-    c = D.c
-    at = D.i[I_INST] + 4 * k
-    s = D.i[at]
-    o = D.i[at + 1]
-    if s == 0:
-        return c[o + 0] * u + c[o + 1]
-    if s == 1:
-        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))
+{_AFFINE_BRANCHES}
     if s == 2:
         if fc[3 * j] == t and fc[3 * j + 1] == k + 1:
             return fc[3 * j + 2]
@@ -639,6 +634,12 @@ def dfailure(k, t, x, u, D):
     if s == 1:
         return (1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))
     return call_pattern(D.i[at + 3], t, x, u, c, o)'''
+
+#: the failure instance acting on an actuator in an interval (loops and control-gain modules)
+_INSTANCE_SRC = """@inl
+def instance(ph, j, D):
+    \"\"\"Failure instance of actuator j in interval ph (-1: healthy).\"\"\"
+    return D.i[I_HEAD + ph * M + j]"""
 
 _PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
 
@@ -822,10 +823,7 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
             f"    return {plant_expr}",
             "",
             "",
-            "@inl",
-            "def instance(ph, j, D):",
-            '    """Failure instance of actuator j in interval ph (-1: healthy)."""',
-            "    return D.i[I_HEAD + ph * M + j]",
+            _INSTANCE_SRC,
         ]
     )
     parts = ["\n".join(header), consts, *([plant_src] if plant_src else []), *g.defs]
@@ -1087,10 +1085,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             + ")",
             "",
             "",
-            "@inl",
-            "def instance(ph, j, D):",
-            '    """Failure instance of actuator j in interval ph (-1: healthy)."""',
-            "    return D.i[I_HEAD + ph * M + j]",
+            _INSTANCE_SRC,
             "",
             "",
             "@inl",
