@@ -136,10 +136,11 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     time a loop or a method runs again, one worker has compiled it and the other loads it from
     the disk cache. Measured on a cold ``aftc reproduce``: the variants back to back took 4m08s
     (7m36s CPU), round robin over scenarios 2m16s (4m09s CPU), first runs first 1m59s (3m35s
-    CPU). With the loops keyed by the text of the loop each variant actually runs (not its
-    scenario's) and the methods' first runs apart, 22 right-hand sides compiled for 16
-    structures became 16, and the Rosenbrock integrator compiled once instead of twice. The
-    loop texts are generated again here (about 1 ms a loop, before the workers start).
+    CPU). A log of numba's compile events over a cold run then still showed the Rosenbrock
+    integrator, one ``rhs`` and one control gain compiled twice; with the loops keyed by the
+    text of the loop each variant actually runs (not its scenario's), the methods' first runs
+    apart, plants in turn and second runs in first-run order, each compiles once. The loop
+    texts are generated again here (about 1 ms a loop, before the workers start).
     """
     import hashlib
 
@@ -164,27 +165,28 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
 
     keys = [key(*task) for task in tasks]
     plants = [by_name[name].loop.plant.name for name, _ in tasks]
-    # the shared integrators' compile cost, largest first (measured: auto 5.0 s, the
-    # Rosenbrock methods 2.1 s, DOPRI5 2.4 s with its helpers, RK4 0.9 s)
+    # the shared integrators' compile cost, largest first (measured on a cold run: auto 4.7 s,
+    # Rodas5P 3.5 s, DOPRI5 1.2 s and its helpers, RK4 0.8 s)
     cost = {"auto": 4, "rodas5p": 3, "rodasp": 3, "dopri5": 2, "rk4": 1}
     first_of_method: dict[str, int] = {}
     for i, (_, method) in enumerate(keys):
         first_of_method.setdefault(method, i)
     openers = sorted(first_of_method.values(), key=lambda i: (-cost.get(keys[i][1], 0), i))
+    opening = set(openers)
     seen: Counter = Counter(keys[i][0] for i in openers)
     # then the first run of every other loop, one plant after another (the plant's control
     # gain is a module of its own: two new loops of one plant back to back would compile it
     # twice), then the second runs of every loop...
     firsts: dict[str, list[int]] = {}
-    later = []
+    later: list[tuple[int, int]] = []  # (runs of its loop before it, task index)
     for i in range(len(tasks)):
-        if i in openers:
+        if i in opening:
             continue
         text = keys[i][0]
         if seen[text] == 0:
             firsts.setdefault(plants[i], []).append(i)
         else:
-            later.append(((seen[text], i), i))
+            later.append((seen[text], i))
         seen[text] += 1
     queues = list(firsts.values())
     round_robin = [
@@ -195,7 +197,7 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     where = {}
     for n, i in enumerate(openers + round_robin):
         where.setdefault(keys[i][0], n)
-    later.sort(key=lambda item: (item[0][0], where.get(keys[item[1]][0], 0), item[1]))
+    later.sort(key=lambda item: (item[0], where.get(keys[item[1]][0], 0), item[1]))
     order = openers + round_robin + [i for _, i in later]
     return [tasks[i] for i in order]
 

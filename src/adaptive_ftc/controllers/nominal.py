@@ -156,7 +156,7 @@ class NominalInverse(AdaptiveController):
         # the oracle goes through the failure functions of the current interval; the model at
         # zero command (kk = -1) and along each output's allocation row share one call site:
         # numba pastes the plant's equations once per site (spacecraft: rhs compile 2.9 s ->
-        # see the closing note)
+        # 2.3 s)
         what = "the healthy model, or the failed actuators' true outputs (oracle)"
         lines = [
             f"    # u0 from y'' = f + G u0 along u = R^T u0, with {what} (controllers/nominal.py)",

@@ -7,7 +7,8 @@ reads like hand-written code; the numbers travel as data. Two loops that differ 
 share one module, compiled once and cached on disk.
 
 Cache layout: ``<cache dir>/loops/loop_<key>.py`` (and ``integrators_<key>.py``, the
-integrators every loop shares) with numba's cache files in ``__pycache__`` beside it. The
+integrators every loop shares; ``gain_<key>.py``, a plant's control gain; ``pattern_<key>.py``,
+a failure pattern) with numba's cache files in ``__pycache__`` beside it. The
 key hashes the generated text, the source of every module it imports, and the numba and
 package versions, so an edited part never runs stale code. The cache directory is
 ``$ADAPTIVE_FTC_CACHE_DIR``, else ``$XDG_CACHE_HOME/adaptive-ftc`` (``~/.cache/adaptive-ftc``);
@@ -271,8 +272,9 @@ def load_module(
         Objects to place in the module before it runs (parts that cannot be imported, such as
         functions defined in ``__main__``); such modules are compiled in memory only.
     kind
-        What the module holds (``"loop"``, or ``"integrators"`` for the shared integrators):
-        the start of its file and module names.
+        What the module holds (``"loop"``; ``"integrators"``, ``"gain"``, ``"pattern"`` for the
+        shared integrators, a plant's control gain, a failure pattern): the start of its file
+        and module names.
     """
     _bind_libm()
     key = _key(source, imports)

@@ -277,8 +277,8 @@ class Assembled:
         i = self.data.i
         if not (i[_I_RHS] and i[_I_GAIN]):  # a call to address 0 crashes (a jump of 0: none)
             raise ConfigurationError(
-                "This loop's data holds no compiled rhs/jump addresses (made or copied outside "
-                "assemble(), or unpickled in another process): call assemble(loop) here."
+                "This loop's data holds no compiled rhs/control-gain addresses (made or copied "
+                "outside assemble(), or unpickled in another process): call assemble(loop) here."
             )
         return integrators()
 
@@ -305,8 +305,9 @@ class Assembled:
         self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch)
 
 
-# the loop's own part of the recorded signals; the shared ``signals`` (templates/record.py)
-# calls it by address once per recorded row, after ``rhs`` (which left u in W)
+# the plant's part of the recorded signals (one module per plant, _gain_module_source): the
+# shared ``signals`` (templates/record.py) calls it by address once per recorded row, after
+# the loop's ``rhs`` (which left u in W)
 _CONTROL_GAIN = '''@hot
 def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
     """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
@@ -584,13 +585,7 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
     return bps, fphase, kinds, offsets, patterns, consts
 
 
-#: the failed output of instance k (row [kind, offset, value address, slope address] of the
-#: instance table), its remembered form for the allocation, and its slope: the same text in
-#: every loop. ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) -
-#: u)`` are evaluated here, any other pattern through its address. Measured on
-#: hypersonic-direct-s1 (a pattern of t alone from 40 s), against the patterns pasted in: the
-#: call costs 1-2 % of the run; affine failures cost the same as before (the batch benchmark)
-#: the affine kinds, evaluated in the loop (the head of both functions below)
+#: the affine kinds, evaluated in the loop (the head of both functions of _FAILURE_SRC)
 _AFFINE_BRANCHES = """    c = D.c
     at = D.i[I_INST] + 4 * k
     s = D.i[at]
@@ -599,6 +594,12 @@ _AFFINE_BRANCHES = """    c = D.c
         return c[o + 0] * u + c[o + 1]
     if s == 1:
         return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))"""  # noqa: E501
+#: the failed output of instance k (row [kind, offset, value address, slope address] of the
+#: instance table) and its remembered form for the allocation: the same text in every loop.
+#: ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) - u)`` are
+#: evaluated here, any other pattern through its address. Measured on hypersonic-direct-s1 (a
+#: pattern of t alone from 40 s), against the patterns pasted in: the call costs 1-2 % of the
+#: run; affine failures cost the same as before (the batch benchmark)
 _FAILURE_SRC = f'''@inl
 def failure(k, t, x, u, D):
     """Applied output of a failed actuator (failure instance k)."""
@@ -683,16 +684,14 @@ def _pattern_source(text: str, dtext: str) -> str:
     )
 
 
-def _pattern_module(pattern: tuple[str, str]):
-    return codegen.load_module(_pattern_source(*pattern), imports=_PATTERN_IMPORTS, kind="pattern")
-
-
 def _pattern_addresses(pattern: tuple[str, str]) -> tuple[int, int]:
     """Addresses of the compiled ``value`` and ``slope`` of ``pattern`` (its module compiled
     or loaded from the cache on first use; remembered on the module)."""
     from adaptive_ftc.sim import fptr
 
-    module = _pattern_module(pattern)
+    module = codegen.load_module(
+        _pattern_source(*pattern), imports=_PATTERN_IMPORTS, kind="pattern"
+    )
     found = module.__dict__.get("_ADDRESSES")
     if found is None:
         found = module._ADDRESSES = (fptr.address(module.value), fptr.address(module.slope))

@@ -36,7 +36,6 @@ __all__ = [
     "call_rhs",
     "signature_gain",
     "signature_jump",
-    "signature_pattern",
     "signature_rhs",
 ]
 
@@ -70,11 +69,6 @@ SIGNATURE_PATTERN = types.float64(
     types.CPointer(types.float64),
     types.int64,
 )
-
-
-def signature_pattern():
-    """The C signature of a failure pattern's ``value`` and ``slope``."""
-    return SIGNATURE_PATTERN
 
 
 #: with ``NUMBA_DISABLE_JIT=1`` (stepping through the generated code in Python) an "address"
