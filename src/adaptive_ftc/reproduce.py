@@ -374,6 +374,10 @@ def _worker_init() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # SIGTERM ends a worker: forked while the parent's handler (_workers_end_with_parent) is
+    # installed, it would otherwise raise KeyboardInterrupt, which the pool records as the
+    # task's error and goes on with the next task (Ctrl-C then took 12 s to return, or hung)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
         import ctypes
 
