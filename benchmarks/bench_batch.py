@@ -1,16 +1,19 @@
 """Batch throughput: many random failure scenarios of hypersonic-direct-s1, Python vs C threads.
 
-Run: ``python benchmarks/bench_batch.py [--n 1000] [--jobs 2] [--seed 0] [--repeat 1]``.
+Run: ``python benchmarks/bench_batch.py [--n 1000] [--jobs 2] [--seed 0] [--repeat 1]
+[--api iter|many] [--chunk 100]``.
 
 Draws ``n`` runs from a seeded numpy Generator: each run fails one or both elevators, each with
 a loss of effectiveness, a bias, a stuck surface or a loss of effectiveness with bias (numeric
 values, random onset, sometimes a recovery; at most one elevator stuck at a time, so every run
-stays compensable). The same drawn numbers go to ``simulate_many(loops, jobs=--jobs)`` and to
-the C reference (``c/hypersonic_loop.c`` on ``--jobs`` pthreads, whole runs with recording and
-signals); final states of every run are compared. Rounds are interleaved (C, Python, C, ...);
-prints runs per second (min / median over rounds) and the ratio Python / C against the target
-of issue 10 (>= 0.9). Python results are consumed in chunks of ``--chunk`` runs and dropped, so
-memory stays bounded (a 120 s SimResult holds about 4 MB).
+stays compensable). The same drawn numbers go to ``iter_simulate(loops, jobs=--jobs)`` (results
+streamed in input order, each consumed and dropped, so memory stays bounded: a 120 s SimResult
+holds about 4 MB) and to the C reference (``c/hypersonic_loop.c`` on ``--jobs`` pthreads, whole
+runs with recording and signals); final states of every run are compared. Rounds are
+interleaved (C, Python, C, ...); prints runs per second (min / median over rounds) and the ratio
+Python / C against the target of issue 10 (>= 0.9). ``--api many`` measures ``simulate_many``
+on chunks of ``--chunk`` runs instead (the way to bound memory before ``iter_simulate``: both
+threads wait at the end of each chunk for its last run).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from dataclasses import replace
 import numpy as np
 from _cref import N_STATE, CReferenceError, build, failure_records, rk4_scenario, run_batch
 
-from adaptive_ftc import simulate_many
+from adaptive_ftc import iter_simulate, simulate_many
 from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
 
 SCENARIO = "hypersonic-direct-s1"
@@ -65,17 +68,26 @@ def draw_failures(rng: np.random.Generator, t_final: float) -> tuple:
     return tuple(out)
 
 
-def python_batch(loops, solver, jobs: int, chunk: int) -> tuple[float, np.ndarray]:
-    """Wall time of ``simulate_many`` over ``loops`` and rows [status, n, final state]."""
+def _row(rows: np.ndarray, i: int, r) -> None:
+    rows[i, 0] = 0.0 if r.status == "completed" else 1.0
+    rows[i, 1] = r.time.size
+    rows[i, 2:] = np.concatenate([r.states[-1], r.adaptive[-1]])
+
+
+def python_batch(loops, solver, jobs: int, api: str, chunk: int) -> tuple[float, np.ndarray]:
+    """Wall time of ``iter_simulate`` (``api="iter"``) or of ``simulate_many`` on chunks
+    (``"many"``) over ``loops``, and rows [status, n, final state]."""
     rows = np.zeros((len(loops), 2 + N_STATE))
     t = time.perf_counter()
-    for start in range(0, len(loops), chunk):
-        results = simulate_many(loops[start : start + chunk], solver, jobs=jobs)
-        for i, r in enumerate(results, start):
-            rows[i, 0] = 0.0 if r.status == "completed" else 1.0
-            rows[i, 1] = r.time.size
-            rows[i, 2:] = np.concatenate([r.states[-1], r.adaptive[-1]])
-        del results
+    if api == "iter":
+        for i, r in enumerate(iter_simulate(loops, solver, jobs=jobs)):
+            _row(rows, i, r)
+    else:
+        for start in range(0, len(loops), chunk):
+            results = simulate_many(loops[start : start + chunk], solver, jobs=jobs)
+            for i, r in enumerate(results, start):
+                _row(rows, i, r)
+            del results
     return time.perf_counter() - t, rows
 
 
@@ -87,7 +99,13 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=2, help="threads on both sides (default 2)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
     ap.add_argument("--repeat", type=int, default=1, help="interleaved rounds (default 1)")
-    ap.add_argument("--chunk", type=int, default=100, help="runs per simulate_many call")
+    ap.add_argument(
+        "--api",
+        choices=("iter", "many"),
+        default="iter",
+        help="iter_simulate over all runs (default) or simulate_many on chunks",
+    )
+    ap.add_argument("--chunk", type=int, default=100, help="runs per simulate_many call (many)")
     args = ap.parse_args()
     if min(args.n, args.jobs, args.repeat, args.chunk) < 1:
         print("error: --n, --jobs, --repeat and --chunk must be positive", file=sys.stderr)
@@ -112,7 +130,7 @@ def main() -> int:
     c_rows = py_rows = None
     c_times.append(run_batch(exe, runs, **common)[0])
     for _ in range(args.repeat):
-        t_py, py_rows = python_batch(loops, solver, args.jobs, args.chunk)
+        t_py, py_rows = python_batch(loops, solver, args.jobs, args.api, args.chunk)
         py_times.append(t_py)
         t_c, c_rows = run_batch(exe, runs, **common)
         c_times.append(t_c)
@@ -120,9 +138,10 @@ def main() -> int:
     scale = np.maximum(1.0, np.abs(py_rows[:, 2:]))
     diff = float(np.max(np.abs(c_rows[:, 2:] - py_rows[:, 2:]) / scale))
     n_div = int(py_rows[:, 0].sum())
+    how = "iter_simulate" if args.api == "iter" else f"simulate_many on {args.chunk}-run chunks"
     print(
         f"{SCENARIO}: {args.n} random failure scenarios (seed {args.seed}), "
-        f"{loop.t_final:g} s each, RK4 dt = {solver.dt:g}, {args.jobs} threads; "
+        f"{loop.t_final:g} s each, RK4 dt = {solver.dt:g}, {args.jobs} threads, {how}; "
         f"{n_div} diverged"
     )
     print(

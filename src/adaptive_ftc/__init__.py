@@ -45,7 +45,7 @@ from adaptive_ftc.plants import (
 from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.sim import ClosedLoop, SimResult, SolverOptions, simulate
-from adaptive_ftc.sim.batch import simulate_many
+from adaptive_ftc.sim.batch import iter_simulate, simulate_many
 
 __all__ = [
     "Affine",
@@ -80,6 +80,7 @@ __all__ = [
     "__version__",
     "check_compensability",
     "fixed_gain",
+    "iter_simulate",
     "list_scenarios",
     "load_campaign",
     "load_scenario",

@@ -17,6 +17,8 @@ import functools
 import importlib
 import math
 import re
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -296,13 +298,13 @@ class Assembled:
         self.module.rhs(float(t), y, int(phase), self.data, W, np.zeros(self.y0.size))
         return W[self.layout["w:phi"]].copy()
 
-    def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> None:
+    def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> int:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
         ``templates/record.py``, which calls this loop's ``rhs`` and its plant's
-        ``control_gain``)."""
+        ``control_gain``); returns the first row outside the plant's envelope (-1: none)."""
         m = int(self.data.i[_I_M])
         scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
-        self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch)
+        return int(self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch))
 
 
 # the plant's part of the recorded signals (one module per plant, _gain_module_source): the
@@ -528,7 +530,7 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
     return bps, on_grid.astype(np.int64), k
 
 
-def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], bps):
+def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[str, str], bps):
     """The per-interval instance table and, per failure instance, its kind, numbers and (for
     a pattern that is not affine) the text of its pattern and slope.
 
@@ -539,9 +541,8 @@ def _failures(g: Generator, variables: tuple[str, ...], names: dict[str, str], b
     depend on which failures it has: a structure compiles once whatever the scenario's
     failure patterns, and each pattern text once (both cached on disk).
     """
-    loop = g.loop
     nph = len(bps) - 1
-    fphase = -np.ones((nph, g.m), dtype=np.int64)
+    fphase = -np.ones((nph, m), dtype=np.int64)
     kinds: list[int] = []
     offsets: list[int] = []
     patterns: list[tuple[str, str] | None] = []
@@ -830,8 +831,81 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
     return "\n\n".join(parts) + "\n", mods, dict(g.inject)
 
 
+@dataclass(frozen=True)
+class _Structure:
+    """What :func:`generate` derives from a loop's structure and its parts' numbers, not from
+    its failures, times or initial state (shared by loops that differ only in those)."""
+
+    text: str
+    g: Generator
+    layout: dict
+    values: tuple[float, ...]  # D.c up to the failures' numbers
+    variables: tuple[str, ...]
+    names: dict[str, str]
+    has_act: bool
+    has_meas: bool
+    sampled: bool
+    sig_table: tuple[int, ...]
+    plant_p: tuple
+
+
+#: recently generated structures: key -> (the parts compared by identity, _Structure)
+_structures: OrderedDict = OrderedDict()
+_STRUCTURES_KEPT = 32
+_structures_lock = threading.Lock()
+
+
 def generate(loop: ClosedLoop, *, sdot: str = "exact"):
-    """Generate the module text and the numbers of ``loop`` (see :func:`assemble`)."""
+    """Generate the module text and the numbers of ``loop`` (see :func:`assemble`).
+
+    The text and the numbers of the loop's parts are remembered for the last few structures
+    whose parts are immutable (hashable frozen dataclasses, compared by identity): a batch of
+    loops that differ only in failures, times or initial state (``simulate_many``, campaigns)
+    generates its text once. Measured: 0.3 of the 0.4 ms of an assemble on
+    hypersonic-direct-s1.
+    """
+    parts = (loop.plant, loop.controller, loop.actuators, loop.sensors)
+    try:
+        key = (
+            *map(id, parts),
+            loop.allocation,
+            loop.reference,
+            bool(loop.adapt),
+            float(loop.sample_time),
+            loop.has_actuator_dynamics,
+            sdot,
+        )
+        hash(key)
+    except TypeError:  # an unhashable allocation or reference: not remembered
+        key = None
+    st = None
+    if key is not None:
+        with _structures_lock:
+            hit = _structures.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], parts, strict=True)):
+            st = hit[1]
+    if st is None:
+        st = _structure(loop, sdot)
+        if key is not None and _immutable(parts):
+            with _structures_lock:
+                _structures[key] = (parts, st)
+                while len(_structures) > _STRUCTURES_KEPT:
+                    _structures.popitem(last=False)
+    return _numbers(loop, st)
+
+
+def _immutable(parts) -> bool:
+    """Whether ``parts`` hash (frozen dataclasses of numbers, strings and tuples: nothing in
+    them can change in place)."""
+    try:
+        hash(parts)
+    except TypeError:
+        return False
+    return True
+
+
+def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
+    """The failure-independent part of :func:`generate`."""
     plant, ctrl = loop.plant, loop.controller
     g = Generator(loop=loop, sdot=sdot)
     nx, p, m = g.nx, g.p, g.m
@@ -870,8 +944,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     if sdot == "filtered":
         g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
     ny = filt + (p if sdot == "filtered" else 0)
-    bps, samp, sample_index = _intervals(loop)
-    bps, fphase, fkind, foff, fpatterns, fconsts = _failures(g, variables, names, bps)
     # actuator, sensor and sampling parts (beyond the thesis): states after the controller's
     has_act = loop.has_actuator_dynamics
     sampled = loop.sample_time > 0
@@ -1153,8 +1225,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         layout[f"c:{key}"] = slice(len(values), len(values) + len(vals))
         consts_lines.append(f"{names_c[key]} = {len(values)}")
         values.extend(float(v) for v in vals)
-    fail_base = len(values)
-    values.extend(fconsts)
     sizes = {
         "sig": nx + 3 * p,
         "phi": max(n_phi, 1),
@@ -1189,36 +1259,8 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         f"VEL = {tuple(vel)!r}",
     ]
     text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
-    # [kind, offset, value address, slope address]: the addresses are written by assemble()
-    inst = np.zeros((len(fkind), 4), dtype=np.int64)
-    for n_, (kind, of) in enumerate(zip(fkind, foff, strict=True)):
-        inst[n_, :2] = (kind, of + fail_base)
-    nph = len(bps) - 1
-    act_table = _actuator_table(loop, bps) if has_act else np.zeros((nph, m, 6))
-    meas_table = _measurements(loop, sample_index) if has_meas else np.zeros((nph, nx))
-    act_at = len(values)
-    meas_at = act_at + act_table.size
-    c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
-    inst_at = _I_HEAD + fphase.size
-    samp_at = inst_at + inst.size
-    env_at = layout["c:envelope"]
-    header = [nph, m, nx, len(fkind), inst_at, samp_at, act_at, meas_at]
     sig_table = [p] + [layout[f"w:{w}"].start for w in _SIGNAL_WORK]
     sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel, layout["c:plant"].start]
-    samp_flags = (samp if sampled else np.zeros(nph, dtype=np.int64)).ravel()
-    sigt_at = samp_at + samp_flags.size
-    # the addresses are written by assemble()
-    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at]
-    ints = np.concatenate(
-        [
-            np.array(header, dtype=np.int64),
-            fphase.ravel(),
-            inst.ravel(),
-            samp_flags,
-            np.array(sig_table, dtype=np.int64),
-        ]
-    ).astype(np.int64)
-    data = LoopData(c=c_all, i=ints, p=plant.parameter_values() if plant_expr == "D.p" else ())
     extra = []
     if has_act:
         extra += [f"position of {a}" for a in plant.actuator_names]
@@ -1228,7 +1270,6 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         extra += [f"held command of {a}" for a in plant.actuator_names]
         extra += [f"held derivative of {n}" for n in g.adaptive_names]
     layout.update(
-        bps=bps,
         ny=ny,
         ny_all=ny_all,
         at_act=at_act,
@@ -1237,10 +1278,62 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
         n_phi=n_phi,
         theta_slices=tuple(theta_slices),
         mods=mods,
-        patterns=tuple(fpatterns),
         gain=_gain_module_source(loop, sdot),
     )
-    return text, data, g, layout
+    return _Structure(
+        text=text,
+        g=g,
+        layout=layout,
+        values=tuple(values),
+        variables=variables,
+        names=names,
+        has_act=has_act,
+        has_meas=has_meas,
+        sampled=sampled,
+        sig_table=tuple(sig_table),
+        plant_p=plant.parameter_values() if plant_expr == "D.p" else (),
+    )
+
+
+def _numbers(loop: ClosedLoop, st: _Structure):
+    """:func:`generate`'s result for ``loop`` from its structure ``st``: the failures,
+    intervals and tables of ``loop`` itself."""
+    g = st.g
+    nx, m = g.nx, g.m
+    bps, samp, sample_index = _intervals(loop)
+    bps, fphase, fkind, foff, fpatterns, fconsts = _failures(loop, m, st.variables, st.names, bps)
+    fail_base = len(st.values)
+    values = [*st.values, *fconsts]
+    # [kind, offset, value address, slope address]: the addresses are written by assemble()
+    inst = np.zeros((len(fkind), 4), dtype=np.int64)
+    for n_, (kind, of) in enumerate(zip(fkind, foff, strict=True)):
+        inst[n_, :2] = (kind, of + fail_base)
+    nph = len(bps) - 1
+    act_table = _actuator_table(loop, bps) if st.has_act else np.zeros((nph, m, 6))
+    meas_table = _measurements(loop, sample_index) if st.has_meas else np.zeros((nph, nx))
+    act_at = len(values)
+    meas_at = act_at + act_table.size
+    c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
+    inst_at = _I_HEAD + fphase.size
+    samp_at = inst_at + inst.size
+    env_at = st.layout["c:envelope"]
+    header = [nph, m, nx, len(fkind), inst_at, samp_at, act_at, meas_at]
+    samp_flags = (samp if st.sampled else np.zeros(nph, dtype=np.int64)).ravel()
+    sigt_at = samp_at + samp_flags.size
+    # the addresses are written by assemble()
+    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at]
+    ints = np.concatenate(
+        [
+            np.array(header, dtype=np.int64),
+            fphase.ravel(),
+            inst.ravel(),
+            samp_flags,
+            np.array(st.sig_table, dtype=np.int64),
+        ]
+    ).astype(np.int64)
+    data = LoopData(c=c_all, i=ints, p=st.plant_p)
+    layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns)}
+    return st.text, data, g, layout
 
 
 def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:

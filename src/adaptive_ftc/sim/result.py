@@ -98,21 +98,24 @@ class SimResult:
         Y: np.ndarray,
         phases: np.ndarray,
         *,
+        signals: np.ndarray | None = None,
         solver: SolverOptions,
         message: str,
         wall_time: float,
     ) -> SimResult:
-        """Build a result from recorded closed-loop states (signals are recomputed)."""
+        """Build a result from recorded closed-loop states; ``signals``: their block from
+        ``asm.signals`` (:func:`signal_block`), else recomputed here."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
-        ncol = 9 * p + 2 * m + 4
-        out = np.zeros((T.size, ncol))
-        if T.size:
-            asm.signals(
-                np.ascontiguousarray(T),
-                np.ascontiguousarray(Y),
-                np.ascontiguousarray(phases),
-                out,
-            )
+        out = signals
+        if out is None:
+            out = signal_block(loop, T.size)
+            if T.size:
+                asm.signals(
+                    np.ascontiguousarray(T),
+                    np.ascontiguousarray(Y),
+                    np.ascontiguousarray(phases),
+                    out,
+                )
         cols = [out[:, i * p : (i + 1) * p] for i in range(9)]
         c = 9 * p
         times = sorted(
@@ -592,6 +595,13 @@ class SimResult:
 
 
 # ---------------------------------------------------------------------- export helpers
+def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
+    """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
+    (``Assembled.signals`` writes every column of every row)."""
+    p, m = loop.plant.n_outputs, loop.plant.n_actuators
+    return np.empty((rows, 9 * p + 2 * m + 4))
+
+
 def _solver_settings(solver: Any) -> str:
     """The solver options as sorted JSON (stable text for provenance attributes)."""
     import dataclasses

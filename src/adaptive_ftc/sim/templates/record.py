@@ -26,6 +26,10 @@ def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):  # the loop's, by the addr
     raise NotImplementedError
 
 
+def leaves_envelope(Y, D):  # first plant state outside the plant's envelope, else -1
+    raise NotImplementedError
+
+
 # places in the header of D.i (the integrators module defines them)
 I_NX = I_M = I_SIGT = 0
 
@@ -37,6 +41,9 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
+
+    Returns the first row whose plant states leave the plant's envelope (-1: none), so that
+    the engine needs no pass of its own over the records to cut a run there.
 
     ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
     the caller. The rows allocate nothing, so they run without reference counting. The table
@@ -52,6 +59,7 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
     vel = pos + P
     NX = D.i[I_NX]
     M = D.i[I_M]
+    outside = -1
     for n in range(T.size):
         t = T[n]
         Y = Ys[n]
@@ -82,3 +90,6 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
         out[n, col + 1] = W[MISC + 1]
         out[n, col + 2] = control_gain(t, Y, ph, D, W, unit, x0dot, x1dot)
         out[n, col + 3] = W[MISC + 2]
+        if outside < 0 and leaves_envelope(Y, D) >= 0:
+            outside = n
+    return outside
