@@ -1,4 +1,4 @@
-"""Running a campaign: chunks of members through :func:`simulate_many`, one Parquet part per
+"""Running a campaign: chunks of members through :func:`iter_simulate`, one Parquet part per
 finished chunk, resumable, memory flat in the number of runs (each trajectory is reduced to
 its metrics row and dropped)."""
 
@@ -19,7 +19,7 @@ from adaptive_ftc.campaigns import store
 from adaptive_ftc.campaigns.sampling import Member, draw_member
 from adaptive_ftc.campaigns.spec import CampaignSpec, load_campaign
 from adaptive_ftc.errors import DivergenceWarning
-from adaptive_ftc.sim.batch import simulate_many
+from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.result import SimResult
 
 __all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
@@ -89,7 +89,8 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
 
 def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict[str, Any]]:
     """Simulate one chunk (every design of members ``chunk*size ..``); rows in (index, design)
-    order. Only metrics rows are kept, never the trajectories."""
+    order. Only metrics rows are kept, never the trajectories: each run's outcome is computed
+    as its result arrives (:func:`iter_simulate`), while the threads run the next ones."""
     lo = chunk * spec.chunk_size
     hi = min(spec.runs, lo + spec.chunk_size)
     members: list[Member] = [draw_member(spec, i) for i in range(lo, hi)]
@@ -103,7 +104,7 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
                 slots.append(None)
     with warnings.catch_warnings():  # a diverged run is a recorded outcome, not a warning
         warnings.simplefilter("ignore", DivergenceWarning)
-        results = simulate_many(loops, spec.base.solver, jobs=jobs)
+        outcomes = [outcome(r, spec) for r in iter_simulate(loops, spec.base.solver, jobs=jobs)]
     rows = []
     k = 0
     for mem in members:
@@ -115,8 +116,7 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
             if slot is None:
                 row.update(status="invalid", message=mem.error, success=False)
             else:
-                row.update(outcome(results[slot], spec))
-                results[slot] = None  # drop the trajectory now
+                row.update(outcomes[slot])
             rows.append(row)
     return rows
 
