@@ -847,6 +847,8 @@ class _Structure:
     sampled: bool
     sig_table: tuple[int, ...]
     plant_p: tuple
+    #: what :func:`assemble` loads for this structure (its modules, the compiled addresses)
+    loaded: dict = field(default_factory=dict)
 
 
 #: recently generated structures: key -> (the parts compared by identity, _Structure)
@@ -1332,7 +1334,7 @@ def _numbers(loop: ClosedLoop, st: _Structure):
         ]
     ).astype(np.int64)
     data = LoopData(c=c_all, i=ints, p=st.plant_p)
-    layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns)}
+    layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns), "loaded": st.loaded}
     return st.text, data, g, layout
 
 
@@ -1411,7 +1413,14 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         raise ConfigurationError(f"`filter_tau` must be positive; got {filter_tau}.")
     text, data, g, layout = generate(loop, sdot=sdot)
     data.c[layout["c:filter_tau"]] = float(filter_tau)
-    module = codegen.load_module(text, imports=layout["mods"], inject=g.inject)
+    # the modules and addresses of a structure seen before: every loop of it has the same
+    # (its numbers' types included), so they are looked up once
+    loaded = layout["loaded"]
+    module = loaded.get("module")
+    if module is None:
+        module = loaded["module"] = codegen.load_module(
+            text, imports=layout["mods"], inject=g.inject
+        )
     nx, p = g.nx, g.p
     y0 = np.zeros(layout["ny_all"])
     y0[:nx] = loop.initial_state
@@ -1437,11 +1446,14 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     from adaptive_ftc.sim.engine import clear_compile_errors
 
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
-        gain_text, gain_mods, gain_inject = layout["gain"]
-        gain_module = codegen.load_module(
-            gain_text, imports=gain_mods, inject=gain_inject, kind="gain"
-        )
-        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = _addresses(module, gain_module, data)
+        addresses = loaded.get("addresses")
+        if addresses is None:
+            gain_text, gain_mods, gain_inject = layout["gain"]
+            gain_module = codegen.load_module(
+                gain_text, imports=gain_mods, inject=gain_inject, kind="gain"
+            )
+            addresses = loaded["addresses"] = _addresses(module, gain_module, data)
+        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = addresses
         inst = data.inst
         for n_, pattern in enumerate(layout["patterns"]):
             if pattern is not None:  # the failure patterns that are not affine
