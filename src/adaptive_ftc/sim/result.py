@@ -603,7 +603,16 @@ def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
 
 
 def _solver_settings(solver: Any) -> str:
-    """The solver options as sorted JSON (stable text for provenance attributes)."""
+    """The solver options as sorted JSON (stable text for provenance attributes); remembered
+    per (frozen, hashable) options object: a batch shares one."""
+    try:
+        return _settings_text(solver)
+    except TypeError:  # unhashable
+        return _settings_text.__wrapped__(solver)
+
+
+@functools.lru_cache(maxsize=64)
+def _settings_text(solver: Any) -> str:
     import dataclasses
 
     try:
