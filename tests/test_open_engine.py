@@ -349,14 +349,15 @@ def test_a_plant_of_a_script_compiles_once_per_process(tmp_path):
 
 
 def test_no_writable_cache_directory_compiles_in_memory(monkeypatch, tmp_path):
+    loop = replace(_pendulum_loop(Pendulum()), t_final=0.5, name="in-memory")
+    loop = replace(loop, controller=replace(loop.controller, k=4.5))
+    simulate(loop)  # its structure, control gain and the integrators: loaded in this process
     blocker = tmp_path / "a-file"
     blocker.write_text("")
     monkeypatch.setenv("ADAPTIVE_FTC_CACHE_DIR", str(blocker / "x"))
     monkeypatch.setenv("XDG_CACHE_HOME", str(blocker / "y"))
     monkeypatch.setattr(codegen.tempfile, "gettempdir", lambda: str(blocker / "z"))
     assert codegen.cache_dir() is None
-    loop = replace(_pendulum_loop(Pendulum()), t_final=0.5, name="in-memory")
-    loop = replace(loop, controller=replace(loop.controller, k=4.5))
     before = codegen.stats()["in_memory"]
     # a structure not seen in this process: an extra failure shape
     loop = replace(loop, failures=(Bias(actuator=3, onset=0.1, bias="0.01*t*t"),))
