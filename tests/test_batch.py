@@ -152,3 +152,20 @@ def test_the_signals_pass_cuts_a_run_where_the_records_leave_the_envelope(scenar
     np.testing.assert_array_equal(r.states, states[:, :2])
     assert np.all(np.abs(r.states[:, 0]) <= math.pi / 2)
     assert r.u_cmd.shape[0] == r.time.size  # signals cut with the states
+
+
+def test_the_envelope_cut_names_the_state_that_left_from_the_row_the_signals_found():
+    """``_check_envelope`` with the row the compiled signals found: the state named is the one
+    outside the envelope on that row (regression: it indexed the checked rows absolutely)."""
+    from adaptive_ftc.sim.engine import _check_envelope
+
+    loop = load_scenario("spacecraft-mimo-s1").loop
+    names = loop.plant.state_names
+    Y = np.zeros((5, len(names)))
+    Y[3, 2] = 2.0  # the third state (an angle, envelope pi/2) outside from row 3
+    t = np.arange(5.0)
+    for first in (None, 3):
+        cut, message = _check_envelope(loop, Y, t, 5, "", first=first)
+        assert cut == 3
+        assert f"signal '{names[2]}'" in message and "t = 3 s" in message
+    assert _check_envelope(loop, Y, t, 5, "", first=-1) == (5, "")

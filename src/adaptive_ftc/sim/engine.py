@@ -330,8 +330,9 @@ def _check_envelope(
     out = np.abs(Y[start:nrec, : bound.size]) > bound
     if not out.any():
         return nrec, message
-    row = start + int(np.argmax(out.any(axis=1)))
-    i = int(np.argmax(out[row]))
+    k = int(np.argmax(out.any(axis=1)))
+    i = int(np.argmax(out[k]))
+    row = start + k
     name = loop.plant.state_names[i]
     return row, (
         f"Simulation {_run_label(loop)} diverged at t = {t_rec[row]:.6g} s: signal '{name}' "
