@@ -45,14 +45,9 @@ def simulate_many(
     >>> [r.status for r in simulate_many(loops, sc.solver, jobs=2)]
     ['completed', 'completed']
     """
-    jobs = _jobs(jobs)
-    with ThreadPoolExecutor(max_workers=jobs) as pool:
-        it = pool.map(lambda lp: simulate(lp, solver), loops)
-        if not progress:
-            return list(it)
-        from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
-
-        return list(tqdm(it, total=len(loops), desc="simulations"))
+    # every run submitted at once: iter_simulate with a window as long as the list
+    window = max(1, len(loops))
+    return list(iter_simulate(loops, solver, jobs=jobs, window=window, progress=progress))
 
 
 def iter_simulate(

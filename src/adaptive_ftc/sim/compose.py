@@ -851,7 +851,8 @@ class _Structure:
     loaded: dict = field(default_factory=dict)
 
 
-#: recently generated structures: key -> (the parts compared by identity, _Structure)
+#: recently generated structures: key (the parts' ids, ...) -> (the parts, _Structure); an
+#: entry keeps its parts alive, so no other object can take their ids while it is kept
 _structures: OrderedDict = OrderedDict()
 _STRUCTURES_KEPT = 32
 _structures_lock = threading.Lock()
@@ -883,9 +884,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
     st = None
     if key is not None:
         with _structures_lock:
-            hit = _structures.get(key)
-        if hit is not None and all(a is b for a, b in zip(hit[0], parts, strict=True)):
-            st = hit[1]
+            st = _structures.get(key, (None, None))[1]
     if st is None:
         st = _structure(loop, sdot)
         if key is not None and _immutable(parts):
