@@ -69,6 +69,22 @@ def test_filtering_only_the_window_would_be_wrong_the_whole_record_is_filtered()
     assert whole != alone
 
 
+def test_filtering_a_margin_around_the_window_equals_filtering_the_whole_record():
+    from adaptive_ftc.sim.activity import _lowpass
+
+    t = np.round(np.arange(0.0, 120.0 + DT / 2, DT), 12)
+    rng = np.random.default_rng(0)
+    u = sine(0.3, 0.03, t) + 0.02 * np.sin(
+        2 * np.pi * 7.0 * t + 0.3 * np.cumsum(rng.normal(size=t.size)) * DT
+    )
+    for start, end in ((100.0, 120.0), (40.0, 60.0), (0.0, 15.0)):
+        whole = _lowpass(u[:, None], 1.0, DT)[:, 0]
+        m = (t >= start - 1e-9) & (t <= end + 1e-9)
+        truth = float(np.sqrt(np.mean((u[m] - whole[m]) ** 2)))
+        got = act(u, t=t, start=start, end=end).fast_rms
+        assert_close(got, truth, atol=1e-9 * truth, what=f"window [{start}, {end}]")
+
+
 def test_ramp_total_variation_peak_rate_and_peak_to_peak():
     rate = 0.7
     a = act(-1.0 + rate * T)
