@@ -388,3 +388,65 @@ def test_aftc_run_rejects_a_malformed_claim_or_a_coarse_record(tmp_path, capsys)
     coarse = _user_file(tmp_path, "\n[solver]\nrecord_dt = 0.01\n" + CHATTER_CLAIM, "coarse")
     assert main(["run", coarse, "--out", str(out), "--quiet", "--no-baselines"]) == 2
     assert "record_dt = 0.001" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------- rows
+def test_campaign_rows_carry_the_activity_of_each_run(tmp_path):
+    from adaptive_ftc.campaigns import load_campaign, read_results, run_campaign
+
+    spec = {
+        "name": "act",
+        "base": "hypersonic-direct-s1-digital",
+        "designs": ["adaptive"],
+        "runs": 2,
+        "seed": 1,
+        "chunk_size": 2,
+        "duration": 3.0,
+        "success": {"rms_error_final": 0.01, "final_window": 1.0},
+        "failures": {"count": 0},
+    }
+    run_campaign(load_campaign(spec), tmp_path / "c", jobs=1, progress=False, summary=False)
+    df = read_results(tmp_path / "c")
+    assert df["activity_record_ok"].all()  # the digital scenario records at 1 ms
+    assert (df["fast_rms_max"] > 0.0).all() and (df["peak_rate_max"] > 0.0).all()
+    # the same number as the run's own metrics
+    sc = load_scenario("hypersonic-direct-s1-digital")
+    r = simulate(dataclasses.replace(sc.loop, t_final=3.0), sc.solver)
+    expected = r.metrics(final_window=1.0)["fast_rms_max"]
+    assert_close(df["fast_rms_max"].to_numpy(), expected, atol=1e-12 + 1e-9 * expected)
+
+
+def test_robustness_rows_carry_the_activity_and_flag_a_coarse_record():
+    from adaptive_ftc.studies import robustness_sweep
+
+    fine = robustness_sweep(
+        "hypersonic-direct-s1", "lag", [0.05], duration=6.0, window=3.0, record_dt=1e-3
+    )
+    coarse = robustness_sweep("hypersonic-direct-s1", "lag", [0.05], duration=6.0, window=3.0)
+    assert bool(fine["activity_record_ok"][0]) and not bool(coarse["activity_record_ok"][0])
+    # a 50 ms lag: the thesis law's command chatters (issue 25: several 0.1 rad RMS)
+    assert fine["fast_rms"][0] > 0.05 and fine["tv_per_s"][0] > 1.0
+    assert math.isnan(fine["rate_limited_fraction"][0])  # no rate limit in a lag sweep
+
+
+def test_reproduce_counts_findings_apart_from_failures(tmp_path):
+    from adaptive_ftc.reproduce import run_reproduction
+
+    s = run_reproduction(
+        tmp_path / "r",
+        names=["hypersonic-direct-s1-digital"],
+        jobs=1,
+        progress=False,
+        fair_baselines=False,
+        formats=("png",),
+    )
+    assert s["n_finding"] == 1 and s["n_fail"] == 0 and s["n_pass"] == 3
+    assert s["n_claims"] == 4
+    claims = (tmp_path / "r" / "claims.csv").read_text()
+    assert ",FINDING," in claims and "the thesis law chatters at 16 Hz" in claims
+    metrics = (tmp_path / "r" / "metrics.csv").read_text().splitlines()
+    header = metrics[0].split(",")
+    row = dict(zip(header, metrics[1].split(","), strict=False))
+    assert float(row["fast_rms_max"]) > 0.5 and row["activity_record_ok"] == "True"
+    page = (tmp_path / "r" / "report.html").read_text(encoding="utf-8")
+    assert 'badge finding">FINDING' in page
