@@ -450,3 +450,24 @@ def test_reproduce_counts_findings_apart_from_failures(tmp_path):
     assert float(row["fast_rms_max"]) > 0.5 and row["activity_record_ok"] == "True"
     page = (tmp_path / "r" / "report.html").read_text(encoding="utf-8")
     assert 'badge finding">FINDING' in page
+
+
+def test_a_rate_limited_failure_on_ideal_actuators_is_measured_in_its_window(tmp_path):
+    src = tmp_path / "rl.toml"
+    src.write_text(
+        'extends = "hypersonic-direct-s1"\nname = "rl"\nduration = 6.0\n'
+        "[solver]\nrecord_dt = 0.001\n"
+        '[[failures]]\nactuator = 1\nmodel = "rate_limited"\nonset = 2.0\nrecovery = 4.0\n'
+        "rate = 0.001\n"
+    )
+    r = load_scenario(src).run()
+    assert r.meta["actuator_limits"]["declared"]["rate"] == ["inf", "inf"]
+    during = r.activity(2.0, 4.0)["delta_e1"].rate_limited_fraction
+    after = r.activity(4.5, 6.0)["delta_e1"].rate_limited_fraction
+    whole = r.activity(0.0, 6.0)["delta_e1"].rate_limited_fraction
+    # the command drifts at about 2e-3 rad/s: it moves at the 1e-3 rad/s limit about half of
+    # the failure's window; no limit in effect after the recovery: nan (nothing to be at)
+    assert during > 0.4 and math.isnan(after)
+    # the fraction is of the whole window: no limit elsewhere counts as not at the limit
+    assert_close(whole, during * 2.0 / 6.0, atol=2e-3)
+    assert math.isnan(r.activity(2.0, 4.0)["delta_e2"].rate_limited_fraction)

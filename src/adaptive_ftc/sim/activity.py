@@ -21,8 +21,8 @@ to 1e-4 rad on a 200 Hz digital controller while the elevator command chatters a
     Fraction of the window's record intervals in which the actuator *position* moves at its
     rate limit (``|da/dt| >= (1 - 1e-3) r``), and of its records at a travel limit (within
     ``1e-3`` of the travel span of ``lower`` or ``upper``), using the limits in effect at that
-    time (a :class:`~adaptive_ftc.faults.models.RateLimited` failure changes them). ``nan``
-    when the loop declares no such limit.
+    time (a :class:`~adaptive_ftc.faults.models.RateLimited` failure changes them); both are
+    fractions of the whole window. ``nan`` when no such limit is in effect anywhere in it.
 ``peak_command``, ``travel``, ``peak_command_travel_ratio``
     Largest ``|u|`` in the window, the declared travel ``max(|lower|, |upper|)`` (``inf``: none
     declared) and their ratio (``0`` without travel).
@@ -294,7 +294,8 @@ def command_activity(
             limited = np.isfinite(r)
             if limited.any():
                 moving = np.abs(np.diff(pj)) / dt
-                rfrac = float(np.mean(moving[limited] >= (1 - LIMIT_TOL) * r[limited]))
+                at_rate = limited & (moving >= (1 - LIMIT_TOL) * np.where(limited, r, 0.0))
+                rfrac = float(np.mean(at_rate))  # over every interval of the window
             else:
                 rfrac = math.nan
             lo, hi = lower[idx, j], upper[idx, j]
@@ -304,7 +305,7 @@ def command_activity(
                 width = np.where(np.isfinite(width), width, 1.0)
                 tol = LIMIT_TOL * width
                 at = (pj >= hi - tol) | (pj <= lo + tol)
-                tfrac = float(np.mean(at[bounded]))
+                tfrac = float(np.mean(at & bounded))  # over every record of the window
             else:
                 tfrac = math.nan
         travel = _travel(limits, j)
@@ -360,27 +361,27 @@ def actuator_limits_meta(loop: Any, asm: Any) -> dict[str, Any] | None:
     """The declared actuator limits of a loop for ``SimResult.meta["actuator_limits"]``:
     ``declared`` (rate, lower, upper per actuator) and ``segments`` (from each ``start`` time
     on, the limits in effect: a dynamics failure changes them); JSON-able (``inf`` as
-    ``"inf"``). ``None`` without :class:`~adaptive_ftc.hardware.Actuators`."""
-    if loop.actuators is None:
+    ``"inf"``). ``None`` for ideal actuators (no :class:`~adaptive_ftc.hardware.Actuators`,
+    no dynamics failure)."""
+    from adaptive_ftc.hardware import Actuators
+
+    if not loop.has_actuator_dynamics:
         return None
     m = loop.plant.n_actuators
-    base = loop.actuators.table(m)
-    table = np.asarray(asm.data.act)  # (interval, actuator, [tau, rate, lower, upper, ...])
+    base = (loop.actuators or Actuators()).table(m)
+    # (interval, actuator, [rate, lower, upper]); a digital loop has one interval per sample
+    table = np.asarray(asm.data.act)[:, :, 1:4]
     bps = asm.breakpoints
-    segments = []
-    last = None
-    for k in range(table.shape[0]):
-        row = table[k, :, 1:4]
-        if last is None or not np.array_equal(row, last):
-            segments.append(
-                {
-                    "start": float(bps[k]),
-                    "rate": [_num(v) for v in row[:, 0]],
-                    "lower": [_num(v) for v in row[:, 1]],
-                    "upper": [_num(v) for v in row[:, 2]],
-                }
-            )
-            last = row
+    changed = np.flatnonzero(np.any(table[1:] != table[:-1], axis=(1, 2))) + 1
+    segments = [
+        {
+            "start": float(bps[k]),
+            "rate": [_num(v) for v in table[k, :, 0]],
+            "lower": [_num(v) for v in table[k, :, 1]],
+            "upper": [_num(v) for v in table[k, :, 2]],
+        }
+        for k in (0, *changed.tolist())
+    ]
     return {
         "declared": {
             "rate": [_num(v) for v in base[:, 1]],
@@ -399,8 +400,8 @@ def _num(v: float) -> float | str:
 def actuator_positions(loop: Any, asm: Any, Y: np.ndarray, phases: np.ndarray, u_cmd):
     """Actuator positions per record: the position state of an actuator with dynamics (a lag
     or a natural frequency in that interval), else the command clipped to its travel.
-    ``None`` without :class:`~adaptive_ftc.hardware.Actuators`."""
-    if loop.actuators is None or not asm.extra_names:
+    ``None`` for ideal actuators (no actuator states)."""
+    if not loop.has_actuator_dynamics or not asm.extra_names:
         return None
     names = tuple(asm.extra_names)
     if not names[0].startswith("position of "):
@@ -408,10 +409,13 @@ def actuator_positions(loop: Any, asm: Any, Y: np.ndarray, phases: np.ndarray, u
     m = loop.plant.n_actuators
     at = Y.shape[1] - len(names)
     state = Y[:, at : at + m]
-    table = np.asarray(asm.data.act)[np.asarray(phases, dtype=np.int64)]  # (record, act, 6)
-    dynamic = (table[:, :, 0] > 0) | (table[:, :, 4] > 0)
-    clipped = np.minimum(np.maximum(u_cmd, table[:, :, 2]), table[:, :, 3])
-    return np.where(dynamic, state, clipped)
+    act = np.asarray(asm.data.act)  # (interval, actuator, [tau, rate, lower, upper, omega, .])
+    dynamic = (act[:, :, 0] > 0) | (act[:, :, 4] > 0)
+    if dynamic.all():  # the usual case: every position is a state (a view, as the states)
+        return state
+    ph = np.asarray(phases, dtype=np.int64)
+    clipped = np.minimum(np.maximum(u_cmd, act[ph, :, 2]), act[ph, :, 3])
+    return np.where(dynamic[ph], state, clipped)
 
 
 def activity(

@@ -57,10 +57,11 @@ class SimResult:
         ``actuator_units`` class attributes); empty when the plant declares none, and the
         exported file then says ``"1"`` with a comment.
     actuator_position
-        Actuator positions (time, actuator) when the loop declares
-        :class:`~adaptive_ftc.hardware.Actuators` (the position state of an actuator with
-        dynamics, else its command clipped to its travel), else ``None``; the declared limits
-        are in ``meta["actuator_limits"]`` (:mod:`adaptive_ftc.sim.activity`).
+        Actuator positions (time, actuator) when the actuators have states (declared
+        :class:`~adaptive_ftc.hardware.Actuators` or a dynamics failure): the position state
+        of an actuator with dynamics, else its command clipped to its travel; ``None`` for
+        ideal actuators. The limits are in ``meta["actuator_limits"]``
+        (:mod:`adaptive_ftc.sim.activity`).
     """
 
     time: np.ndarray
@@ -149,7 +150,7 @@ class SimResult:
         from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
 
         u_cmd = out[:, c : c + m]
-        if loop.actuators is not None:
+        if loop.has_actuator_dynamics:
             meta["actuator_limits"] = actuator_limits_meta(loop, asm)
         return cls(
             # views of the recorded block, like the signals below: copying them cost ~1 ms
