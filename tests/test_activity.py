@@ -311,6 +311,17 @@ def test_report_shows_findings_apart_from_pass_and_fail(hw_run):
 
 
 # ---------------------------------------------------------------------------- catalogue
+def test_every_catalogue_scenario_with_hardware_is_judged_on_its_activity():
+    from adaptive_ftc.scenarios.loader import list_scenarios
+
+    found = set()
+    for name in list_scenarios():
+        loop = load_scenario(name).loop
+        if loop.actuators is not None or loop.sensors is not None or loop.sample_time > 0:
+            found.add(name)
+    assert found == set(HARDWARE)  # a new one joins HARDWARE, and the test below
+
+
 @pytest.mark.parametrize("name", HARDWARE)
 def test_hardware_scenarios_cannot_pass_every_claim_while_the_command_chatters(name):
     """Every catalogue scenario with hardware records fast enough and judges its fast command
