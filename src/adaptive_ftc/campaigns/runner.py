@@ -65,6 +65,17 @@ def recovery_times(result: SimResult, tolerance: float) -> list[float]:
     return out
 
 
+#: Control-activity columns of an outcome row (:meth:`SimResult.metrics`).
+ACTIVITY_COLUMNS = (
+    "fast_rms_max",
+    "tv_per_s_max",
+    "peak_rate_max",
+    "rate_limited_fraction_max",
+    "peak_command_travel_ratio_max",
+    "activity_record_ok",
+)
+
+
 def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
     """The outcome columns of one run: status, divergence time/signal, metrics, success."""
     row: dict[str, Any] = {"status": result.status, "message": result.message}
@@ -73,6 +84,11 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
         row[key] = float(m.get(key, math.nan))
     for key in ("peak_command", "peak_applied", "t_end"):
         row[key] = float(m.get(key, math.nan))
+    # control activity over the final window, worst actuator (sim/activity.py; judged only
+    # when activity_record_ok: records fine enough not to alias the chatter)
+    for key in ACTIVITY_COLUMNS:
+        value = m.get(key, math.nan)
+        row[key] = bool(value) if key == "activity_record_ok" else float(value)
     hit = _DIVERGED.search(result.message or "")
     row["divergence_time"] = float(hit.group(1)) if hit else math.nan
     row["divergence_signal"] = hit.group(2) if hit else ""

@@ -51,6 +51,13 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "t_end": "float64",
     "worst_recovery_time": "float64",
     "worst_recovery_rms": "float64",
+    # control activity over the final window, worst actuator (runner.ACTIVITY_COLUMNS)
+    "fast_rms_max": "float64",
+    "tv_per_s_max": "float64",
+    "peak_rate_max": "float64",
+    "rate_limited_fraction_max": "float64",
+    "peak_command_travel_ratio_max": "float64",
+    "activity_record_ok": "bool",
 }
 
 
