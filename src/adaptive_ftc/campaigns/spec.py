@@ -12,6 +12,8 @@ import dataclasses
 import hashlib
 import json
 import math
+import re
+import tempfile
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -22,7 +24,9 @@ import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
-from adaptive_ftc.scenarios.loader import Scenario, load_scenario
+from adaptive_ftc.scenarios.expressions import MAX_LENGTH
+from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
+from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
@@ -32,6 +36,9 @@ __all__ = [
     "CampaignSpec",
     "Dist",
     "FailureModelSpec",
+    "MAX_CHUNKS",
+    "MAX_CHUNK_SIZE",
+    "MAX_RUNS",
     "list_campaigns",
     "load_campaign",
     "register_design",
@@ -47,6 +54,20 @@ _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
 _FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
+_TEXT_KEYS = ("name", "title", "description")
+
+#: Most members of one campaign (each design of each member is one simulation).
+MAX_RUNS: int = 10_000_000
+#: Most members per chunk: a chunk's closed loops and rows are held in memory together.
+MAX_CHUNK_SIZE: int = 10_000
+#: Most chunks (part files) of one campaign.
+MAX_CHUNKS: int = 100_000
+#: Bytes per table cell, for the size estimate of a campaign's results (float64/int64).
+_CELL_BYTES = 8
+#: A scenario name usable as a file name: letters, digits, ``. _ -``, not starting with a dot.
+_SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9._-]{0,99}")
+#: A ``{name}`` placeholder of a drawn parameter in an expression field.
+_PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 
 class CampaignError(ScenarioError):
@@ -136,22 +157,52 @@ class Dist:
         return max(vals) if vals else 1.0
 
 
+def _short(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a spec value can be megabytes long)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) -> Dist:
-    """Parse a TOML value into a :class:`Dist`; record problems instead of raising."""
+def _dist(
+    value: Any,
+    where: str,
+    problems: list[str],
+    *,
+    numeric: bool = True,
+    vector: bool = False,
+    bounded: bool = False,
+) -> Dist:
+    """Parse a TOML value into a :class:`Dist`; record problems instead of raising.
+
+    ``vector``: a list is a vector of distributions (a vector field of a failure model);
+    elsewhere a list is refused. ``bounded``: the value feeds a model with a domain (failure
+    fields and params, gains, the reference amplitude), so a ``normal`` needs ``clip``.
+    """
     if _number(value) or (not numeric and isinstance(value, str)):
         return Dist("constant", (value,))
     if isinstance(value, list):  # a vector field (e.g. ParameterisedStuck coefficients)
+        if not vector:
+            problems.append(
+                f"[{where}] must be one number or one distribution table such as "
+                f"{{uniform = [a, b]}}, not a list; got {_short(value)}."
+            )
+            return Dist("constant", (0.0,))
+        if not value:
+            problems.append(f"[{where}] an empty list draws nothing; give at least one value.")
+            return Dist("constant", (0.0,))
         items = tuple(
-            _dist(v, f"{where}.{i + 1}", problems, numeric=numeric) for i, v in enumerate(value)
+            _dist(v, f"{where}.{i + 1}", problems, numeric=numeric, bounded=bounded)
+            for i, v in enumerate(value)
         )
         return Dist("vector", items)
     if not isinstance(value, dict):
         problems.append(
-            f"[{where}] must be a number or a table such as {{uniform = [a, b]}}; got {value!r}."
+            f"[{where}] must be a number or a table such as {{uniform = [a, b]}}; got "
+            f"{_short(value)}."
         )
         return Dist("constant", (0.0,))
     kinds = [k for k in value if k in _KINDS]
@@ -161,10 +212,13 @@ def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) 
         hint = did_you_mean(bad[0], _KINDS) if bad else ""
         problems.append(
             f"[{where}] needs exactly one of {', '.join(_KINDS)} (plus `weights` for choice, "
-            f"`clip` for normal); got keys {sorted(value)}.{hint}"
+            f"`clip` for normal); got keys {sorted(map(str, value))}.{hint}"
         )
         return Dist("constant", (0.0,))
     kind = kinds[0]
+    for key, owner in (("weights", "choice"), ("clip", "normal")):
+        if key in value and kind != owner:
+            problems.append(f"[{where}] `{key}` only applies to `{owner}`, not to `{kind}`.")
     args = value[kind]
     args = tuple(args) if isinstance(args, list) else (args,)
     if kind == "choice":
@@ -198,6 +252,13 @@ def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) 
                 clip = None
             elif clip[0] >= clip[1]:
                 problems.append(f"[{where}] `clip` needs lo < hi; got {clip}.")
+        elif bounded:
+            problems.append(
+                f"[{where}] `normal` without `clip` draws values without bound, which can leave "
+                "the model's domain at run time (e.g. a negative effectiveness). Add "
+                f"`clip = [lo, hi]` inside the domain, e.g. {{normal = [{a}, {b}], clip = "
+                "[0, 1]} for an effectiveness, or use `uniform`."
+            )
         return Dist("normal", (float(a), float(b)), clip=tuple(clip) if clip else None)
     if a > b:
         problems.append(f"[{where}] `{kind}` needs a <= b; got [{a}, {b}].")
@@ -252,13 +313,24 @@ def _model_spec(name: str, table: Any, problems: list[str]) -> FailureModelSpec 
     if not isinstance(params_t, dict):
         problems.append(f"[{where}.params] must be a table of distributions.")
         params_t = {}
-    params = tuple((k, _dist(v, f"{where}.params.{k}", problems)) for k, v in params_t.items())
+    params = []
+    for k, v in params_t.items():
+        if not _PLACEHOLDER.fullmatch(f"{{{k}}}"):
+            problems.append(
+                f"[{where}.params] `{_short(k)}` is not a usable placeholder name: use letters, "
+                "digits and _ (not starting with a digit)."
+            )
+            continue
+        params.append((k, _dist(v, f"{where}.params.{k}", problems, bounded=True)))
     fields = []
     for key, f in own.items():
         if key not in table:
             continue
         text_ok = any(t in str(f.type) for t in ("Value", "str"))
-        fields.append((key, _dist(table[key], f"{where}.{key}", problems, numeric=not text_ok)))
+        d = _dist(
+            table[key], f"{where}.{key}", problems, numeric=not text_ok, vector=True, bounded=True
+        )
+        fields.append((key, d))
     sev = table.get("severity")
     names = [k for k, _ in fields] + [k for k, _ in params]
     if sev is not None and sev not in names:
@@ -267,7 +339,7 @@ def _model_spec(name: str, table: Any, problems: list[str]) -> FailureModelSpec 
             f" got {sev!r}."
         )
         sev = None
-    spec = FailureModelSpec(name, float(weight), tuple(fields), params, sev)
+    spec = FailureModelSpec(name, float(weight), tuple(fields), tuple(params), sev)
     _check_extremes(spec, problems)
     return spec
 
@@ -276,30 +348,69 @@ def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
     """Build the failure at the extremes of every distribution: an impossible value (negative
     effectiveness, ...) is refused now instead of in the middle of the campaign."""
     cls = FAILURE_MODELS[spec.model]
-    params = {k: d.support()[0] for k, d in spec.params}
+    lows = {k: d.support()[0] for k, d in spec.params}
     base = {k: d.support()[0] for k, d in spec.fields}
-    cases = [base]
+    cases = [(base, lows)]
     for key, d in spec.fields:
         for v in d.support():
-            cases.append({**base, key: v})
+            cases.append(({**base, key: v}, lows))
+    for key, d in spec.params:  # each drawn param at each end of its range
+        for v in d.support():
+            cases.append((base, {**lows, key: v}))
     seen = set()
-    for case in cases:
+    for case, params in cases:
         try:
-            kwargs = {k: _fill(v, params) for k, v in case.items()}
+            kwargs = {k: _fill(v, params, f"failures.models.{spec.model}.{k}") for k, v in case.items()}
             cls(actuator=1, onset=0.0, **kwargs)
-        except (ConfigurationError, ExpressionError, KeyError, ValueError, TypeError) as exc:
-            msg = str(exc) if not isinstance(exc, KeyError) else f"unknown placeholder {exc}"
+        except (ConfigurationError, ExpressionError, ValueError, TypeError) as exc:
+            msg = str(exc)
             if msg not in seen:
                 seen.add(msg)
                 problems.append(f"[failures.models.{spec.model}] impossible draw: {msg}")
 
 
-def _fill(value: Any, params: dict[str, Any]) -> Any:
-    """Substitute ``{name}`` placeholders of an expression string with drawn params."""
-    if isinstance(value, str) and "{" in value:
-        return value.format(**{k: f"({float(v)!r})" for k, v in params.items()})
-    if isinstance(value, list):
-        return tuple(_fill(v, params) for v in value)
+def _fill(value: Any, params: dict[str, Any], where: str = "failures.models") -> Any:
+    """Substitute ``{name}`` placeholders of an expression string with drawn params.
+
+    The substitution is structural: each ``{name}`` (a drawn param) is replaced by the
+    parenthesised number; any other brace (format specs such as ``{a:>9}``, positional
+    ``{0}``, ``{{``) is refused, and the length limit of expressions is checked first, so a
+    spec cannot make the text grow before it is checked.
+
+    Raises
+    ------
+    CampaignError
+        Naming the field, for an unknown placeholder, a stray brace or a too-long text.
+    """
+    if isinstance(value, str) and ("{" in value or "}" in value):
+        if len(value) > MAX_LENGTH:
+            raise CampaignError(
+                f"[{where}] the expression has {len(value)} characters; the limit is "
+                f"{MAX_LENGTH}. Shorten it."
+            )
+        stray = _PLACEHOLDER.sub("", value)
+        if "{" in stray or "}" in stray:
+            raise CampaignError(
+                f"[{where}] {_short(value)}: braces are only allowed around the name of a drawn "
+                "param, e.g. '{a}*u' with params = {a = {uniform = [0.5, 1]}} (no format specs, "
+                "no positions)."
+            )
+        unknown = sorted({n for n in _PLACEHOLDER.findall(value) if n not in params})
+        if unknown:
+            names = ", ".join(sorted(params)) or "none"
+            raise CampaignError(
+                f"[{where}] unknown placeholder {{{unknown[0]}}}: the drawn params are {names}. "
+                f"Declare it in `params`, e.g. params = {{{unknown[0]} = {{uniform = [0, 1]}}}}."
+            )
+        text = _PLACEHOLDER.sub(lambda mt: f"({float(params[mt.group(1)])!r})", value)
+        if len(text) > MAX_LENGTH:
+            raise CampaignError(
+                f"[{where}] the expression has {len(text)} characters once its params are "
+                f"substituted; the limit is {MAX_LENGTH}. Shorten it."
+            )
+        return text
+    if isinstance(value, (list, tuple)):
+        return tuple(_fill(v, params, where) for v in value)
     return value
 
 
@@ -407,10 +518,7 @@ def load_campaign(
             raise CampaignError(f"{path}: not valid TOML: {exc}.") from None
         label, base_dir = str(path), path.parent
     problems: list[str] = []
-    try:
-        spec_obj = _parse(data, base_dir, problems)
-    except ScenarioError as exc:  # the base scenario itself is broken: nothing else to check
-        raise CampaignError(f"{label}: [base] {exc}") from None
+    spec_obj = _parse(data, base_dir, problems)
     if problems:
         lines = "\n".join(f"  - {p}" for p in problems)
         raise CampaignError(f"{label}: {len(problems)} problem(s), nothing was run:\n{lines}")
@@ -422,56 +530,56 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
     for key in data:
         if key not in _TOP:
             problems.append(
-                f"[top] unknown key '{key}'.{did_you_mean(key, _TOP)} "
+                f"[top] unknown key {_short(key)}.{did_you_mean(str(key), _TOP)} "
                 f"Allowed keys: {', '.join(sorted(_TOP))}."
             )
+    for key in _TEXT_KEYS:
+        if key in data and not isinstance(data[key], str):
+            problems.append(f"[top] `{key}` must be a text; got {_short(data[key])}.")
+    if isinstance(data.get("name"), str) and not _SAFE_NAME.fullmatch(data["name"]):
+        problems.append(
+            f"[top] `name` {_short(data['name'])} is used in file names: use 1-100 letters, "
+            "digits, '.', '_' or '-', not starting with '.' or '-'."
+        )
     # base scenario: a catalogue name, a file (relative to the spec) or an inlined scenario
     base = data.get("base")
     saved = dict(data)
-    if isinstance(base, dict):  # inlined by a previous save
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            p = Path(tmp) / f"{base.get('name', 'base')}.toml"
-            p.write_text(base["text"], encoding="utf-8")
-            scenario = load_scenario(p)
-    elif isinstance(base, str):
-        candidate = (base_dir / base) if base.endswith(".toml") else None
-        if candidate is not None and candidate.is_file():
-            scenario = load_scenario(candidate)
-            saved["base"] = {"name": candidate.stem, "text": candidate.read_text("utf-8")}
+    scenario = None
+    try:
+        if isinstance(base, dict):  # inlined by a previous save
+            scenario = _inline_base(base, problems)
+        elif isinstance(base, str):
+            candidate = (base_dir / base) if base.endswith(".toml") else None
+            if candidate is not None and candidate.is_file():
+                scenario = load_scenario(candidate)
+                saved["base"] = {"name": candidate.stem, "text": candidate.read_text("utf-8")}
+            else:
+                scenario = load_scenario(base)
+        elif base is None:
+            problems.append("[top] missing key 'base' (a catalogue scenario name or a .toml path).")
         else:
-            scenario = load_scenario(base)
-    else:
-        raise CampaignError("missing key 'base' (a catalogue scenario name or a .toml path).")
+            problems.append(
+                f"[top] `base` must be a catalogue scenario name or a .toml path; got "
+                f"{_short(base)}."
+            )
+    except ScenarioError as exc:  # the base scenario itself is broken
+        problems.append(f"[base] {exc}")
+    runs, seed, chunk, designs = _top_numbers(data, problems)
+    if scenario is None:
+        return None
     loop = scenario.loop
     m, n = loop.plant.n_actuators, loop.plant.n_states
-    name = str(data.get("name", "campaign"))
-
-    def integer(key: str, default: Any, lo: int) -> int:
-        v = data.get(key, default)
-        if v is None or isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            problems.append(f"[top] `{key}` must be a whole number >= {lo}; got {v!r}.")
-            return max(lo, 1)
-        return v
-
-    runs = integer("runs", None, 1)
-    seed = integer("seed", None, 0)
-    chunk = integer("chunk_size", 50, 1)
-    designs = data.get("designs", ["adaptive"])
-    if not isinstance(designs, list) or not designs:
-        problems.append(f"[top] `designs` must be a non-empty list; got {designs!r}.")
-        designs = ["adaptive"]
-    for d in designs:
-        if d not in DESIGN_VARIANTS:
-            problems.append(
-                f"[top] unknown design '{d}'.{did_you_mean(str(d), DESIGN_VARIANTS)} "
-                f"Available: {', '.join(DESIGN_VARIANTS)}."
-            )
+    name = data["name"] if isinstance(data.get("name"), str) else "campaign"
     t_final = data.get("duration", loop.t_final)
     if not _number(t_final) or t_final <= loop.t0:
-        problems.append(f"[top] `duration` must be a time > {loop.t0} s; got {t_final!r}.")
+        problems.append(f"[top] `duration` must be a time > {loop.t0} s; got {_short(t_final)}.")
         t_final = loop.t_final
+    else:
+        try:  # each run of the campaign must fit the run-size budget
+            check_run_size(dataclasses.replace(loop, t_final=float(t_final)), scenario.solver)
+        except ConfigurationError as exc:
+            problems.append(f"[top] `duration = {t_final:g}` s: {exc}")
+            t_final = loop.t_final
     # success criterion
     st = data.get("success", {})
     _keys(st, _SUCCESS_KEYS, "success", problems)
@@ -576,11 +684,26 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         x0 = []
     x0d = tuple((i, _dist(v, f"ranges.initial_state.{i + 1}", problems)) for i, v in enumerate(x0))
     amp = rt.get("reference_amplitude")
-    ampd = None if amp is None else _dist(amp, "ranges.reference_amplitude", problems)
+    ampd = None
+    if amp is not None:
+        ampd = _dist(amp, "ranges.reference_amplitude", problems, bounded=True)
+        lo_a = min(ampd.support())
+        if lo_a <= 0:
+            problems.append(
+                "[ranges.reference_amplitude] the amplitude multiplies the base reference and "
+                f"must be > 0 (0 leaves nothing to track, < 0 flips it); the range reaches "
+                f"{lo_a}."
+            )
     gt = rt.get("gains", {})
+    if not isinstance(gt, dict):
+        problems.append(
+            f"[ranges.gains] must be a table of gain distributions, e.g. gains = {{gamma = "
+            f"{{uniform = [0.5, 2]}}}}; got {_short(gt)}."
+        )
+        gt = {}
     ctrl_fields = {f.name for f in dataclasses.fields(loop.controller) if f.init} - {"regressor"}
     gains = []
-    for key, v in gt.items() if isinstance(gt, dict) else ():
+    for key, v in gt.items():
         if key not in ctrl_fields:
             problems.append(
                 f"[ranges.gains] unknown gain '{key}' of design "
@@ -588,7 +711,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
                 f"Available: {', '.join(sorted(ctrl_fields))}."
             )
             continue
-        d = _dist(v, f"ranges.gains.{key}", problems)
+        d = _dist(v, f"ranges.gains.{key}", problems, bounded=True)
         for value in d.support():
             try:
                 dataclasses.replace(loop.controller, **{key: value})
@@ -596,6 +719,12 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
                 problems.append(f"[ranges.gains.{key}] impossible draw: {exc}")
                 break
         gains.append((key, d))
+    keep_base = ft.get("keep_base", False)
+    if not isinstance(keep_base, bool):
+        problems.append(f"[failures] `keep_base` must be true or false; got {_short(keep_base)}.")
+        keep_base = False
+    if keep_base and hi_c > 0:
+        _check_kept_overlap(scenario, acts, onset, duration, prob, problems)
     if problems:
         return None
     return CampaignSpec(
@@ -614,7 +743,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         recovery_probability=float(prob),
         duration=duration,
         models=models,
-        keep_base=bool(ft.get("keep_base", False)),
+        keep_base=keep_base,
         initial_state=x0d,
         reference_amplitude=ampd,
         gains=tuple(gains),
@@ -623,6 +752,147 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         recovery_tolerance=succ["recovery_tolerance"],
         data=saved,
     )
+
+
+def _check_kept_overlap(
+    scenario: Scenario,
+    acts: list[int],
+    onset: Dist,
+    duration: Dist,
+    recovery_probability: float,
+    problems: list[str],
+) -> None:
+    """With ``keep_base``, a drawn failure must not overlap a kept base failure on the same
+    actuator (the failure schedule refuses overlaps, which would make members invalid)."""
+    lo = float(min(onset.support()))
+    hi = float(max(onset.support()))
+    if recovery_probability < 1:
+        end = math.inf
+    else:
+        end = hi + float(max(duration.support()))
+    for f in scenario.loop.failures.failures:
+        if f.actuator not in acts:
+            continue
+        b_end = float(f.end)
+        if f.onset < end and lo < b_end:
+            drawn = f"[{lo:g}, {'end of run' if math.isinf(end) else f'{end:g} s'})"
+            kept = f"[{f.onset:g}, {'end of run' if math.isinf(b_end) else f'{b_end:g} s'})"
+            problems.append(
+                f"[failures] keep_base = true keeps the base's {type(f).__name__} on actuator "
+                f"{f.actuator} over {kept}, and drawn failures on actuator {f.actuator} can act "
+                f"over {drawn}: they would overlap and every such member would be invalid. "
+                f"Remove actuator {f.actuator} from `actuators`, move the `onset` range out of "
+                "the kept window (with recovery_probability = 1 and a bounded `duration` if the "
+                "drawn failure comes first), or set keep_base = false."
+            )
+
+
+def _top_numbers(
+    data: dict[str, Any], problems: list[str]
+) -> tuple[int, int, int, list[str]]:
+    """``runs``, ``seed``, ``chunk_size`` and ``designs``, with the campaign's size limits."""
+
+    def integer(key: str, default: Any, lo: int, hi: int | None = None) -> int | None:
+        v = data.get(key, default)
+        if v is None or isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            problems.append(f"[top] `{key}` must be a whole number >= {lo}; got {_short(v)}.")
+            return None
+        return v
+
+    designs = data.get("designs", ["adaptive"])
+    if not isinstance(designs, list) or not designs:
+        problems.append(f"[top] `designs` must be a non-empty list; got {_short(designs)}.")
+        designs = ["adaptive"]
+    ok = []
+    for d in designs:
+        if not isinstance(d, str):
+            problems.append(f"[top] `designs` lists names (texts); got {_short(d)}.")
+        elif d not in DESIGN_VARIANTS:
+            problems.append(
+                f"[top] unknown design {_short(d)}.{did_you_mean(d, DESIGN_VARIANTS)} "
+                f"Available: {', '.join(DESIGN_VARIANTS)}."
+            )
+        elif d in ok:
+            problems.append(f"[top] design '{d}' is listed twice in `designs`.")
+        else:
+            ok.append(d)
+    designs = ok or ["adaptive"]
+    runs = integer("runs", None, 1)
+    seed = integer("seed", None, 0)
+    chunk = integer("chunk_size", 50, 1)
+    n_designs = len(designs)
+    if runs is not None and runs > MAX_RUNS:
+        sims = runs * n_designs
+        rows = _human_bytes(sims * (len(_TOP) + 20) * _CELL_BYTES)
+        problems.append(
+            f"[top] `runs = {runs}` x {n_designs} design(s) = {sims:.3g} simulations (a results "
+            f"table of about {rows}); the limit is {MAX_RUNS} members. Lower `runs`."
+        )
+        runs = None
+    if chunk is not None and chunk > MAX_CHUNK_SIZE:
+        problems.append(
+            f"[top] `chunk_size = {chunk}` holds {chunk * n_designs:.3g} closed loops and their "
+            f"rows in memory at once; the limit is {MAX_CHUNK_SIZE} members per chunk. Lower "
+            "`chunk_size` (50-1000 suits most campaigns)."
+        )
+        chunk = None
+    if runs is not None and chunk is not None and -(-runs // chunk) > MAX_CHUNKS:
+        need = -(-runs // MAX_CHUNKS)
+        problems.append(
+            f"[top] `runs = {runs}` with `chunk_size = {chunk}` makes {-(-runs // chunk)} part "
+            f"files; the limit is {MAX_CHUNKS} chunks. Raise `chunk_size` to at least {need}."
+        )
+        chunk = None
+    return runs or 1, seed or 0, chunk or 1, designs
+
+
+def _human_bytes(n: float) -> str:
+    for unit, scale in (("PiB", 1024**5), ("TiB", 1024**4), ("GiB", 1024**3), ("MiB", 1024**2)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n / 1024:.3g} KiB"
+
+
+def _inline_base(base: dict[str, Any], problems: list[str]) -> Scenario | None:
+    """Load a base scenario inlined as ``{name, text}`` (the form saved in campaign.json).
+
+    The table is checked before anything is written: exactly the keys ``name`` (a safe file
+    name) and ``text`` (at most the scenario file size limit). The text is then loaded from a
+    private temporary folder (created 0700 by :func:`tempfile.mkdtemp`) under that name, and
+    the folder is removed.
+    """
+    keys = set(map(str, base))
+    if keys != {"name", "text"}:
+        problems.append(
+            "[base] an inlined base scenario is a table with exactly the keys `name` and `text` "
+            f"(as saved in campaign.json); got keys {sorted(keys)}. Or give a catalogue name or "
+            "a .toml path."
+        )
+        return None
+    name, text = base["name"], base["text"]
+    bad = False
+    if not isinstance(name, str) or not _SAFE_NAME.fullmatch(name):
+        problems.append(
+            f"[base] `name` of the inlined scenario must be 1-100 letters, digits, '.', '_' or "
+            f"'-' (a file name, no folders); got {_short(name)}."
+        )
+        bad = True
+    try:
+        size = len(text.encode("utf-8")) if isinstance(text, str) else None
+    except UnicodeEncodeError:
+        size = None
+    if size is None or size > MAX_FILE_BYTES:
+        problems.append(
+            f"[base] `text` of the inlined scenario must be UTF-8 TOML text of at most "
+            f"{MAX_FILE_BYTES} bytes; got {_short(text, 40)}."
+        )
+        bad = True
+    if bad:
+        return None
+    with tempfile.TemporaryDirectory(prefix="aftc-base-") as tmp:
+        path = Path(tmp) / f"{name}.toml"
+        path.write_text(text, encoding="utf-8")
+        return load_scenario(path)
 
 
 def _keys(table: Any, allowed: set[str], where: str, problems: list[str]) -> None:
