@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from adaptive_ftc import _version
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.scenarios.expressions import MAX_LENGTH
@@ -360,7 +361,9 @@ def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
     seen = set()
     for case, params in cases:
         try:
-            kwargs = {k: _fill(v, params, f"failures.models.{spec.model}.{k}") for k, v in case.items()}
+            kwargs = {
+                k: _fill(v, params, f"failures.models.{spec.model}.{k}") for k, v in case.items()
+            }
             cls(actuator=1, onset=0.0, **kwargs)
         except (ConfigurationError, ExpressionError, ValueError, TypeError) as exc:
             msg = str(exc)
@@ -464,9 +467,11 @@ class CampaignSpec:
         return int(max(self.count.support()))
 
     def digest(self) -> str:
-        """SHA-256 of the self-contained spec: same digest, same campaign."""
+        """SHA-256 of the self-contained spec and the package version: same digest, same
+        campaign computed by the same code (a resume after an upgrade is refused)."""
         # key order matters (the model mix is drawn in spec order), so it is not sorted
         text = json.dumps(self.data, default=str)
+        text = f"adaptive-ftc {_version.__version__}\n{text}"
         return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -787,9 +792,7 @@ def _check_kept_overlap(
             )
 
 
-def _top_numbers(
-    data: dict[str, Any], problems: list[str]
-) -> tuple[int, int, int, list[str]]:
+def _top_numbers(data: dict[str, Any], problems: list[str]) -> tuple[int, int, int, list[str]]:
     """``runs``, ``seed``, ``chunk_size`` and ``designs``, with the campaign's size limits."""
 
     def integer(key: str, default: Any, lo: int, hi: int | None = None) -> int | None:
