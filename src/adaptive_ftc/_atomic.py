@@ -206,7 +206,7 @@ def commit_staged(stage: Path, out: Path) -> list[Path]:
     remove ``stage``. Returns the target paths."""
     moved = []
     for src in sorted(p for p in stage.rglob("*") if p.is_file()):
-        dst = out / src.relative_to(stage)
+        dst = inside(out, out / src.relative_to(stage))
         dst.parent.mkdir(parents=True, exist_ok=True)
         os.replace(src, dst)
         moved.append(dst)
