@@ -63,6 +63,13 @@ TINY = {
         "reference_amplitude": {"loguniform": [0.5, 2.0]},
         "gains": {"gamma": {"uniform": [0.5, 2.0]}},
     },
+    "hardware": {
+        "lag": {"uniform": [0.0, 0.05]},
+        "rate_limit": [{"loguniform": [0.5, 10.0]}, 5.0],
+        "travel": {"uniform": [0.3, 1.0]},
+        "sample_time": {"choice": [0.0, 0.005]},
+        "noise": {"alpha": {"uniform": [0.0, 1e-3]}},
+    },
 }
 SEEDS = [TINY] + [tomllib.loads((EXAMPLES / f"{n}.toml").read_text()) for n in list_campaigns()]
 

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from adaptive_ftc import _version
+from adaptive_ftc.campaigns.hardware import HardwareSpec, parse_hardware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.scenarios.expressions import MAX_LENGTH
@@ -50,7 +51,7 @@ EXAMPLES = Path(__file__).with_name("examples")
 
 _COMMON = ("actuator", "onset", "recovery", "ramp")
 _TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "designs"}
-_TOP |= {"duration", "success", "failures", "ranges"}
+_TOP |= {"duration", "success", "failures", "ranges", "hardware"}
 _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
 _FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
@@ -450,6 +451,7 @@ class CampaignSpec:
     final_window: float
     recovery_tolerance: float
     data: dict[str, Any] = field(compare=False, repr=False)
+    hardware: HardwareSpec | None = None
 
     @property
     def loop(self) -> ClosedLoop:
@@ -724,6 +726,13 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
                 problems.append(f"[ranges.gains.{key}] impossible draw: {exc}")
                 break
         gains.append((key, d))
+    hardware = parse_hardware(
+        data.get("hardware"),
+        dataclasses.replace(loop, t_final=float(t_final)),
+        scenario.solver,
+        problems,
+        _dist,
+    )
     keep_base = ft.get("keep_base", False)
     if not isinstance(keep_base, bool):
         problems.append(f"[failures] `keep_base` must be true or false; got {_short(keep_base)}.")
@@ -756,6 +765,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         final_window=succ["final_window"],
         recovery_tolerance=succ["recovery_tolerance"],
         data=saved,
+        hardware=hardware,
     )
 
 

@@ -100,6 +100,8 @@ def schema(spec: CampaignSpec):
     if spec.reference_amplitude is not None:
         cols.append(("reference_amplitude", "float64"))
     cols += [(f"gain_{k}", "float64") for k, _ in spec.gains]
+    if spec.hardware is not None:
+        cols += [(c, "float64") for c in spec.hardware.columns(spec.loop.plant.n_actuators)]
     cols += [("compensable", "bool"), ("compensability", "string")]
     cols += list(OUTCOME_COLUMNS.items())
     return pa.schema([(name, types[t]) for name, t in cols])
