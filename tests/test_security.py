@@ -196,3 +196,10 @@ def test_aftc_run_after_a_kill_leaves_no_staging_folder(tmp_path):
 def test_the_hostname_in_staging_names_cannot_inject_separators(monkeypatch):
     monkeypatch.setattr(socket, "gethostname", lambda: "a-b/../c@d")
     assert _atomic._host() == "a_b_.._c_d"
+
+
+def test_atomic_docstring_examples():
+    import doctest
+
+    failures, _ = doctest.testmod(_atomic, optionflags=doctest.ELLIPSIS)
+    assert failures == 0
