@@ -12,8 +12,9 @@ import pytest
 
 from adaptive_ftc import _version
 from adaptive_ftc.campaigns import CampaignError, draw_member, load_campaign, run_campaign, store
+from adaptive_ftc.campaigns.checks import _fill
 from adaptive_ftc.campaigns.replay import load_saved_spec
-from adaptive_ftc.campaigns.spec import MAX_CHUNKS, MAX_RUNS, _fill
+from adaptive_ftc.campaigns.spec import MAX_CHUNKS, MAX_RUNS
 from adaptive_ftc.cli import main as aftc
 from adaptive_ftc.scenarios.expressions import MAX_LENGTH
 

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec, _fill
+from adaptive_ftc.campaigns.checks import _fill
+from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec
 from adaptive_ftc.errors import ConfigurationError, ExpressionError
 from adaptive_ftc.faults import FAILURE_MODELS, Failure
 from adaptive_ftc.sim.system import ClosedLoop

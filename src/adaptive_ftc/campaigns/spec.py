@@ -12,8 +12,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import re
-import tempfile
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -23,11 +21,22 @@ from typing import Any
 import numpy as np
 
 from adaptive_ftc import _version
+from adaptive_ftc.campaigns.checks import (
+    _PLACEHOLDER,
+    MAX_CHUNK_SIZE,
+    MAX_CHUNKS,
+    MAX_RUNS,
+    _check_kept_overlap,
+    _fill,
+    _inline_base,
+    _short,
+    _top_numbers,
+    safe_name,
+)
 from adaptive_ftc.campaigns.hardware import HardwareSpec, parse_hardware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
-from adaptive_ftc.scenarios.expressions import MAX_LENGTH
-from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
+from adaptive_ftc.scenarios.loader import Scenario, load_scenario
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -57,19 +66,6 @@ _FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
 _TEXT_KEYS = ("name", "title", "description")
-
-#: Most members of one campaign (each design of each member is one simulation).
-MAX_RUNS: int = 10_000_000
-#: Most members per chunk: a chunk's closed loops and rows are held in memory together.
-MAX_CHUNK_SIZE: int = 10_000
-#: Most chunks (part files) of one campaign.
-MAX_CHUNKS: int = 100_000
-#: Bytes per table cell, for the size estimate of a campaign's results (float64/int64).
-_CELL_BYTES = 8
-#: A scenario name usable as a file name: letters, digits, ``. _ -``, not starting with a dot.
-_SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9._-]{0,99}")
-#: A ``{name}`` placeholder of a drawn parameter in an expression field.
-_PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 
 class CampaignError(ScenarioError):
@@ -157,12 +153,6 @@ class Dist:
         """Largest magnitude of the support (used to normalise severities)."""
         vals = [abs(v) for v in self.support() if isinstance(v, (int, float))]
         return max(vals) if vals else 1.0
-
-
-def _short(value: Any, limit: int = 60) -> str:
-    """``repr(value)`` cut to ``limit`` characters (a spec value can be megabytes long)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _number(v: Any) -> bool:
@@ -373,51 +363,6 @@ def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
                 problems.append(f"[failures.models.{spec.model}] impossible draw: {msg}")
 
 
-def _fill(value: Any, params: dict[str, Any], where: str = "failures.models") -> Any:
-    """Substitute ``{name}`` placeholders of an expression string with drawn params.
-
-    The substitution is structural: each ``{name}`` (a drawn param) is replaced by the
-    parenthesised number; any other brace (format specs such as ``{a:>9}``, positional
-    ``{0}``, ``{{``) is refused, and the length limit of expressions is checked first, so a
-    spec cannot make the text grow before it is checked.
-
-    Raises
-    ------
-    CampaignError
-        Naming the field, for an unknown placeholder, a stray brace or a too-long text.
-    """
-    if isinstance(value, str) and ("{" in value or "}" in value):
-        if len(value) > MAX_LENGTH:
-            raise CampaignError(
-                f"[{where}] the expression has {len(value)} characters; the limit is "
-                f"{MAX_LENGTH}. Shorten it."
-            )
-        stray = _PLACEHOLDER.sub("", value)
-        if "{" in stray or "}" in stray:
-            raise CampaignError(
-                f"[{where}] {_short(value)}: braces are only allowed around the name of a drawn "
-                "param, e.g. '{a}*u' with params = {a = {uniform = [0.5, 1]}} (no format specs, "
-                "no positions)."
-            )
-        unknown = sorted({n for n in _PLACEHOLDER.findall(value) if n not in params})
-        if unknown:
-            names = ", ".join(sorted(params)) or "none"
-            raise CampaignError(
-                f"[{where}] unknown placeholder {{{unknown[0]}}}: the drawn params are {names}. "
-                f"Declare it in `params`, e.g. params = {{{unknown[0]} = {{uniform = [0, 1]}}}}."
-            )
-        text = _PLACEHOLDER.sub(lambda mt: f"({float(params[mt.group(1)])!r})", value)
-        if len(text) > MAX_LENGTH:
-            raise CampaignError(
-                f"[{where}] the expression has {len(text)} characters once its params are "
-                f"substituted; the limit is {MAX_LENGTH}. Shorten it."
-            )
-        return text
-    if isinstance(value, (list, tuple)):
-        return tuple(_fill(v, params, where) for v in value)
-    return value
-
-
 # ---------------------------------------------------------------------------- the spec
 @dataclass(frozen=True)
 class CampaignSpec:
@@ -543,7 +488,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
     for key in _TEXT_KEYS:
         if key in data and not isinstance(data[key], str):
             problems.append(f"[top] `{key}` must be a text; got {_short(data[key])}.")
-    if isinstance(data.get("name"), str) and not _SAFE_NAME.fullmatch(data["name"]):
+    if isinstance(data.get("name"), str) and not safe_name(data["name"]):
         problems.append(
             f"[top] `name` {_short(data['name'])} is used in file names: use 1-100 letters, "
             "digits, '.', '_' or '-', not starting with '.' or '-'."
@@ -571,7 +516,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
             )
     except ScenarioError as exc:  # the base scenario itself is broken
         problems.append(f"[base] {exc}")
-    runs, seed, chunk, designs = _top_numbers(data, problems)
+    runs, seed, chunk, designs = _top_numbers(data, problems, DESIGN_VARIANTS)
     if scenario is None:
         return None
     loop = scenario.loop
@@ -767,145 +712,6 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         data=saved,
         hardware=hardware,
     )
-
-
-def _check_kept_overlap(
-    scenario: Scenario,
-    acts: list[int],
-    onset: Dist,
-    duration: Dist,
-    recovery_probability: float,
-    problems: list[str],
-) -> None:
-    """With ``keep_base``, a drawn failure must not overlap a kept base failure on the same
-    actuator (the failure schedule refuses overlaps, which would make members invalid)."""
-    lo = float(min(onset.support()))
-    hi = float(max(onset.support()))
-    if recovery_probability < 1:
-        end = math.inf
-    else:
-        end = hi + float(max(duration.support()))
-    for f in scenario.loop.failures.failures:
-        if f.actuator not in acts:
-            continue
-        b_end = float(f.end)
-        if f.onset < end and lo < b_end:
-            drawn = f"[{lo:g}, {'end of run' if math.isinf(end) else f'{end:g} s'})"
-            kept = f"[{f.onset:g}, {'end of run' if math.isinf(b_end) else f'{b_end:g} s'})"
-            problems.append(
-                f"[failures] keep_base = true keeps the base's {type(f).__name__} on actuator "
-                f"{f.actuator} over {kept}, and drawn failures on actuator {f.actuator} can act "
-                f"over {drawn}: they would overlap and every such member would be invalid. "
-                f"Remove actuator {f.actuator} from `actuators`, move the `onset` range out of "
-                "the kept window (with recovery_probability = 1 and a bounded `duration` if the "
-                "drawn failure comes first), or set keep_base = false."
-            )
-
-
-def _top_numbers(data: dict[str, Any], problems: list[str]) -> tuple[int, int, int, list[str]]:
-    """``runs``, ``seed``, ``chunk_size`` and ``designs``, with the campaign's size limits."""
-
-    def integer(key: str, default: Any, lo: int, hi: int | None = None) -> int | None:
-        v = data.get(key, default)
-        if v is None or isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            problems.append(f"[top] `{key}` must be a whole number >= {lo}; got {_short(v)}.")
-            return None
-        return v
-
-    designs = data.get("designs", ["adaptive"])
-    if not isinstance(designs, list) or not designs:
-        problems.append(f"[top] `designs` must be a non-empty list; got {_short(designs)}.")
-        designs = ["adaptive"]
-    ok = []
-    for d in designs:
-        if not isinstance(d, str):
-            problems.append(f"[top] `designs` lists names (texts); got {_short(d)}.")
-        elif d not in DESIGN_VARIANTS:
-            problems.append(
-                f"[top] unknown design {_short(d)}.{did_you_mean(d, DESIGN_VARIANTS)} "
-                f"Available: {', '.join(DESIGN_VARIANTS)}."
-            )
-        elif d in ok:
-            problems.append(f"[top] design '{d}' is listed twice in `designs`.")
-        else:
-            ok.append(d)
-    designs = ok or ["adaptive"]
-    runs = integer("runs", None, 1)
-    seed = integer("seed", None, 0)
-    chunk = integer("chunk_size", 50, 1)
-    n_designs = len(designs)
-    if runs is not None and runs > MAX_RUNS:
-        sims = runs * n_designs
-        rows = _human_bytes(sims * (len(_TOP) + 20) * _CELL_BYTES)
-        problems.append(
-            f"[top] `runs = {runs}` x {n_designs} design(s) = {sims:.3g} simulations (a results "
-            f"table of about {rows}); the limit is {MAX_RUNS} members. Lower `runs`."
-        )
-        runs = None
-    if chunk is not None and chunk > MAX_CHUNK_SIZE:
-        problems.append(
-            f"[top] `chunk_size = {chunk}` holds {chunk * n_designs:.3g} closed loops and their "
-            f"rows in memory at once; the limit is {MAX_CHUNK_SIZE} members per chunk. Lower "
-            "`chunk_size` (50-1000 suits most campaigns)."
-        )
-        chunk = None
-    if runs is not None and chunk is not None and -(-runs // chunk) > MAX_CHUNKS:
-        need = -(-runs // MAX_CHUNKS)
-        problems.append(
-            f"[top] `runs = {runs}` with `chunk_size = {chunk}` makes {-(-runs // chunk)} part "
-            f"files; the limit is {MAX_CHUNKS} chunks. Raise `chunk_size` to at least {need}."
-        )
-        chunk = None
-    return runs or 1, seed or 0, chunk or 1, designs
-
-
-def _human_bytes(n: float) -> str:
-    for unit, scale in (("PiB", 1024**5), ("TiB", 1024**4), ("GiB", 1024**3), ("MiB", 1024**2)):
-        if n >= scale:
-            return f"{n / scale:.3g} {unit}"
-    return f"{n / 1024:.3g} KiB"
-
-
-def _inline_base(base: dict[str, Any], problems: list[str]) -> Scenario | None:
-    """Load a base scenario inlined as ``{name, text}`` (the form saved in campaign.json).
-
-    The table is checked before anything is written: exactly the keys ``name`` (a safe file
-    name) and ``text`` (at most the scenario file size limit). The text is then loaded from a
-    private temporary folder (created 0700 by :func:`tempfile.mkdtemp`) under that name, and
-    the folder is removed.
-    """
-    keys = set(map(str, base))
-    if keys != {"name", "text"}:
-        problems.append(
-            "[base] an inlined base scenario is a table with exactly the keys `name` and `text` "
-            f"(as saved in campaign.json); got keys {sorted(keys)}. Or give a catalogue name or "
-            "a .toml path."
-        )
-        return None
-    name, text = base["name"], base["text"]
-    bad = False
-    if not isinstance(name, str) or not _SAFE_NAME.fullmatch(name):
-        problems.append(
-            f"[base] `name` of the inlined scenario must be 1-100 letters, digits, '.', '_' or "
-            f"'-' (a file name, no folders); got {_short(name)}."
-        )
-        bad = True
-    try:
-        size = len(text.encode("utf-8")) if isinstance(text, str) else None
-    except UnicodeEncodeError:
-        size = None
-    if size is None or size > MAX_FILE_BYTES:
-        problems.append(
-            f"[base] `text` of the inlined scenario must be UTF-8 TOML text of at most "
-            f"{MAX_FILE_BYTES} bytes; got {_short(text, 40)}."
-        )
-        bad = True
-    if bad:
-        return None
-    with tempfile.TemporaryDirectory(prefix="aftc-base-") as tmp:
-        path = Path(tmp) / f"{name}.toml"
-        path.write_text(text, encoding="utf-8")
-        return load_scenario(path)
 
 
 def _keys(table: Any, allowed: set[str], where: str, problems: list[str]) -> None:
