@@ -299,3 +299,18 @@ def test_replay_refuses_an_edited_campaign_json(tmp_path, capsys):
     (out / "manifest.json").unlink()
     with pytest.raises(CampaignError, match="no usable manifest.json"):
         load_saved_spec(out)
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        (b"\xff\xfe bad", "not UTF-8 text"),
+        (b"runs = [", "not valid TOML"),
+        (b"# " + b"x" * 1_000_001, "limited to 1000000 bytes"),
+    ],
+)
+def test_an_unreadable_spec_file_is_a_spec_error(tmp_path, content, match):
+    path = tmp_path / "spec.toml"
+    path.write_bytes(content)
+    with pytest.raises(CampaignError, match=match):
+        load_campaign(path)

@@ -36,7 +36,7 @@ from adaptive_ftc.campaigns.checks import (
 from adaptive_ftc.campaigns.hardware import HardwareSpec, parse_hardware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
-from adaptive_ftc.scenarios.loader import Scenario, load_scenario
+from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -356,6 +356,10 @@ def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
                 k: _fill(v, params, f"failures.models.{spec.model}.{k}") for k, v in case.items()
             }
             cls(actuator=1, onset=0.0, **kwargs)
+        except CampaignError as exc:  # a placeholder problem: already names its field
+            if str(exc) not in seen:
+                seen.add(str(exc))
+                problems.append(str(exc))
         except (ConfigurationError, ExpressionError, ValueError, TypeError) as exc:
             msg = str(exc)
             if msg not in seen:
@@ -465,9 +469,23 @@ def load_campaign(
     else:
         path = _resolve(spec)
         try:
+            size = path.stat().st_size
+            if size > MAX_FILE_BYTES:
+                raise CampaignError(
+                    f"{path}: the file has {size} bytes; campaign specs are limited to "
+                    f"{MAX_FILE_BYTES} bytes."
+                )
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except tomllib.TOMLDecodeError as exc:
             raise CampaignError(f"{path}: not valid TOML: {exc}.") from None
+        except UnicodeDecodeError:
+            raise CampaignError(f"{path}: not UTF-8 text; save the spec as UTF-8.") from None
+        except OSError as exc:
+            raise CampaignError(f"{path}: cannot read the file: {exc.strerror}.") from None
+        except (ValueError, RecursionError, MemoryError) as exc:
+            raise CampaignError(
+                f"{path}: not a usable TOML file ({type(exc).__name__}: {str(exc)[:200]})."
+            ) from None
         label, base_dir = str(path), path.parent
     problems: list[str] = []
     spec_obj = _parse(data, base_dir, problems)
