@@ -123,3 +123,16 @@ def test_a_hardware_campaign_runs_and_the_travel_bounds_the_applied_command(tmp_
     df = read_results(tmp_path / "c")
     assert len(df) == 2 and set(df["status"]) <= {"completed", "diverged"}
     assert np.all(df["peak_applied"] <= df["hw_travel"] + 1e-9)
+
+
+def test_drawn_noise_overrides_only_its_states_of_the_base_sensors():
+    """hypersonic-direct-s1-noise measures alpha and q with noise; the spec draws alpha's."""
+    data = hw()
+    data["base"] = "hypersonic-direct-s1-noise"
+    base = load_campaign({**data, "hardware": {}}).loop.sensors
+    assert base is not None and base.has_noise
+    mem = draw_member(load_campaign(data), 0)
+    std, _ = mem.loop.sensors.per_state(mem.loop.plant.aliases(), mem.loop.plant.n_states)
+    base_std, _ = base.per_state(mem.loop.plant.aliases(), mem.loop.plant.n_states)
+    assert std[0] == mem.columns["noise_alpha"]
+    assert std[1:].tolist() == base_std[1:].tolist()  # q keeps the base scenario's noise

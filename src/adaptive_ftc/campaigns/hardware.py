@@ -91,9 +91,7 @@ class HardwareSpec:
             for _, name, d in self.noise:
                 noise[name] = cols[f"noise_{name}"] = float(d.draw(rng))
             seed = int(rng.integers(0, 2**63 - 1))
-            base = loop.sensors or Sensors()
-            old = base.noise if isinstance(base.noise, dict) else {}
-            changes["sensors"] = dataclasses.replace(base, noise={**old, **noise}, seed=seed)
+            changes["sensors"] = _with_noise(loop.sensors, noise, seed)
         return (dataclasses.replace(loop, **changes) if changes else loop), cols
 
     def extremes(self) -> list[dict[str, float]]:
@@ -131,10 +129,17 @@ class HardwareSpec:
             changes["sample_time"] = float(case["sample_time"])
         noise = {k[6:]: float(v) for k, v in case.items() if k.startswith("noise:")}
         if noise:
-            base = loop.sensors or Sensors()
-            old = base.noise if isinstance(base.noise, dict) else {}
-            changes["sensors"] = dataclasses.replace(base, noise={**old, **noise})
+            changes["sensors"] = _with_noise(loop.sensors, noise, 0)
         return dataclasses.replace(loop, **changes) if changes else loop
+
+
+def _with_noise(sensors: Sensors | None, noise: dict[str, float], seed: int) -> Sensors:
+    """The base sensors with the drawn noise of some states (the others keep theirs)."""
+    base = sensors or Sensors()
+    old = base.noise
+    if not isinstance(old, dict):  # one number per state: by alias, so drawn names override
+        old = {f"x{i + 1}": float(v) for i, v in enumerate(old)}
+    return dataclasses.replace(base, noise={**old, **noise}, seed=seed)
 
 
 def _names(prefix: str, d: Dist, m: int) -> list[str]:
