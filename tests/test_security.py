@@ -203,3 +203,35 @@ def test_atomic_docstring_examples():
 
     failures, _ = doctest.testmod(_atomic, optionflags=doctest.ELLIPSIS)
     assert failures == 0
+
+
+def test_a_resumed_campaign_removes_the_temporary_files_of_a_killed_run(tmp_path):
+    from adaptive_ftc.campaigns import run_campaign
+    from adaptive_ftc.campaigns.store import finished_chunks
+
+    spec = load_campaign(
+        {**SPEC, "base": "wingrock-free-1deg", "runs": 2, "chunk_size": 1, "duration": 0.6}
+    )
+    out = tmp_path / "c"
+    run_campaign(spec, out, max_chunks=1, progress=False)
+    host = _atomic._host()
+    stale = out / "parts" / f".part-00001.parquet.{_dead_pid()}@{host}.k3j4l5.tmp"
+    live = out / "parts" / f".part-00001.parquet.{os.getppid()}@{host}.m6n7o8.tmp"
+    stale_manifest = out / f".manifest.json.{_dead_pid()}@{host}.p9q0r1.tmp"
+    for p in (stale, live, stale_manifest):
+        p.write_bytes(b"0" * 100)
+    run = run_campaign(spec, out, progress=False, summary=False)
+    assert run.complete and finished_chunks(spec, out) == {0, 1}
+    assert not stale.exists() and not stale_manifest.exists()
+    assert live.exists()  # its process is alive: maybe still writing
+
+
+def test_a_folder_left_with_only_a_dead_runs_temporary_file_is_usable(tmp_path):
+    from adaptive_ftc.campaigns.store import prepare_folder
+
+    spec = load_campaign({**SPEC, "base": "wingrock-free-1deg"})
+    out = tmp_path / "c"
+    out.mkdir()
+    (out / f".campaign.json.{_dead_pid()}@{_atomic._host()}.a1b2c3.tmp").write_text("{")
+    assert prepare_folder(spec, out) == out
+    assert sorted(p.name for p in out.iterdir()) == ["campaign.json", "manifest.json"]

@@ -25,6 +25,8 @@ __all__ = [
     "commit_staged",
     "discard_staged",
     "inside",
+    "owner_gone",
+    "owner_tag",
     "remove_stale_staging",
     "safe_stem",
     "staging_dir",
@@ -165,19 +167,30 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def owner_tag() -> str:
+    """``<pid>@<host>``: recorded in temporary names so that a later run can tell whether the
+    process that made them is gone (:func:`owner_gone`)."""
+    return f"{os.getpid()}@{_host()}"
+
+
+def owner_gone(pid: str | int, host: str) -> bool:
+    """Whether the process ``pid`` that wrote a temporary name on ``host`` is gone (only
+    decidable on this host: another host's files are never judged stale)."""
+    return host == _host() and not _alive(int(pid))
+
+
 def remove_stale_staging(out: str | Path) -> list[Path]:
     """Remove the staging folders in ``out`` left by killed runs on this machine (their owning
     process, recorded in the folder name, is gone). Folders of live processes, of other
     machines (a shared file system) and of unknown form are kept. Returns the removed paths."""
     removed = []
-    host = _host()
     try:
         entries = list(os.scandir(out))
     except OSError:
         return removed
     for entry in entries:
         hit = _STAGE.fullmatch(entry.name)
-        if not hit or hit.group(2) != host or _alive(int(hit.group(1))):
+        if not hit or not owner_gone(hit.group(1), hit.group(2)):
             continue
         with contextlib.suppress(OSError):
             if entry.is_dir(follow_symlinks=False):
@@ -196,7 +209,7 @@ def staging_dir(out: str | Path) -> Path:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_staging(out)
-    prefix = f"{TMP_PREFIX}{os.getpid()}@{_host()}-"
+    prefix = f"{TMP_PREFIX}{owner_tag()}-"
     return Path(tempfile.mkdtemp(prefix=prefix, dir=out))
 
 

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from adaptive_ftc import _version
+from adaptive_ftc._atomic import owner_gone, owner_tag
 from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
 
 __all__ = [
@@ -31,6 +32,7 @@ __all__ = [
     "finished_chunks",
     "prepare_folder",
     "read_results",
+    "remove_stale_temporaries",
     "schema",
     "to_table",
     "write_part",
@@ -123,7 +125,8 @@ def to_table(rows: list[dict[str, Any]], spec: CampaignSpec):
 
 def _atomic_write(path: Path, write) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    prefix = f".{path.name}.{owner_tag()}."  # the owner: a killed run's file can go later
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
@@ -138,6 +141,30 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
         Path(tmp).write_text(json.dumps(data, indent=2, default=str), "utf-8")
 
     _atomic_write(path, write)
+
+
+_TMP = re.compile(r"\..+\.(\d+)@([A-Za-z0-9._]+)\.[A-Za-z0-9_]+\.tmp")
+
+
+def remove_stale_temporaries(out: str | Path) -> list[Path]:
+    """Remove the temporary files of killed runs (kill -9 while a part, the manifest or the
+    results were being written) from ``out`` and ``out/parts``: those whose owning process,
+    recorded in the name, is gone. Returns the removed paths."""
+    removed = []
+    for folder in (Path(out), Path(out) / "parts"):
+        try:
+            entries = list(os.scandir(folder))
+        except OSError:
+            continue
+        for entry in entries:
+            hit = _TMP.fullmatch(entry.name)
+            if hit and owner_gone(hit.group(1), hit.group(2)) and entry.is_file():
+                try:
+                    os.unlink(entry.path)
+                except OSError:
+                    continue
+                removed.append(Path(entry.path))
+    return removed
 
 
 def part_path(out: Path, chunk: int) -> Path:
@@ -176,7 +203,10 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
                 f"('{old.get('name', '?')}'). Use another --out folder, or delete '{out}' to "
                 "start again."
             )
+        remove_stale_temporaries(out)
         return out
+    if out.is_dir():
+        remove_stale_temporaries(out)  # e.g. a manifest.json being written when killed
     if out.exists() and any(out.iterdir()):
         raise CampaignError(
             f"'{out}' exists and is not a campaign folder (no manifest.json). Choose an empty "
