@@ -314,3 +314,16 @@ def test_an_unreadable_spec_file_is_a_spec_error(tmp_path, content, match):
     path.write_bytes(content)
     with pytest.raises(CampaignError, match=match):
         load_campaign(path)
+
+
+def test_a_folder_of_a_version_that_recorded_none_is_refused_on_resume(tmp_path):
+    data = spec(runs=2, chunk_size=1, duration=0.5)
+    data["success"]["final_window"] = 0.1
+    sp = load_campaign(data)
+    out = store.prepare_folder(sp, tmp_path / "c")
+    manifest = json.loads((out / "manifest.json").read_text())
+    del manifest["version"]
+    manifest["digest"] = "0" * 64  # what the digest without the version would differ by
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(CampaignError, match=r"an earlier version \(none recorded\)"):
+        store.prepare_folder(sp, out)

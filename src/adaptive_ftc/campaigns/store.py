@@ -190,7 +190,7 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
                 f"{manifest} is unreadable ({exc}); delete the folder or choose another --out."
             ) from None
         if old.get("digest") != spec.digest():
-            written_by = old.get("version", "a version before 0.1.0")
+            written_by = old.get("version", "an earlier version (none recorded)")
             if written_by != _version.__version__:
                 raise CampaignError(
                     f"'{out}' holds results written by adaptive-ftc {written_by}; this is "
@@ -251,7 +251,7 @@ def check_manifest(spec: CampaignSpec, out: str | Path) -> None:
         ) from None
     if recorded == spec.digest():
         return
-    written_by = old.get("version", "a version before 0.1.0")
+    written_by = old.get("version", "an earlier version (none recorded)")
     if written_by != _version.__version__:
         raise CampaignError(
             f"'{out}' was written by adaptive-ftc {written_by}; this is {_version.__version__}, "
