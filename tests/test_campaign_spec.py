@@ -319,6 +319,7 @@ def test_an_unreadable_spec_file_is_a_spec_error(tmp_path, content, match):
 def test_a_folder_of_a_version_that_recorded_none_is_refused_on_resume(tmp_path):
     data = spec(runs=2, chunk_size=1, duration=0.5)
     data["success"]["final_window"] = 0.1
+    data["failures"]["onset"] = {"uniform": [0.1, 0.3]}
     sp = load_campaign(data)
     out = store.prepare_folder(sp, tmp_path / "c")
     manifest = json.loads((out / "manifest.json").read_text())
