@@ -244,7 +244,14 @@ def _cmd_validate(target: str) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
-    from adaptive_ftc._atomic import check_output_dir, commit_staged, discard_staged, staging_dir
+    from adaptive_ftc._atomic import (
+        check_output_dir,
+        commit_staged,
+        discard_staged,
+        inside,
+        safe_stem,
+        staging_dir,
+    )
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import check_run_size
     from adaptive_ftc.sim.engine import simulate
@@ -294,14 +301,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if results["adaptive"].message:
             print(f"warning: {results['adaptive'].message}", file=sys.stderr)
         summary = {}
+        base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         for key, res in results.items():
-            stem = sc.name if key == "adaptive" else f"{sc.name}_{key}"
+            stem = base_stem if key == "adaptive" else f"{base_stem}_{key}"
             res.meta["variant"] = key
             res.to_netcdf(
-                stage / "data" / f"{stem}.nc", float32=args.float32, decimate=args.decimate
+                inside(stage, stage / "data" / f"{stem}.nc"),
+                float32=args.float32,
+                decimate=args.decimate,
             )
             if args.csv:
-                res.to_csv(stage / "data" / f"{stem}.csv")
+                res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
         main = results["adaptive"]
         baselines = {

@@ -4,6 +4,7 @@ its metrics row and dropped)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 import signal
@@ -187,9 +188,9 @@ def run_campaign(
         spec = load_campaign(spec)
     out = store.prepare_folder(spec, out)
     done = store.finished_chunks(spec, out)
-    pending = [c for c in range(spec.n_chunks) if c not in done]
+    pending = (c for c in range(spec.n_chunks) if c not in done)  # lazy: n_chunks may be large
     if max_chunks is not None:
-        pending = pending[: max(0, int(max_chunks))]
+        pending = itertools.islice(pending, max(0, int(max_chunks)))
     n_runs = spec.runs * len(spec.designs)
 
     def runs_in(c: int) -> int:
@@ -209,7 +210,7 @@ def run_campaign(
         if scheduler is not None:
             from adaptive_ftc.campaigns.dask import run_chunks_dask
 
-            source = run_chunks_dask(spec, pending, scheduler)
+            source = run_chunks_dask(spec, list(pending), scheduler)
         else:
             source = ((c, run_chunk(spec, c, jobs)) for c in pending)
         now = 0
