@@ -3,12 +3,14 @@ and `aftc validate`, before anything is compiled or simulated, and all of them a
 
 from __future__ import annotations
 
+import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from adaptive_ftc import load_scenario
-from adaptive_ftc.cli import EXIT_NOT_COMPENSABLE, EXIT_OK, main
+from adaptive_ftc.cli import EXIT_INVALID, EXIT_NOT_COMPENSABLE, EXIT_OK, main
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -93,3 +95,56 @@ def test_the_allocation_shape_message_names_the_number_of_gains():
         ClosedLoop(plant=sc.loop.plant, controller=sc.loop.controller, allocation=(1.0, 2.0, 3.0))
     assert "a list of 2 proportional gains" in str(info.value)
     assert "{" not in str(info.value)
+
+
+# ------------------------------------------------------------------ initial state (2)
+def _hypersonic(tmp_path: Path, extra: str) -> Path:
+    return _file(tmp_path, f'extends = "hypersonic-direct-s1"\nduration = 10.0\n{extra}\n')
+
+
+def test_an_initial_state_outside_the_envelope_is_refused_at_validation(tmp_path, capsys):
+    f = _hypersonic(tmp_path, "[plant]\ninitial_state = [2.0, 0.0]")
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_INVALID
+    assert "[plant] `initial_state`: alpha = 2 is outside the plant's envelope" in out
+    inside = _hypersonic(tmp_path, "[plant]\ninitial_state = [1.5, 0.0]")
+    assert _validate(inside, capsys)[0] == EXIT_OK
+
+
+def test_a_divergence_bound_below_the_initial_state_is_refused(tmp_path, capsys):
+    rc, out = _validate(_hypersonic(tmp_path, "[solver]\ndivergence_bound = 1e-6"), capsys)
+    assert rc == EXIT_INVALID
+    assert "`divergence_bound` = 1e-06: the initial value alpha = 0.03" in out
+    rc, out = _validate(_hypersonic(tmp_path, "[solver]\ndivergence_bound = 0.04"), capsys)
+    assert rc == EXIT_OK, out
+
+
+# ------------------------------------------------------------------ sampled s' filter (3)
+def test_an_unstable_sampled_filter_is_refused_with_its_stable_range(tmp_path, capsys):
+    f = _hypersonic(tmp_path, "[digital]\nsample_time = 0.05\n[solver]\nfilter_tau = 0.02")
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_INVALID
+    assert "Stable range: filter_tau > 0.025 s" in out
+
+
+def test_the_default_filter_tau_follows_a_slow_sample_time():
+    from adaptive_ftc.sim.engine import SolverOptions
+
+    f = load_scenario("hypersonic-direct-s1-digital")
+    assert f.solver.filter_tau is None
+    assert f.solver.filter_tau_for(f.loop) == 0.01  # 200 Hz: the catalogue's setting
+    slow = replace(f.loop, sample_time=0.05)
+    assert SolverOptions().filter_tau_for(slow) == pytest.approx(0.1)
+    assert SolverOptions(filter_tau=0.03).filter_tau_for(slow) == 0.03
+    assert SolverOptions().filter_tau_for(load_scenario("hypersonic-direct-s1").loop) == 0.01
+
+
+def test_a_40_hz_controller_without_filter_tau_validates_and_runs(tmp_path, capsys):
+    f = _hypersonic(tmp_path, "duration = 1.0\n[digital]\nsample_time = 0.025").read_text()
+    f = _file(tmp_path, f.replace("duration = 10.0\n", ""))
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_OK, out
+    with warnings.catch_warnings():  # 40 Hz is too slow for these gains: it may diverge
+        warnings.simplefilter("ignore")
+        result = load_scenario(f).run()  # the old default (0.01 s) refused to assemble
+    assert result.time[-1] > 0.2

@@ -794,14 +794,15 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         ctx,
         "",
     )
+    _check_start(loop, ctx)
     if solver is None:
         raise _Problems
+    _check_solver(loop, solver, ctx)
     # the run must fit in memory and finish: steps, samples and recorded bytes
     try:
         check_run_size(loop, solver)
     except ConfigurationError as exc:
         ctx.add("solver", str(exc))
-        raise _Problems from None
     # resolve every expression and regressor input now, so nothing half-runs
     try:
         from adaptive_ftc.sim.compose import generate
@@ -816,10 +817,10 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 raise _Problems from None
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
-        raise _Problems from None
     except _BUILD_ERRORS as exc:
         ctx.add("", f"the loop cannot be assembled ({type(exc).__name__}: {exc}).")
-        raise _Problems from None
+    if ctx.problems:
+        raise _Problems
     return Scenario(
         name=name,
         title=str(data.get("title", name)),
@@ -835,6 +836,51 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         source=path,
         text=text,
     )
+
+
+def _check_start(loop: ClosedLoop, ctx: _Ctx) -> None:
+    """The initial state must lie inside the plant's physical envelope (else the run stops
+    at its first sample)."""
+    plant = loop.plant
+    env = tuple(getattr(plant, "envelope", ()) or ())
+    for i, (x, bound) in enumerate(zip(loop.initial_state, env, strict=False)):
+        if abs(x) > bound:
+            name = plant.state_names[i]
+            ctx.add(
+                "plant",
+                f"`initial_state`: {name} = {x:g} is outside the plant's envelope |{name}| <= "
+                f"{bound:.4g} (the run would stop at t = {loop.t0:g} s). Give a value inside it.",
+            )
+
+
+def _check_solver(loop: ClosedLoop, solver: SolverOptions, ctx: _Ctx) -> None:
+    """Solver settings that cannot work on this loop: a divergence bound the initial state
+    already exceeds, an unstable sampled ``s'`` filter."""
+    bound = float(solver.divergence_bound)
+    start = [(n, x) for n, x in zip(loop.plant.state_names, loop.initial_state, strict=False)]
+    start.append(("theta0", float(loop.controller.theta0)))
+    start += [(f"adaptive_initial[{i + 1}]", v) for i, v in enumerate(loop.adaptive_initial)]
+    if loop.actuators is not None:
+        start += [(f"actuator {i + 1}", v) for i, v in enumerate(loop.actuators.initial)]
+    name, x = max(start, key=lambda item: abs(item[1]))
+    if not abs(x) < bound:
+        ctx.add(
+            "solver",
+            f"`divergence_bound` = {bound:g}: the initial value {name} = {x:g} is already not "
+            f"below it (the run would stop at t = {loop.t0:g} s). Give a bound above "
+            f"{abs(x):g}, e.g. the default 1e8.",
+        )
+    ts = loop.sample_time
+    if ts > 0 and solver.sdot_for(loop) == "filtered":
+        tau = solver.filter_tau_for(loop)
+        if not ts < 2.0 * tau:
+            ctx.add(
+                "solver",
+                f"`filter_tau` = {tau:g} s: the sampled s' filter is unstable with the "
+                f"[digital] sample_time = {ts:g} s (it needs sample_time < 2 filter_tau). "
+                f"Stable range: filter_tau > {ts / 2:g} s; leave it out for the default "
+                f"max(0.01, 2 sample_time) = {max(0.01, 2 * ts):g} s.",
+            )
 
 
 _INITIAL_STATE = {"type": "array", "items": {"type": "number"}, "maxItems": 1000}
