@@ -11,7 +11,7 @@ import pytest
 
 from adaptive_ftc import load_scenario
 from adaptive_ftc.cli import EXIT_INVALID, EXIT_NOT_COMPENSABLE, EXIT_OK, main
-from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.errors import ConfigurationError, ExpressionError
 from adaptive_ftc.sim.system import ClosedLoop
 
 
@@ -148,3 +148,112 @@ def test_a_40_hz_controller_without_filter_tau_validates_and_runs(tmp_path, caps
         warnings.simplefilter("ignore")
         result = load_scenario(f).run()  # the old default (0.01 s) refused to assemble
     assert result.time[-1] > 0.2
+
+
+# ------------------------------------------------------------------ constant expressions (8)
+@pytest.mark.parametrize(
+    ("text", "named"),
+    [
+        ("10**1000000", "10**1000000"),
+        ("9**9**9", "9**9**9"),
+        ("0.1 + 1/0", "1/0"),
+        ("t*log(0)", "log(0)"),
+        ("sqrt(-1) + t", "sqrt(-1)"),
+        ("(-8)**(1/3)*t", "(-8)**(1/3)"),  # was a raw TypeError (a complex power)
+        ("acos(2)", "acos(2)"),
+        ("u/0", "u/0"),
+        ("1e60*1e60*t", "1e60*1e60"),
+    ],
+)
+def test_a_non_finite_constant_sub_expression_is_refused_naming_it(text, named):
+    from adaptive_ftc.scenarios.expressions import Expression
+
+    with pytest.raises(ExpressionError) as info:
+        Expression(text, ("t", "u"))
+    assert f"'{named}'" in str(info.value)
+
+
+def test_finite_constants_are_folded_to_numbers():
+    from adaptive_ftc.scenarios.expressions import Expression
+
+    assert Expression("2**10 - 24", ("t",)).node == ("const", 1000.0)
+    assert Expression("(-8)**2*t", ("t",)).node == ("bin", "*", ("const", 64.0), ("var", "t"))
+    assert Expression("pi/36*sin(0.2*t)", ("t",))(t=0.0) == 0.0
+
+
+def test_non_finite_constants_in_a_scenario_are_refused_at_validation(tmp_path, capsys):
+    f = _hypersonic(
+        tmp_path,
+        '[reference]\noutputs = ["log(0)*sin(t)"]\n'
+        "[[failures]]\nactuator = 2\nmodel = 'stuck'\nonset = 5.0\nvalue = '9**9**9'\n",
+    )
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_INVALID
+    assert "'log(0)'" in out and "'9**9**9'" in out
+
+
+# ------------------------------------------------------------------ every problem at once (7)
+MANY = """extends = "hypersonic-direct-s1"
+name = "many"
+duration = 10.0
+colour = "red"
+
+[plant]
+initial_state = [2.0, 0.0]
+
+[controller]
+allocation = [-1.0, -2.0]
+
+[controller.regressor]
+inputs = ["alpha", "qq"]
+
+[sensors]
+nois = {alpha = 0.1}
+
+[solver]
+divergence_bound = 1e-6
+methd = "rk4"
+
+[[figure]]
+kind = "trackin"
+outputs = [2]
+
+[[claims]]
+kind = "trackng"
+text = "x"
+"""
+
+
+def test_independent_mistakes_of_every_stage_are_reported_in_one_run(tmp_path, capsys):
+    rc, out = _validate(_file(tmp_path, MANY), capsys)
+    assert rc == EXIT_INVALID
+    expected = [
+        "unknown key 'colour'",  # top-level keys
+        "[sensors] unknown key 'nois'",  # a table that fails: the loop is built without it
+        "[solver] unknown key 'methd'",
+        "[claims.1] Unknown claim kind 'trackng'",
+        "[figure.1] unknown figure kind 'trackin'",
+        "[figure.1] `outputs`: expected a list of output numbers from 1 to 1 (alpha), got [2]",
+        "[plant] `initial_state`: alpha = 2 is outside the plant's envelope",
+        "[solver] `divergence_bound` = 1e-06",  # checked with the solver table's good keys
+        "Unknown regressor input 'qq'",  # the loop's expressions and inputs
+        "[failures] not compensable: healthy plant: NOT compensable",  # the design's conditions
+    ]
+    missing = [line for line in expected if line not in out]
+    assert not missing, out
+    assert "10 problems:" in out
+
+
+def test_a_figure_naming_an_unknown_output_is_refused_before_simulating(tmp_path, capsys):
+    f = _hypersonic(tmp_path, '[[figure]]\nkind = "tracking"\noutputs = ["x"]')
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_INVALID and "`outputs`: expected a list of output numbers" in out
+    ok = _hypersonic(tmp_path, '[[figure]]\nkind = "tracking"\noutputs = [1]\nzoom = [0, 1]')
+    assert _validate(ok, capsys)[0] == EXIT_OK
+
+
+def test_a_claim_with_an_unknown_key_is_refused_at_validation(tmp_path, capsys):
+    claim = '[[claims]]\nkind = "bounded"\ntext = "x"\nbound = 10.0\n'
+    rc, out = _validate(_hypersonic(tmp_path, claim + "colour = 1\n"), capsys)
+    assert rc == EXIT_INVALID and "[claims.1] Unknown key 'colour'" in out
+    assert _validate(_hypersonic(tmp_path, claim), capsys)[0] == EXIT_OK

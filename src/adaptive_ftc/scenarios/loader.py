@@ -518,6 +518,21 @@ def _build(cls: type, kwargs: dict[str, Any], ctx: _Ctx, where: str):
     raise _Problems
 
 
+def _partial(cls: type, table: dict[str, Any]):
+    """``cls`` built from the keys of ``table`` that are valid on their own (``None`` if even
+    that fails): lets later stages check what they can of a table with problems."""
+    props = _class_schema(cls)["properties"]
+    good = {
+        k: v
+        for k, v in table.items()
+        if k in props and _check_value(v, props[k], allow_inf=k == "max_step") is None
+    }
+    try:
+        return cls(**{k: _tupled(v) for k, v in good.items()})
+    except _BUILD_ERRORS:
+        return None
+
+
 def _has_regressor(cls: type) -> bool:
     """Whether design ``cls`` takes a ``regressor`` (the non-adaptive baselines do not)."""
     return any(f.name == "regressor" for f in dataclasses.fields(cls))
@@ -633,6 +648,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 if why:
                     ctx.add("reference", f"`outputs`: {why}. {_fix(_OUTPUTS)}")
                     outputs = None
+                else:
+                    outputs = _reference_checked(outputs, plant, ctx)
     elif plant is not None:
         outputs = ["0"] * plant.n_outputs
     # ---------------------------------------------------------------- controller
@@ -760,12 +777,13 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 hardware["sample_time"] = float(ts)
     # ---------------------------------------------------------------- solver
     solver = None
+    checks = None  # the solver the later stages check with (its good keys when it is bad)
     stab = ctx.table(data.get("solver", {}), "solver")
     if stab is not None:
         try:
-            solver = _component(SolverOptions, stab, ctx, "solver")
+            solver = checks = _component(SolverOptions, stab, ctx, "solver")
         except _Problems:
-            solver = None
+            solver, checks = None, _partial(SolverOptions, stab)
     if "duration" not in data:
         ctx.add("", "missing key 'duration' (seconds, e.g. duration = 10.0).")
     duration = data.get("duration")
@@ -773,9 +791,18 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     figs = data.get("figure", [])
     if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
         ctx.add("claims", "write claims as [[claims]] tables.")
+    else:
+        _check_claims(claims, ctx)
     if not isinstance(figs, list) or not all(isinstance(f, dict) for f in figs):
         ctx.add("figure", "write figures as [[figure]] tables.")
-    if ctx.problems or plant is None or ctrl is None or not failures_ok or outputs is None:
+    else:
+        _check_figures(figs, plant, ctx)
+    # ---------------------------------------------------------------- the loop
+    # the later stages run on whatever parts were built, so every problem shows at once
+    if plant is None or not _plant_parts_ok(plant, x0, outputs, failures, ctx):
+        raise _Problems
+    duration_ok = _check_value(duration, _TOP_SCHEMA["duration"]) is None
+    if ctrl is None or not failures_ok or outputs is None or not duration_ok:
         raise _Problems
     loop = _build(
         ClosedLoop,
@@ -794,32 +821,33 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         ctx,
         "",
     )
-    _check_start(loop, ctx)
-    if solver is None:
-        raise _Problems
-    _check_solver(loop, solver, ctx)
-    # the run must fit in memory and finish: steps, samples and recorded bytes
-    try:
-        check_run_size(loop, solver)
-    except ConfigurationError as exc:
-        ctx.add("solver", str(exc))
+    if checks is not None:
+        _check_solver(loop, checks, ctx)
+        # the run must fit in memory and finish: steps, samples and recorded bytes
+        try:
+            check_run_size(loop, checks)
+        except ConfigurationError as exc:
+            ctx.add("solver", str(exc))
     # resolve every expression and regressor input now, so nothing half-runs
+    sdot = (checks or SolverOptions()).sdot_for(loop)
     try:
         from adaptive_ftc.sim.compose import generate
 
-        _, _, gen, layout = generate(loop, sdot=solver.sdot_for(loop))  # checks every part
-        if isinstance(solver.atol, tuple):  # one atol per state: as many as the loop has
+        _, _, gen, layout = generate(loop, sdot=sdot)  # checks every part
+        if solver is not None and isinstance(solver.atol, tuple):  # one atol per state
             names = [*loop.plant.state_names, *gen.adaptive_names, *layout["extra_names"]]
             try:
                 solver.atol_for(int(layout["ny_all"]), names)
             except ConfigurationError as exc:
                 ctx.add("solver", str(exc))
-                raise _Problems from None
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
     except _BUILD_ERRORS as exc:
         ctx.add("", f"the loop cannot be assembled ({type(exc).__name__}: {exc}).")
     if ctx.problems:
+        _add_compensability(loop, ctx)  # listed with the other problems, not a round later
+        raise _Problems
+    if solver is None:  # pragma: no cover - a failed [solver] table records a problem
         raise _Problems
     return Scenario(
         name=name,
@@ -838,19 +866,147 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     )
 
 
-def _check_start(loop: ClosedLoop, ctx: _Ctx) -> None:
-    """The initial state must lie inside the plant's physical envelope (else the run stops
-    at its first sample)."""
-    plant = loop.plant
-    env = tuple(getattr(plant, "envelope", ()) or ())
-    for i, (x, bound) in enumerate(zip(loop.initial_state, env, strict=False)):
-        if abs(x) > bound:
-            name = plant.state_names[i]
+def _reference_checked(outputs: list[Any], plant: Any, ctx: _Ctx) -> list[Any] | None:
+    """Parse every reference expression now (``None`` when one is bad, each recorded)."""
+    from adaptive_ftc.scenarios.expressions import Expression
+
+    ok = True
+    for i, text in enumerate(outputs):
+        names = getattr(plant, "output_names", ())
+        name = names[i] if i < len(names) else f"{i + 1}"
+        try:
+            Expression(text, ("t",), context=f"reference of output '{name}'")
+        except ExpressionError as exc:
+            ctx.add("reference", str(exc))
+            ok = False
+    return outputs if ok else None
+
+
+def _plant_parts_ok(plant: Any, x0: Any, outputs: Any, failures: list[Any], ctx: _Ctx) -> bool:
+    """Checks of the parts against the plant that need no controller: the initial state
+    (its length, inside the plant's envelope), one reference per output, failures of
+    existing actuators that do not overlap. Each problem is recorded; ``False`` when the
+    loop cannot be built (an initial state outside the envelope does not stop that)."""
+    ok = True
+    n, p, m = plant.n_states, plant.n_outputs, plant.n_actuators
+    if isinstance(x0, list) and _check_value(x0, _INITIAL_STATE) is None:
+        if len(x0) > n:
+            ok = False
             ctx.add(
                 "plant",
-                f"`initial_state`: {name} = {x:g} is outside the plant's envelope |{name}| <= "
-                f"{bound:.4g} (the run would stop at t = {loop.t0:g} s). Give a value inside it.",
+                f"`initial_state` has {len(x0)} values but plant '{plant.name}' has {n} states "
+                f"({', '.join(plant.state_names)}).",
             )
+        env = tuple(getattr(plant, "envelope", ()) or ())
+        for i, (x, bound) in enumerate(zip(x0, env, strict=False)):
+            if abs(x) > bound:
+                name = plant.state_names[i]
+                ctx.add(
+                    "plant",
+                    f"`initial_state`: {name} = {x:g} is outside the plant's envelope "
+                    f"|{name}| <= {bound:.4g} (the run would stop at its first sample). Give a "
+                    "value inside it.",
+                )
+    if outputs is not None and len(outputs) != p:
+        ok = False
+        ctx.add(
+            "reference",
+            f"`outputs` needs one expression per output of plant '{plant.name}' "
+            f"({', '.join(plant.output_names)}); got {len(outputs)}.",
+        )
+    if failures:
+        from adaptive_ftc.faults import FailureSchedule
+
+        try:
+            FailureSchedule(tuple(failures), m)
+        except ConfigurationError as exc:
+            ok = False
+            ctx.add("failures", str(exc))
+    return ok
+
+
+def _check_claims(claims: list[dict[str, Any]], ctx: _Ctx) -> None:
+    """Keys and values of each [[claims]] table (what ``aftc reproduce`` will check)."""
+    from adaptive_ftc.claims import ClaimError, _params
+
+    for i, claim in enumerate(claims):
+        try:
+            _params(claim)
+        except ClaimError as exc:
+            ctx.add(f"claims.{i + 1}", str(exc))
+        except _BUILD_ERRORS as exc:  # e.g. an integer too large for a float
+            ctx.add(f"claims.{i + 1}", f"invalid value ({type(exc).__name__}: {str(exc)[:200]}).")
+
+
+#: Keys of a [[figure]] table and the kinds ``adaptive_ftc.plots.plot`` draws.
+_FIGURE_KEYS = {"number", "kind", "caption", "outputs", "zoom"}
+_FIGURE_KINDS = ("tracking", "control", "parameters", "control_parameters", "modal", "direction")
+
+
+def _check_figures(figs: list[dict[str, Any]], plant: Any, ctx: _Ctx) -> None:
+    """Keys and values of each [[figure]] table, before anything is simulated."""
+    for i, fig in enumerate(figs):
+        where = f"figure.{i + 1}"
+        ctx.keys(fig, _FIGURE_KEYS, where)
+        kind = fig.get("kind")
+        if "kind" not in fig:
+            ctx.add(where, f"missing key 'kind' (one of {', '.join(_FIGURE_KINDS)}).")
+        else:
+            _choice(ctx, where, "figure kind", kind, _FIGURE_KINDS)
+        for key in ("number", "caption"):
+            value = fig.get(key, "")
+            if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+                ctx.add(where, f"`{key}`: expected a text or a number, got {_show(value)}.")
+        if "outputs" in fig:
+            outs = fig["outputs"]
+            p = plant.n_outputs if plant is not None else None
+            names = f" ({', '.join(plant.output_names)})" if plant is not None else ""
+            good = (
+                isinstance(outs, list)
+                and outs
+                and all(
+                    isinstance(o, int)
+                    and not isinstance(o, bool)
+                    and 1 <= o <= (p if p is not None else o)
+                    for o in outs
+                )
+            )
+            if not good:
+                ctx.add(
+                    where,
+                    f"`outputs`: expected a list of output numbers from 1 to {p or 'p'}{names}, "
+                    f"got {_show(outs) if isinstance(outs, dict) else repr(outs)[:60]}.",
+                )
+        if "zoom" in fig:
+            zoom = fig["zoom"]
+            if not (
+                isinstance(zoom, list)
+                and len(zoom) == 2
+                and all(_check_value(v, {"type": "number"}) is None for v in zoom)
+                and zoom[0] < zoom[1]
+            ):
+                ctx.add(where, "`zoom`: expected [start, end] in s with start < end.")
+        if kind == "modal" and plant is not None:
+            if not any(n.startswith("eta") for n in plant.state_names):
+                ctx.add(
+                    where,
+                    f"a 'modal' figure needs flexible-mode (eta) states; plant '{plant.name}' "
+                    "has none. Use another kind.",
+                )
+
+
+def _add_compensability(loop: ClosedLoop, ctx: _Ctx) -> None:
+    """Record the conditions `aftc validate` checks (rank (3.6), sign (2.16)/(4.6)) that the
+    loop breaks, as problems of the file."""
+    try:
+        report = loop.compensability(design=True)
+    except _BUILD_ERRORS:  # e.g. a failure expression that cannot be evaluated
+        return
+    if report.ok:
+        return
+    for line in report.describe(loop.plant.output_names).splitlines():
+        if "NOT compensable" in line:
+            ctx.add("failures", f"not compensable: {line}.")
 
 
 def _check_solver(loop: ClosedLoop, solver: SolverOptions, ctx: _Ctx) -> None:
