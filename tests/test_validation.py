@@ -11,7 +11,7 @@ import pytest
 
 from adaptive_ftc import load_scenario
 from adaptive_ftc.cli import EXIT_INVALID, EXIT_NOT_COMPENSABLE, EXIT_OK, main
-from adaptive_ftc.errors import ConfigurationError, ExpressionError
+from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError
 from adaptive_ftc.sim.system import ClosedLoop
 
 
@@ -257,3 +257,29 @@ def test_a_claim_with_an_unknown_key_is_refused_at_validation(tmp_path, capsys):
     rc, out = _validate(_hypersonic(tmp_path, claim + "colour = 1\n"), capsys)
     assert rc == EXIT_INVALID and "[claims.1] Unknown key 'colour'" in out
     assert _validate(_hypersonic(tmp_path, claim), capsys)[0] == EXIT_OK
+
+
+# ------------------------------------------------------------------ extends / unset (6)
+def test_unset_removes_inherited_tables_and_keys(tmp_path):
+    base = load_scenario("hypersonic-direct-s1-actuators")
+    assert base.loop.actuators is not None
+    f = _file(
+        tmp_path,
+        'extends = "hypersonic-direct-s1-actuators"\nunset = ["actuators", "solver.rtol"]\n',
+    )
+    sc = load_scenario(f)
+    assert sc.loop.actuators is None
+    assert sc.solver.rtol == 1e-8  # the SolverOptions default, not the inherited 1e-7
+    assert sc.loop.R.tolist() == base.loop.R.tolist()  # everything else still inherited
+
+
+def test_unset_of_a_key_the_base_lacks_or_without_extends_is_an_error(tmp_path):
+    typo = _file(tmp_path, 'extends = "hypersonic-direct-s1"\nunset = ["actuator"]\n')
+    with pytest.raises(ScenarioError, match="`unset` names 'actuator'"):
+        load_scenario(typo)
+    alone = _file(tmp_path, 'unset = ["actuators"]\nduration = 1.0\n', name="alone.toml")
+    with pytest.raises(ScenarioError, match="extends nothing"):
+        load_scenario(alone)
+    wrong = _file(tmp_path, 'extends = "hypersonic-direct-s1"\nunset = "actuators"\n', "w.toml")
+    with pytest.raises(ScenarioError, match="`unset`: expected a list"):
+        load_scenario(wrong)

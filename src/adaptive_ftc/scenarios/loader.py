@@ -39,6 +39,7 @@ _TOP = {
     "figures",
     "description",
     "extends",
+    "unset",
     "duration",
     "notes",
     "plant",
@@ -79,6 +80,13 @@ _TOP_SCHEMA: dict[str, dict[str, Any]] = {
         "type": "string",
         "maxLength": 1000,
         "description": "scenario name or path whose tables this file overrides",
+    },
+    "unset": {
+        "type": "array",
+        "items": {"type": "string", "maxLength": 1000},
+        "maxItems": 1000,
+        "description": "keys inherited through `extends` to remove, as dotted paths "
+        "(e.g. 'actuators', 'controller.regressor', 'solver.filter_tau')",
     },
     "duration": {
         "type": "number",
@@ -351,7 +359,13 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], str]
             f"{path}: not a usable TOML file ({type(exc).__name__}: {str(exc)[:200]})."
         ) from None
     base = data.pop("extends", None)
+    unset = data.pop("unset", None)
     if base is None:
+        if unset is not None:
+            raise ScenarioError(
+                f"{path}: `unset` removes keys inherited through `extends`, and this file "
+                "extends nothing; remove `unset`."
+            )
         return data, text
     if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: `extends` must be a scenario name or path (a string).")
@@ -363,7 +377,36 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], str]
     merged, base_text = _read(base_path, seen + (path.resolve(),))
     for key in ("name", "title", "figures", "description", "notes", "claims", "figure"):
         merged.pop(key, None)  # metadata is never inherited
+    if unset is not None:
+        merged = _unset(merged, unset, path, base)
     return _merge(merged, data), f"# extends {base_path.name}:\n{base_text}\n# {path.name}:\n{text}"
+
+
+def _unset(base: dict[str, Any], unset: Any, path: Path, name: str) -> dict[str, Any]:
+    """``base`` without the keys named in ``unset`` (dotted paths such as ``"actuators"`` or
+    ``"controller.regressor"``); a path the base does not have is an error (a typo)."""
+    why = _check_value(unset, _TOP_SCHEMA["unset"])
+    if why:
+        raise ScenarioError(f"{path}: `unset`: {why}. {_fix(_TOP_SCHEMA['unset'])}")
+    out = _copy_tables(base)
+    for dotted in unset:
+        keys = dotted.split(".")
+        table = out
+        for key in keys[:-1]:
+            table = table.get(key) if isinstance(table, dict) else None
+        if not isinstance(table, dict) or keys[-1] not in table:
+            raise ScenarioError(
+                f"{path}: `unset` names '{dotted}', which '{name}' does not define (or which "
+                "is never inherited: name, title, figures, description, notes, claims, "
+                "figure). Remove it from `unset`."
+            )
+        del table[keys[-1]]
+    return out
+
+
+def _copy_tables(data: dict[str, Any]) -> dict[str, Any]:
+    """A copy of ``data`` whose nested tables are copies too (values are shared)."""
+    return {k: _copy_tables(v) if isinstance(v, dict) else v for k, v in data.items()}
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -607,9 +650,9 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 
 def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
-    ctx.keys(data, _TOP - {"extends"}, "")
+    ctx.keys(data, _TOP - {"extends", "unset"}, "")
     for key, sch in _TOP_SCHEMA.items():
-        if key in data and key != "extends":
+        if key in data and key not in ("extends", "unset"):
             why = _check_value(data[key], sch)
             if why:
                 ctx.add("", f"`{key}`: {why}. {_fix(sch)}")
