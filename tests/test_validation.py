@@ -252,6 +252,13 @@ def test_a_figure_naming_an_unknown_output_is_refused_before_simulating(tmp_path
     assert _validate(ok, capsys)[0] == EXIT_OK
 
 
+def test_the_loader_knows_every_figure_kind_plots_draws():
+    from adaptive_ftc import plots
+    from adaptive_ftc.scenarios import loader
+
+    assert loader._FIGURE_KINDS == plots.KINDS  # kept apart so loading imports no matplotlib
+
+
 def test_a_claim_with_an_unknown_key_is_refused_at_validation(tmp_path, capsys):
     claim = '[[claims]]\nkind = "bounded"\ntext = "x"\nbound = 10.0\n'
     rc, out = _validate(_hypersonic(tmp_path, claim + "colour = 1\n"), capsys)
