@@ -290,3 +290,13 @@ def test_unset_of_a_key_the_base_lacks_or_without_extends_is_an_error(tmp_path):
     wrong = _file(tmp_path, 'extends = "hypersonic-direct-s1"\nunset = "actuators"\n', "w.toml")
     with pytest.raises(ScenarioError, match="`unset`: expected a list"):
         load_scenario(wrong)
+
+
+def test_regressor_inputs_are_checked_when_the_controller_has_other_problems(tmp_path, capsys):
+    f = _hypersonic(
+        tmp_path, '[controller]\ngamma = "fast"\n[controller.regressor]\ninputs = ["qq"]'
+    )
+    rc, out = _validate(f, capsys)
+    assert rc == EXIT_INVALID
+    assert "[controller] `gamma`: expected a number" in out
+    assert "[controller.regressor] unknown regressor input 'qq'. Did you mean 'q'?" in out

@@ -699,6 +699,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     ctrl = None
     adapt = True
     allocation = None
+    built_regressors: tuple = ()
     if "controller" not in data:
         ctx.add("", "missing table [controller] (design = 'direct', 'estimation', ...).")
     ctab = ctx.table(data["controller"], "controller") if "controller" in data else None
@@ -762,6 +763,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 else:
                     reg = _regressor(regs, ctx, "controller.regressor")
                 if regs is not None:
+                    built_regressors = reg if isinstance(reg, tuple) else (reg,)
                     ctrl = _component(
                         dcls, {**ctab, "regressor": reg}, ctx, "controller", {"regressor"}
                     )
@@ -773,6 +775,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 )
         except _Problems:
             ctrl = None
+    if ctrl is None and plant is not None:  # the loop's check of the inputs will not run
+        _check_regressor_inputs(built_regressors, plant, ctx)
     # ---------------------------------------------------------------- failures
     failures = []
     failures_ok = True
@@ -966,6 +970,23 @@ def _plant_parts_ok(plant: Any, x0: Any, outputs: Any, failures: list[Any], ctx:
             ok = False
             ctx.add("failures", str(exc))
     return ok
+
+
+def _check_regressor_inputs(regressors: tuple, plant: Any, ctx: _Ctx) -> None:
+    """Each regressor input must name a signal of the plant's loop (checked here when the
+    controller could not be built, so the loop's own check cannot run)."""
+    from adaptive_ftc.sim.system import signal_names
+
+    names = signal_names(plant)
+    for i, reg in enumerate(regressors):
+        where = "controller.regressor" + (f".{i + 1}" if len(regressors) > 1 else "")
+        for name in getattr(reg, "inputs", ()):
+            if name not in names:
+                ctx.add(
+                    where,
+                    f"unknown regressor input '{name}'.{did_you_mean(str(name), names)} "
+                    f"Available signals: {', '.join(names)}.",
+                )
 
 
 def _check_claims(claims: list[dict[str, Any]], ctx: _Ctx) -> None:

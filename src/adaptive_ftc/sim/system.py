@@ -18,10 +18,23 @@ from adaptive_ftc.faults.schedule import (
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.plants.base import Plant
 
-__all__ = ["KNOWN_SIGN_DESIGNS", "ClosedLoop"]
+__all__ = ["KNOWN_SIGN_DESIGNS", "ClosedLoop", "signal_names"]
 
 #: Designs that assume a known control direction (sign conditions (2.16)/(4.6) apply).
 KNOWN_SIGN_DESIGNS = ("direct", "estimation", "mimo")
+
+
+def signal_names(plant: Plant) -> dict[str, int]:
+    """Controller signals a regressor may use on ``plant``'s loop (states and their aliases,
+    ``e``, ``edot``, ``s`` per output), with their index in the signal vector."""
+    n, p = plant.n_states, plant.n_outputs
+    names = dict(plant.aliases())
+    for i in range(p):
+        for j, stem in enumerate(("e", "edot", "s")):
+            names[f"{stem}{i + 1}"] = n + j * p + i
+            if p == 1:
+                names[stem] = n + j * p + i
+    return names
 
 
 def _input_gains(plant: Plant) -> np.ndarray | None:
@@ -278,14 +291,7 @@ class ClosedLoop:
 
     def signal_names(self) -> dict[str, int]:
         """Controller signals a regressor may use, with their index in the signal vector."""
-        n, p = self.plant.n_states, self.plant.n_outputs
-        names = dict(self.plant.aliases())
-        for i in range(p):
-            for j, stem in enumerate(("e", "edot", "s")):
-                names[f"{stem}{i + 1}"] = n + j * p + i
-                if p == 1:
-                    names[stem] = n + j * p + i
-        return names
+        return signal_names(self.plant)
 
     def describe_failures(self) -> list[str]:
         """One line per failure, in time order, for reports."""
