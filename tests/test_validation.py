@@ -300,3 +300,57 @@ def test_regressor_inputs_are_checked_when_the_controller_has_other_problems(tmp
     assert rc == EXIT_INVALID
     assert "[controller] `gamma`: expected a number" in out
     assert "[controller.regressor] unknown regressor input 'qq'. Did you mean 'q'?" in out
+
+
+MANY_WITH_A_BAD_CONTROLLER = """extends = "hypersonic-direct-s1"
+duration = 10.0
+colour = "red"
+
+[plant]
+initial_state = [2.0, 0.0]
+
+[reference]
+outputs = ["log(0)*sin(t)"]
+
+[controller]
+gamma = "fast"
+
+[[failures]]
+actuator = 2
+model = "stuck"
+onset = 5.0
+value = "9**9**9"
+
+[solver]
+divergence_bound = 1e-6
+methd = "rk4"
+
+[[figure]]
+kind = "tracking"
+outputs = ["x"]
+
+[[claims]]
+kind = "tracking"
+text = "x"
+window = 1.0
+threshold = 1.0
+colour = 1
+"""
+
+
+def test_nine_mistakes_with_no_loop_to_build_are_still_reported_in_one_run(tmp_path, capsys):
+    rc, out = _validate(_file(tmp_path, MANY_WITH_A_BAD_CONTROLLER), capsys)
+    assert rc == EXIT_INVALID
+    assert "9 problems:" in out, out
+    for line in (
+        "unknown key 'colour'",
+        "'log(0)'",
+        "`gamma`: expected a number",
+        "'9**9**9'",
+        "unknown key 'methd'",
+        "[claims.1] Unknown key 'colour'",
+        "[figure.1] `outputs`",
+        "outside the plant's envelope",
+        "`divergence_bound` = 1e-06",
+    ):
+        assert line in out, line

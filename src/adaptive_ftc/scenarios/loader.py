@@ -850,6 +850,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         raise _Problems
     duration_ok = _check_value(duration, _TOP_SCHEMA["duration"]) is None
     if ctrl is None or not failures_ok or outputs is None or not duration_ok:
+        if checks is not None and _check_value(x0, _INITIAL_STATE) is None:
+            _check_bound(list(zip(plant.state_names, map(float, x0), strict=False)), checks, ctx)
         raise _Problems
     loop = _build(
         ClosedLoop,
@@ -1073,23 +1075,30 @@ def _add_compensability(loop: ClosedLoop, ctx: _Ctx) -> None:
             ctx.add("failures", f"not compensable: {line}.")
 
 
-def _check_solver(loop: ClosedLoop, solver: SolverOptions, ctx: _Ctx) -> None:
-    """Solver settings that cannot work on this loop: a divergence bound the initial state
-    already exceeds, an unstable sampled ``s'`` filter."""
+def _check_bound(start: list[tuple[str, float]], solver: SolverOptions, ctx: _Ctx) -> None:
+    """The initial values (name, value) must lie below the solver's divergence bound."""
+    if not start:
+        return
     bound = float(solver.divergence_bound)
-    start = [(n, x) for n, x in zip(loop.plant.state_names, loop.initial_state, strict=False)]
-    start.append(("theta0", float(loop.controller.theta0)))
-    start += [(f"adaptive_initial[{i + 1}]", v) for i, v in enumerate(loop.adaptive_initial)]
-    if loop.actuators is not None:
-        start += [(f"actuator {i + 1}", v) for i, v in enumerate(loop.actuators.initial)]
     name, x = max(start, key=lambda item: abs(item[1]))
     if not abs(x) < bound:
         ctx.add(
             "solver",
             f"`divergence_bound` = {bound:g}: the initial value {name} = {x:g} is already not "
-            f"below it (the run would stop at t = {loop.t0:g} s). Give a bound above "
+            f"below it (the run would stop at its first sample). Give a bound above "
             f"{abs(x):g}, e.g. the default 1e8.",
         )
+
+
+def _check_solver(loop: ClosedLoop, solver: SolverOptions, ctx: _Ctx) -> None:
+    """Solver settings that cannot work on this loop: a divergence bound the initial state
+    already exceeds, an unstable sampled ``s'`` filter."""
+    start = [(n, x) for n, x in zip(loop.plant.state_names, loop.initial_state, strict=False)]
+    start.append(("theta0", float(loop.controller.theta0)))
+    start += [(f"adaptive_initial[{i + 1}]", v) for i, v in enumerate(loop.adaptive_initial)]
+    if loop.actuators is not None:
+        start += [(f"actuator {i + 1}", v) for i, v in enumerate(loop.actuators.initial)]
+    _check_bound(start, solver, ctx)
     ts = loop.sample_time
     if ts > 0 and solver.sdot_for(loop) == "filtered":
         tau = solver.filter_tau_for(loop)
