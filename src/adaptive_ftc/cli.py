@@ -69,9 +69,6 @@ _EPILOG = """exit status:
   130  interrupted (Ctrl-C, SIGTERM); earlier complete results are kept
 """
 
-#: Designs that assume a known control direction (sign conditions (2.16)/(4.6) apply).
-KNOWN_SIGN_DESIGNS = ("direct", "estimation", "mimo")
-
 
 def _positive_float(text: str) -> float:
     try:
@@ -183,26 +180,7 @@ def _cmd_list() -> int:
     return EXIT_OK
 
 
-def _plant_gains(plant) -> tuple[float, ...] | None:
-    """Per-actuator plant gains ``g_j`` when the plant exposes them, else ``None`` (all 1)."""
-    m = plant.n_actuators
-    try:  # measured from the plant's own equations (any plant, user plants included)
-        return tuple(float(v) for v in plant.input_gains()[0])
-    except Exception:  # noqa: BLE001 - fall back to declared gains
-        pass
-    for attr in ("actuator_gains", "b"):
-        value = getattr(plant, attr, None)
-        try:
-            gains = tuple(float(v) for v in value)  # type: ignore[union-attr]
-        except (TypeError, ValueError):
-            continue
-        if len(gains) == m:
-            return gains
-    return None
-
-
 def _cmd_validate(target: str) -> int:
-    from adaptive_ftc.faults.schedule import check_compensability
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import estimate_run_size
 
@@ -216,22 +194,21 @@ def _cmd_validate(target: str) -> int:
     for line in loop.describe_failures():
         print(f"  failure {line}")
     design = loop.controller.design
-    known_sign = design in KNOWN_SIGN_DESIGNS and loop.adapt
-    report = check_compensability(
-        loop.failures,
-        loop.R,
-        loop.t_final,
-        state_names=tuple(loop.plant.aliases()),
-        t0=loop.t0,
-        known_sign=known_sign,
-        gains=_plant_gains(loop.plant),
-    )
+    known_sign = loop.known_sign
+    report = loop.compensability(design=True)
     conditions = "rank condition (3.6), one effective actuator per output"
     if known_sign:
         conditions += f"; sign conditions (2.16)/(4.6): '{design}' assumes a known direction"
     print(f"compensability ({conditions}):")
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
+    for j in report.dead_actuators:  # a warning: the others may still compensate
+        print(
+            f"warning: actuator {j + 1} ({loop.plant.actuator_names[j]}) is never effective "
+            f"from {loop.t0:g} s to {loop.t_final:g} s (its failures leave no dependence on "
+            "its command): it never contributes. Remove its failure or give it a later onset "
+            "if that is not intended."
+        )
     if not report.ok:
         print(
             f"{sc.name}: NOT COMPENSABLE - some intervals break the conditions above; the "

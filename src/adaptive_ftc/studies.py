@@ -59,7 +59,7 @@ from adaptive_ftc.errors import ConfigurationError, did_you_mean
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import Scenario, load_scenario
 from adaptive_ftc.sim.batch import simulate_many
-from adaptive_ftc.sim.engine import SolverOptions
+from adaptive_ftc.sim.engine import DEFAULT_FILTER_TAU, SolverOptions
 from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -171,7 +171,8 @@ def _variant(
     if knob == "controller_rate":
         ts = 1.0 / value
         dt = ts / math.ceil(ts / _MAX_DT - 1e-9)
-        rk4 = replace(solver, method="rk4", dt=dt, filter_tau=max(solver.filter_tau, ts))
+        tau = max(solver.filter_tau or DEFAULT_FILTER_TAU, ts)
+        rk4 = replace(solver, method="rk4", dt=dt, filter_tau=tau)
         return replace(loop, sample_time=ts), rk4
     if knob == "lag":
         return replace(loop, actuators=Actuators(tau=value)), solver
