@@ -937,6 +937,12 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    if ctrl.constraint_aware is not None:  # its states after the design's own
+        ca_control, ca_pre, ca_post = ctrl.emit_constraint_aware(
+            g, blocks, extra_at + len(g.y0_extra)
+        )
+        control_src = control_src + ca_control
+        adapt_src = ca_pre + adapt_src + ca_post
     # ``gains(D).x`` at each use: building them once per call (``gs = gains(D)``) ran 1.5 %
     # slower (the NamedTuple then lives across the whole right-hand side)
     control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
@@ -1189,12 +1195,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
+    k_law, eps0_law = ctrl.robust_settings()  # the thesis's, or constraint-aware ones
     settings = {
         "lam": _per_output(ctrl.lam, p, "lam"),
-        "k": _per_output(ctrl.k, p, "k"),
+        "k": _per_output(k_law, p, "k"),
         "k0": _per_output(ctrl.k0, p, "k0"),
         "R": tuple(np.ravel(loop.R)),
-        "eps0": (float(ctrl.eps0),),
+        "eps0": (float(eps0_law),),
         "filter_tau": (0.01,),
         "adapt": (1.0 if loop.adapt else 0.0,),
         "centers": tuple(g.centers),

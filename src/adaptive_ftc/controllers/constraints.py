@@ -1,0 +1,388 @@
+"""Constraint-aware versions of the thesis's adaptive laws (issue 25, item 2).
+
+The thesis's laws (``u0 = Pi(z)^T theta``, ``theta' = gamma Pi q - gamma sigma theta`` with
+``q = s' + k s + k0 tanh(s/eps0)``, §2.3, §4.4, ...) assume ideal actuators, exact
+measurements and continuous time. Seen from the plant they are a very fast loop: ``theta``
+integrates ``gamma Pi s'``, so ``u0`` moves by ``gamma |Pi|^2`` per unit of ``s`` (a
+proportional path), and ``k0 tanh(s/eps0)`` adds an integral path of rate ``k + k0/eps0``
+(200 1/s with the hypersonic gains). Rate limits, lag, slow sampling and noise break that loop
+(measured in docs/hardware.md). :class:`ConstraintAware` is the *designer's model* of the
+hardware; given to a design (``constraint_aware=ConstraintAware(...)``, an option of the
+design, not another design) it derives, by the rules below, one configuration
+(:class:`Configuration`) that changes the law in five established ways:
+
+1. **Bandwidth scaling and smoothing of the robust term.** The loop rate of the law's linear
+   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware admits
+   ``w_max = min(w0, C_LAG/lag, C_SAMPLE/T, C_NOISE w0^(1/3) / noise^(1/3)...)`` (see
+   :meth:`ConstraintAware.configure`); with ``r = w_max / w0`` the law runs with
+   ``gamma -> r gamma`` (every adaptation gain of ``theta``), ``k -> r k`` and
+   ``eps0 -> eps0 / r``. In the linear band ``u0 ~ gamma |Pi|^2 (s + (k + k0/eps0) int s)``,
+   so this moves every closed-loop frequency of the law down by ``r`` at the same damping:
+   the smoothing of the discontinuous term is tied to the actuator bandwidth and the sample
+   rate (Slotine & Li 1991, §7.2: boundary layer no thinner than the unmodelled dynamics
+   allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
+2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
+   Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007): the law's command
+   ``u0c`` passes through ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the
+   allocation, with ``U`` and ``R`` the designer's travel and rate divided by ``max |b_j|`` (so
+   no actuator is commanded past its limits) and ``w_f`` above the loop bandwidth.
+3. **Anti-windup by back-calculation on the estimates** (Åström & Rundqwist, ACC 1989; the
+   role of the compensated error of Farrell et al. 2009 and of pseudo-control hedging, Johnson
+   & Calise, JGCD 26(6), 2003): ``theta' += -k_aw Pi (u0c - u0) / |Pi|^2`` pulls the law's
+   command back to what the filter delivers, so the estimates do not learn the saturation
+   (no wind-up to hundreds of radians behind a rate limit). Only with declared rate or
+   travel limits.
+4. **Prefilter of the adaptation signal** for noise and sampling: ``q`` (built from measured
+   ``s`` and its dirty derivative) drives the laws through ``qf' = w_q (q - qf)``; ``theta``
+   then integrates ``gamma Pi`` times a low-passed ``s'``, so measurement noise reaches the
+   command attenuated above ``w_q``.
+5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
+   Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
+   sigma-modification: where the estimate is on the boundary and the law points outward,
+   the outward component is removed. Off by default (``theta_max = inf``).
+
+A digital controller integrates every state of the law by forward Euler at its sample time
+``T`` (:mod:`adaptive_ftc.hardware`); the rules keep ``w_f T <= 1/2`` and ``w_q T <= 1/2``
+(stable Euler filters) and ``w_max T <= C_SAMPLE`` (the discrete-time-aware bound on the
+adaptive loop).
+
+Guarantees (which holds for which combination):
+
+- *ideal model* (no lag, no limits, continuous, no noise): :meth:`ConstraintAware.configure`
+  returns the identity (``r = 1``, no filters, no anti-windup), the generated law is the
+  thesis law and the trajectories agree to rounding (test: 1e-9); the thesis's theorems hold.
+- *lag / sampling*: the law is the thesis law with scaled gains (a valid choice of the
+  thesis's gains, so Theorem 2.1's boundedness holds for the continuous idealisation), run
+  slower than the unmodelled actuator and sampling dynamics: the usual robustness argument
+  of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
+  bounded signals for small enough unmodelled dynamics), not a proof for each case.
+- *rate / travel limits*: the command filter makes every commanded actuator respect the
+  designer's limits (hard guarantee on the command); the back-calculation keeps the estimates
+  bounded while the filter limits; tracking is only as good as the limited command allows.
+- *noise*: the prefilter and the lower bandwidth bound the noise in the command (linear
+  filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
+- *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
+
+All of this is measured, case by case, in docs/hardware.md ("Designs under real hardware")
+and by ``scripts/hardware_cases.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError
+
+__all__ = ["ConstraintAware", "Configuration"]
+
+#: ``w_max <= C_LAG / lag``: the law's loop rate a quarter of the actuator's bandwidth.
+C_LAG = 0.25
+#: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
+C_SAMPLE = 0.1
+#: noise rule: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
+C_NOISE = 0.2
+#: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
+C_FILTER = 4.0
+#: the prefilter of the adaptation signal, in multiples of ``w_max``.
+C_PREFILTER = 2.0
+#: a digital filter's bandwidth is at most ``C_EULER / T``.
+C_EULER = 0.5
+#: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
+C_AW = 1.0
+#: the command filter keeps this fraction of the declared rate and travel (margin).
+C_MARGIN = 0.9
+
+
+class Configuration(NamedTuple):
+    """What :meth:`ConstraintAware.configure` derives (the numbers of the compiled law)."""
+
+    #: bandwidth scale of the law (1 = the thesis's gains)
+    scale: float
+    #: command filter bandwidth (rad/s; inf = no filter)
+    omega_f: float
+    #: magnitude limit of the common command u0 (inf = none)
+    u_max: float
+    #: rate limit of u0 (per second; inf = none)
+    u_rate: float
+    #: prefilter bandwidth of the adaptation signal q (rad/s; inf = none)
+    omega_q: float
+    #: back-calculation rate of the anti-windup (1/s; 0 = none)
+    k_aw: float
+    #: radius of the projection ball of theta (inf = none)
+    theta_max: float
+
+    @property
+    def filtered(self) -> bool:
+        return math.isfinite(self.omega_f)
+
+    @property
+    def prefiltered(self) -> bool:
+        return math.isfinite(self.omega_q)
+
+    @property
+    def projected(self) -> bool:
+        return math.isfinite(self.theta_max)
+
+
+IDENTITY = Configuration(1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
+
+
+def _number(owner: str, key: str, v, *, allow_inf: bool, positive: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+        raise ConfigurationError(f"`{key}` of {owner} must be a number; got {v!r}.")
+    if not allow_inf and math.isinf(v):
+        raise ConfigurationError(f"`{key}` of {owner} must be finite; got {v!r}.")
+    if positive and not v > 0:
+        raise ConfigurationError(f"`{key}` of {owner} must be > 0; got {v!r}.")
+    if v < 0:
+        raise ConfigurationError(f"`{key}` of {owner} must be >= 0; got {v!r}.")
+    return float(v)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConstraintAware:
+    """The designer's model of the hardware, from which a design derives its constraint-aware
+    configuration (see the module docstring for the rules and the references).
+
+    Declared apart from the loop's true hardware (``ClosedLoop.actuators``, ``.sensors``,
+    ``.sample_time``), so a design can be studied under a mismatched model;
+    :meth:`from_loop` derives it from the loop's own declared hardware.
+
+    Parameters
+    ----------
+    lag
+        Actuator time constant (s) the designer assumes; 0 = none.
+    rate
+        Actuator rate limit (actuator units per second); ``inf`` = none.
+    travel
+        Actuator travel: ``|u_j| <= travel``; ``inf`` = none.
+    sample_time
+        Controller sample time (s); 0 = continuous.
+    noise
+        Standard deviation of the measured filtered error ``s = e' + lam e`` (from the
+        sensors: ``sqrt(noise(velocity)^2 + lam^2 noise(position)^2)``); 0 = none.
+    bandwidth
+        The law's loop rate (1/s) to use instead of the rule's ``w_max`` (``None``: the
+        rule). For studies of the rule; not needed otherwise.
+    theta_max
+        Radius of the projection ball of each output's ``theta``; ``inf`` = no projection.
+
+    Examples
+    --------
+    >>> ConstraintAware().is_ideal
+    True
+    >>> ConstraintAware(lag=0.05).configure(w0=205.0, b_max=2.0).scale  # 0.25/0.05 = 5 1/s
+    0.024390243902439025
+    """
+
+    lag: float = 0.0
+    rate: float = math.inf
+    travel: float = math.inf
+    sample_time: float = 0.0
+    noise: float = 0.0
+    bandwidth: float | None = None
+    theta_max: float = math.inf
+
+    def __post_init__(self) -> None:
+        owner = "ConstraintAware"
+        _number(owner, "lag", self.lag, allow_inf=False)
+        _number(owner, "rate", self.rate, allow_inf=True, positive=True)
+        _number(owner, "travel", self.travel, allow_inf=True, positive=True)
+        _number(owner, "sample_time", self.sample_time, allow_inf=False)
+        _number(owner, "noise", self.noise, allow_inf=False)
+        _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
+        if self.bandwidth is not None:
+            _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
+
+    @property
+    def is_ideal(self) -> bool:
+        """No lag, no limits, continuous, no noise (and no override): the thesis law."""
+        return (
+            self.lag == 0
+            and math.isinf(self.rate)
+            and math.isinf(self.travel)
+            and self.sample_time == 0
+            and self.noise == 0
+            and self.bandwidth is None
+            and math.isinf(self.theta_max)
+        )
+
+    @classmethod
+    def from_hardware(
+        cls,
+        *,
+        actuators=None,
+        sensors=None,
+        sample_time: float = 0.0,
+        plant=None,
+        lam: float = 1.0,
+        **overrides,
+    ) -> ConstraintAware:
+        """The model that believes the declared hardware: the largest lag (or ``1/omega`` of
+        a second-order actuator), the smallest rate limit and travel over the actuators, the
+        loop's sample time and the noise of ``s`` from the sensors' standard deviations on
+        the first output's position and velocity states (``plant`` names them)."""
+        lag, rate, travel, noise = 0.0, math.inf, math.inf, 0.0
+        if actuators is not None and plant is not None:
+            tab = actuators.table(plant.n_actuators)
+            explicit = np.ravel(actuators.tau if not np.isscalar(actuators.tau) else [actuators.tau])
+            lag = float(max(np.max(explicit), 0.0)) if explicit.size else 0.0
+            om = tab[:, 4]
+            if np.any(om > 0):
+                lag = max(lag, float(np.max(1.0 / om[om > 0])))
+            rate = float(np.min(tab[:, 1]))
+            travel = float(np.min(np.minimum(np.abs(tab[:, 2]), np.abs(tab[:, 3]))))
+        if sensors is not None and plant is not None:
+            std, _ = sensors.per_state(plant.aliases(), plant.n_states)
+            lam1 = float(lam if isinstance(lam, (int, float)) else lam[0])
+            sp = float(std[plant.position_index[0]])
+            sv = float(std[plant.velocity_index[0]])
+            noise = math.hypot(sv, lam1 * sp)
+        return cls(
+            **{
+                "lag": lag,
+                "rate": rate,
+                "travel": travel,
+                "sample_time": float(sample_time),
+                "noise": noise,
+                **overrides,
+            }
+        )
+
+    @classmethod
+    def from_loop(cls, loop, **overrides) -> ConstraintAware:
+        """:meth:`from_hardware` of ``loop``'s declared actuators, sensors and sample time."""
+        return cls.from_hardware(
+            actuators=loop.actuators,
+            sensors=loop.sensors,
+            sample_time=loop.sample_time,
+            plant=loop.plant,
+            lam=loop.controller.lam,
+            **overrides,
+        )
+
+    def omega_max(self, w0: float) -> float:
+        """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``)."""
+        if self.bandwidth is not None:
+            return min(w0, float(self.bandwidth))
+        w = w0
+        if self.lag > 0:
+            w = min(w, C_LAG / self.lag)
+        if self.sample_time > 0:
+            w = min(w, C_SAMPLE / self.sample_time)
+        if self.noise > 0:
+            w = min(w, C_NOISE / self.noise)
+        return w
+
+    def configure(self, *, w0: float, b_max: float) -> Configuration:
+        """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
+        under this model, for an allocation whose largest gain is ``b_max``."""
+        if self.is_ideal:
+            return IDENTITY
+        w = self.omega_max(w0)
+        scale = w / w0
+        limited = math.isfinite(self.rate) or math.isfinite(self.travel)
+        dynamic = self.lag > 0 or self.sample_time > 0
+        omega_f = math.inf
+        if limited or dynamic:
+            omega_f = C_FILTER * w
+            if self.lag > 0:
+                omega_f = min(omega_f, 1.0 / self.lag)
+            if self.sample_time > 0:
+                omega_f = min(omega_f, C_EULER / self.sample_time)
+        omega_q = math.inf
+        if self.noise > 0 or self.sample_time > 0:
+            omega_q = C_PREFILTER * w
+            if self.sample_time > 0:
+                omega_q = min(omega_q, C_EULER / self.sample_time)
+        b = max(abs(b_max), 1e-300)
+        u_max = C_MARGIN * self.travel / b
+        u_rate = C_MARGIN * self.rate / b
+        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
+        return Configuration(scale, omega_f, u_max, u_rate, omega_q, k_aw, self.theta_max)
+
+
+# ---------------------------------------------------------------- compiled pieces of the law
+def command_filter(uc, uf, omega_f, u_max, u_rate):
+    """Derivative of the command filter: ``clip(w_f (clip(uc, -U, U) - uf), -R, R)``
+    (Farrell et al. 2009, first order)."""
+    target = min(max(uc, -u_max), u_max)
+    return min(max(omega_f * (target - uf), -u_rate), u_rate)
+
+
+def back_calculation(dY, phi, excess, k_aw, off, at, size):
+    """Anti-windup: ``theta' -= k_aw Pi excess / |Pi|^2``, so ``Pi^T theta`` moves back
+    towards the command the filter can deliver at ``k_aw`` (Åström & Rundqwist 1989)."""
+    nrm = 1e-12
+    for l in range(size):
+        nrm += phi[off + l] * phi[off + l]
+    d = k_aw * excess / nrm
+    for l in range(size):
+        dY[at + l] -= d * phi[off + l]
+
+
+def project_ball(dY, Y, theta_max, at, size):
+    """Projection on ``|theta| <= theta_max`` (Lavretsky & Wise 2013, §11.4): on or outside
+    the boundary, the outward component of ``theta'`` is removed."""
+    th2 = 0.0
+    dot = 0.0
+    for l in range(size):
+        th2 += Y[at + l] * Y[at + l]
+        dot += Y[at + l] * dY[at + l]
+    if th2 >= theta_max * theta_max and dot > 0.0:
+        f = dot / th2
+        for l in range(size):
+            dY[at + l] -= f * Y[at + l]
+
+
+def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
+    """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
+    after the adaptive laws)``. The numbers go to ``D.c`` (``g.consts``): configurations of
+    the same shape share one compiled loop. States from ``at`` on: one command filter state
+    per output, then one prefilter state per output."""
+    p = g.p
+    c0 = len(g.consts)
+    g.consts.extend(
+        [cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max]
+    )
+    wf, umax, urate, wq, kaw, tmax = (f"c[{c0 + k}]" for k in range(6))
+    control, pre, post = [], [], []
+    at_q = at
+    if cfg.filtered:
+        g.use("command_filter", command_filter)
+        g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
+        g.y0_extra.extend([0.0] * p)
+        at_q = at + p
+        control.append("    # constraint-aware: the law's command u0c through the command filter")
+        for i in range(p):
+            control += [f"    uc{i} = u0[{i}]", f"    u0[{i}] = Y[{at + i}]"]
+    if cfg.prefiltered:
+        g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
+        g.y0_extra.extend([0.0] * p)
+        pre.append("    # constraint-aware: the laws see the prefiltered q")
+        for i in range(p):
+            pre += [
+                f"    dY[{at_q + i}] = {wq} * (q[{i}] - Y[{at_q + i}])",
+                f"    q[{i}] = Y[{at_q + i}]",
+            ]
+    if cfg.filtered:
+        for i in range(p):
+            post.append(
+                f"    dY[{at + i}] = command_filter(uc{i}, Y[{at + i}], {wf}, {umax}, {urate})"
+            )
+        if cfg.k_aw > 0:
+            g.use("back_calculation", back_calculation)
+            post.append("    # anti-windup: the estimates do not learn the limits")
+            for r, (o, a, size) in enumerate(blocks):
+                i = 0 if single_output else r
+                excess = f"uc{i} - (Y[{at + i}] + dY[{at + i}] / {wf})"
+                post.append(f"    back_calculation(dY, phi, {excess}, {kaw}, {o}, {a}, {size})")
+    if cfg.projected:
+        g.use("project_ball", project_ball)
+        for _, a, size in blocks:
+            post.append(f"    project_ball(dY, Y, {tmax}, {a}, {size})")
+    return control, pre, post
