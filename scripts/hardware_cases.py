@@ -203,7 +203,8 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|---|")
     _, ideal = run_cases(args.scenario, cases, args.duration, tuple(args.laws.split(",")))
     print(
-        f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, peak {ideal['peak_u']:.3g}; "
+        f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, "
+        f"peak {ideal['peak_u']:.3g}; "
         f"targets: error <= {ideal['threshold']:.2e}, fast <= {ideal['fast_max']:.2e}, "
         f"peak <= travel or {ideal['peak_max']:.3g}, at rate <= 5 %"
     )

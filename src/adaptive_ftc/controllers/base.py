@@ -125,7 +125,8 @@ class AdaptiveController(ABC):
         """The constraint-aware configuration (the identity without ``constraint_aware``)."""
         if self.constraint_aware is None:
             return constraints.IDENTITY
-        return self.constraint_aware.configure(w0=self.loop_rate(), b_max=b_max)
+        lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
+        return self.constraint_aware.configure(w0=self.loop_rate(), b_max=b_max, lam=float(lam))
 
     @property
     def adaptation_scale(self) -> float:
@@ -133,13 +134,18 @@ class AdaptiveController(ABC):
         return self.configuration().scale
 
     def robust_settings(self) -> tuple:
-        """``(k, eps0)`` as the compiled law uses them: the thesis's, or ``(r k, eps0 / r)``
-        with the constraint-aware bandwidth scale ``r``."""
-        r = self.adaptation_scale
-        if r == 1.0:
-            return self.k, self.eps0
-        k = self.k * r if isinstance(self.k, (int, float)) else tuple(v * r for v in self.k)
-        return k, self.eps0 / r
+        """``(lam, k, eps0)`` as the compiled law uses them: the thesis's, or
+        ``(f lam, r k, eps0 / r)`` with the constraint-aware bandwidth scale ``r`` and
+        error-filter factor ``f``."""
+        cfg = self.configuration()
+        r, f = cfg.scale, cfg.lam_factor
+        if r == 1.0 and f == 1.0:
+            return self.lam, self.k, self.eps0
+
+        def times(v, x):
+            return v * x if isinstance(v, (int, float)) else tuple(e * x for e in v)
+
+        return times(self.lam, f), times(self.k, r), self.eps0 / r
 
     def emit_constraint_aware(self, g, blocks, at: int):
         """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for

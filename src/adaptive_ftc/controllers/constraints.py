@@ -79,12 +79,24 @@ from adaptive_ftc.errors import ConfigurationError
 
 __all__ = ["ConstraintAware", "Configuration"]
 
-#: ``w_max <= C_LAG / lag``: the law's loop rate a quarter of the actuator's bandwidth.
-C_LAG = 0.25
+#: ``w_max <= C_LAG / lag``: the law's loop rate below the actuator's bandwidth.
+C_LAG = 0.75
 #: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
-C_SAMPLE = 0.1
-#: noise rule: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
-C_NOISE = 0.2
+C_SAMPLE = 0.3
+#: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
+C_NOISE = 0.15
+#: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
+#: rate stays within the rate limit (the describing function of a rate limiter: no phase
+#: loss below it).
+A_RATE = 0.06
+#: ``w_max <= C_CAP w0`` whenever any constraint is declared: the thesis's loop rate is
+#: set for ideal hardware; measured, the hypersonic law limit-cycles above a tenth of it
+#: under any lag or sampling.
+C_CAP = 0.1
+#: ``lam -> min(max(lam, C_LAM w_max), lam / r)`` where lag, sampling or rate bind (not
+#: noise): the error filter's corner moved up to a fraction of the loop rate, which the
+#: scaled loop gives back in low-frequency gain (error ~ 1/(r^2 lam)).
+C_LAM = 0.25
 #: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
 C_FILTER = 4.0
 #: the prefilter of the adaptation signal, in multiples of ``w_max``.
@@ -102,6 +114,8 @@ class Configuration(NamedTuple):
 
     #: bandwidth scale of the law (1 = the thesis's gains)
     scale: float
+    #: factor on ``lam`` (1 = the thesis's)
+    lam_factor: float
     #: command filter bandwidth (rad/s; inf = no filter)
     omega_f: float
     #: magnitude limit of the common command u0 (inf = none)
@@ -128,7 +142,7 @@ class Configuration(NamedTuple):
         return math.isfinite(self.theta_max)
 
 
-IDENTITY = Configuration(1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
+IDENTITY = Configuration(1.0, 1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
 
 
 def _number(owner: str, key: str, v, *, allow_inf: bool, positive: bool = False) -> float:
@@ -229,8 +243,7 @@ class ConstraintAware:
         lag, rate, travel, noise = 0.0, math.inf, math.inf, 0.0
         if actuators is not None and plant is not None:
             tab = actuators.table(plant.n_actuators)
-            explicit = np.ravel(actuators.tau if not np.isscalar(actuators.tau) else [actuators.tau])
-            lag = float(max(np.max(explicit), 0.0)) if explicit.size else 0.0
+            lag = float(np.max(tab[:, 0]))  # a rate limiter's own linear band included
             om = tab[:, 4]
             if np.any(om > 0):
                 lag = max(lag, float(np.max(1.0 / om[om > 0])))
@@ -265,30 +278,36 @@ class ConstraintAware:
             **overrides,
         )
 
-    def omega_max(self, w0: float) -> float:
-        """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``)."""
+    def omega_max(self, w0: float, b_max: float = 1.0) -> tuple[float, bool]:
+        """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``), and
+        whether the noise bound is the one that binds."""
         if self.bandwidth is not None:
-            return min(w0, float(self.bandwidth))
-        w = w0
+            return min(w0, float(self.bandwidth)), False
+        w = C_CAP * w0
         if self.lag > 0:
             w = min(w, C_LAG / self.lag)
         if self.sample_time > 0:
             w = min(w, C_SAMPLE / self.sample_time)
-        if self.noise > 0:
-            w = min(w, C_NOISE / self.noise)
-        return w
+        if math.isfinite(self.rate):
+            w = min(w, C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE)
+        if self.noise > 0 and C_NOISE / self.noise < w:
+            return C_NOISE / self.noise, True
+        return w, False
 
-    def configure(self, *, w0: float, b_max: float) -> Configuration:
+    def configure(self, *, w0: float, b_max: float, lam: float = 1.0) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
-        under this model, for an allocation whose largest gain is ``b_max``."""
+        under this model, for an allocation whose largest gain is ``b_max`` and a filtered
+        error ``s = e' + lam e``."""
         if self.is_ideal:
             return IDENTITY
-        w = self.omega_max(w0)
+        w, noisy = self.omega_max(w0, b_max)
         scale = w / w0
+        lam_factor = 1.0
+        if not noisy and scale < 1.0:
+            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale)
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
-        dynamic = self.lag > 0 or self.sample_time > 0
         omega_f = math.inf
-        if limited or dynamic:
+        if limited:
             omega_f = C_FILTER * w
             if self.lag > 0:
                 omega_f = min(omega_f, 1.0 / self.lag)
@@ -303,7 +322,9 @@ class ConstraintAware:
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
-        return Configuration(scale, omega_f, u_max, u_rate, omega_q, k_aw, self.theta_max)
+        return Configuration(
+            scale, lam_factor, omega_f, u_max, u_rate, omega_q, k_aw, self.theta_max
+        )
 
 
 # ---------------------------------------------------------------- compiled pieces of the law
@@ -346,9 +367,7 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
     per output, then one prefilter state per output."""
     p = g.p
     c0 = len(g.consts)
-    g.consts.extend(
-        [cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max]
-    )
+    g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     wf, umax, urate, wq, kaw, tmax = (f"c[{c0 + k}]" for k in range(6))
     control, pre, post = [], [], []
     at_q = at

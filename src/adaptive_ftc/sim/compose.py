@@ -1195,9 +1195,9 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
-    k_law, eps0_law = ctrl.robust_settings()  # the thesis's, or constraint-aware ones
+    lam_law, k_law, eps0_law = ctrl.robust_settings()  # the thesis's, or constraint-aware
     settings = {
-        "lam": _per_output(ctrl.lam, p, "lam"),
+        "lam": _per_output(lam_law, p, "lam"),
         "k": _per_output(k_law, p, "k"),
         "k0": _per_output(ctrl.k0, p, "k0"),
         "R": tuple(np.ravel(loop.R)),
