@@ -12,7 +12,7 @@ import pytest
 from scipy.signal import butter, sosfiltfilt
 
 from adaptive_ftc.controllers.constraints import IDENTITY, ConstraintAware
-from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
+from adaptive_ftc.errors import ConfigurationError, DivergenceWarning, ScenarioError
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.compose import source_of
@@ -149,3 +149,36 @@ def test_the_command_filter_keeps_the_command_within_the_declared_travel(direct)
     r = _run(_aware(loop), solver)
     assert np.nanmax(np.abs(r.u_cmd)) <= 0.5
     assert np.nanmax(np.abs(_run(loop, solver).u_cmd)) > 0.5  # the thesis law does not
+
+
+def _scenario_text(ca_table: str) -> str:
+    return f"""
+extends = "hypersonic-direct-s1"
+name = "hypersonic-direct-s1-ca"
+[actuators]
+tau = 0.05
+rate = 2.0
+lower = -0.5
+upper = 0.5
+[digital]
+sample_time = 0.02
+[controller.constraint_aware]
+{ca_table}
+"""
+
+
+def test_a_scenario_declares_the_option_from_its_hardware(tmp_path):
+    path = tmp_path / "ca.toml"
+    path.write_text(_scenario_text("from_hardware = true"))
+    ctrl = load_scenario(path).loop.controller
+    ca = ctrl.constraint_aware
+    assert (ca.lag, ca.rate, ca.travel, ca.sample_time) == (0.05, 2.0, 0.5, 0.02)
+    path.write_text(_scenario_text("lag = 0.1"))  # a mismatched designer's model
+    assert load_scenario(path).loop.controller.constraint_aware == ConstraintAware(lag=0.1)
+
+
+def test_a_bad_constraint_aware_table_names_the_key(tmp_path):
+    path = tmp_path / "ca.toml"
+    path.write_text(_scenario_text("lags = 0.1"))
+    with pytest.raises(ScenarioError, match=r"controller.constraint_aware.*'lags'.*from_hardware"):
+        load_scenario(path)
