@@ -12,15 +12,17 @@ design, not another design) it derives, by the rules below, one configuration
 (:class:`Configuration`) that changes the law in five established ways:
 
 1. **Bandwidth scaling and smoothing of the robust term.** The loop rate of the law's linear
-   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware admits
-   ``w_max = min(w0, C_LAG/lag, C_SAMPLE/T, C_NOISE w0^(1/3) / noise^(1/3)...)`` (see
-   :meth:`ConstraintAware.configure`); with ``r = w_max / w0`` the law runs with
+   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware
+   admits ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
+   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`); with ``r = w_max / w0`` the law runs with
    ``gamma -> r gamma`` (every adaptation gain of ``theta``), ``k -> r k`` and
    ``eps0 -> eps0 / r``. In the linear band ``u0 ~ gamma |Pi|^2 (s + (k + k0/eps0) int s)``,
    so this moves every closed-loop frequency of the law down by ``r`` at the same damping:
    the smoothing of the discontinuous term is tied to the actuator bandwidth and the sample
    rate (Slotine & Li 1991, §7.2: boundary layer no thinner than the unmodelled dynamics
    allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
+   Where lag, sampling or a rate limit bind (not noise), ``lam -> min(max(lam, C_LAM w_max),
+   lam / r)``: the scaled loop's low-frequency gain falls as ``r^2 lam``; this gives part back.
 2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
    Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007): the law's command
    ``u0c`` passes through ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the
