@@ -64,7 +64,7 @@ def test_without_the_option_the_law_is_the_thesis_law(direct):
     ctrl = loop.controller
     assert ctrl.constraint_aware is None
     assert ctrl.configuration() == IDENTITY
-    assert ctrl.robust_settings() == (ctrl.lam, ctrl.k, ctrl.eps0)
+    assert ctrl.robust_settings() == (ctrl.lam, ctrl.k, ctrl.k0, ctrl.eps0)
     assert ctrl.gains() == (ctrl.gamma, ctrl.sigma)
     text = source_of(loop)
     assert "constraint-aware" not in text and "command_filter" not in text

@@ -134,18 +134,18 @@ class AdaptiveController(ABC):
         return self.configuration().scale
 
     def robust_settings(self) -> tuple:
-        """``(lam, k, eps0)`` as the compiled law uses them: the thesis's, or
-        ``(f lam, r k, eps0 / r)`` with the constraint-aware bandwidth scale ``r`` and
-        error-filter factor ``f``."""
+        """``(lam, k, k0, eps0)`` as the compiled law uses them: the thesis's, or
+        ``(f lam, r k, W k0, W eps0 / r)`` with the constraint-aware bandwidth scale ``r``,
+        error-filter factor ``f`` and boundary-layer widening ``W``."""
         cfg = self.configuration()
-        r, f = cfg.scale, cfg.lam_factor
-        if r == 1.0 and f == 1.0:
-            return self.lam, self.k, self.eps0
+        r, f, w = cfg.scale, cfg.lam_factor, cfg.widen
+        if r == 1.0 and f == 1.0 and w == 1.0:
+            return self.lam, self.k, self.k0, self.eps0
 
         def times(v, x):
             return v * x if isinstance(v, (int, float)) else tuple(e * x for e in v)
 
-        return times(self.lam, f), times(self.k, r), self.eps0 / r
+        return times(self.lam, f), times(self.k, r), times(self.k0, w), self.eps0 * w / r
 
     def emit_constraint_aware(self, g, blocks, at: int):
         """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for

@@ -82,9 +82,9 @@ from adaptive_ftc.errors import ConfigurationError
 __all__ = ["ConstraintAware", "Configuration"]
 
 #: ``w_max <= C_LAG / lag``: the law's loop rate below the actuator's bandwidth.
-C_LAG = 0.75
+C_LAG = 1.0
 #: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
-C_SAMPLE = 0.3
+C_SAMPLE = 0.75
 #: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
 C_NOISE = 0.15
 #: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
@@ -98,7 +98,11 @@ C_CAP = 0.1
 #: ``lam -> min(max(lam, C_LAM w_max), lam / r)`` where lag, sampling or rate bind (not
 #: noise): the error filter's corner moved up to a fraction of the loop rate, which the
 #: scaled loop gives back in low-frequency gain (error ~ 1/(r^2 lam)).
-C_LAM = 0.25
+C_LAM = 0.8
+#: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
+WIDEN = 3.0
+#: ``lam`` is raised at most this many times.
+LAM_FACTOR_MAX = 4.0
 #: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
 C_FILTER = 4.0
 #: the prefilter of the adaptation signal, in multiples of ``w_max``.
@@ -118,6 +122,9 @@ class Configuration(NamedTuple):
     scale: float
     #: factor on ``lam`` (1 = the thesis's)
     lam_factor: float
+    #: widening of the robust term's boundary layer at the same linear-band slope:
+    #: ``k0 -> W k0``, ``eps0 -> W eps0 / r`` (1 = none)
+    widen: float
     #: command filter bandwidth (rad/s; inf = no filter)
     omega_f: float
     #: magnitude limit of the common command u0 (inf = none)
@@ -144,7 +151,7 @@ class Configuration(NamedTuple):
         return math.isfinite(self.theta_max)
 
 
-IDENTITY = Configuration(1.0, 1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
+IDENTITY = Configuration(1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
 
 
 def _number(owner: str, key: str, v, *, allow_inf: bool, positive: bool = False) -> float:
@@ -306,7 +313,7 @@ class ConstraintAware:
         scale = w / w0
         lam_factor = 1.0
         if not noisy and scale < 1.0:
-            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale)
+            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, LAM_FACTOR_MAX)
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         omega_f = math.inf
         if limited:
@@ -316,7 +323,7 @@ class ConstraintAware:
             if self.sample_time > 0:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
         omega_q = math.inf
-        if self.noise > 0 or self.sample_time > 0:
+        if self.noise > 0:
             omega_q = C_PREFILTER * w
             if self.sample_time > 0:
                 omega_q = min(omega_q, C_EULER / self.sample_time)
@@ -325,7 +332,8 @@ class ConstraintAware:
         u_rate = C_MARGIN * self.rate / b
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
         return Configuration(
-            scale, lam_factor, omega_f, u_max, u_rate, omega_q, k_aw, self.theta_max
+            scale, lam_factor, WIDEN if scale < 1.0 else 1.0, omega_f, u_max, u_rate, omega_q,
+            k_aw, self.theta_max
         )
 
 

@@ -1195,11 +1195,11 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
-    lam_law, k_law, eps0_law = ctrl.robust_settings()  # the thesis's, or constraint-aware
+    lam_law, k_law, k0_law, eps0_law = ctrl.robust_settings()  # the thesis's or constraint-aware
     settings = {
         "lam": _per_output(lam_law, p, "lam"),
         "k": _per_output(k_law, p, "k"),
-        "k0": _per_output(ctrl.k0, p, "k0"),
+        "k0": _per_output(k0_law, p, "k0"),
         "R": tuple(np.ravel(loop.R)),
         "eps0": (float(eps0_law),),
         "filter_tau": (0.01,),
