@@ -153,7 +153,7 @@ class AdaptiveController(ABC):
         b_max = float(abs(np.asarray(g.loop.R)).max()) if np.size(g.loop.R) else 1.0
         cfg = self.configuration(b_max)
         if cfg == constraints.IDENTITY:
-            return [], [], []
+            return [], [], [], []
         return constraints.emit(cfg, g, blocks, at, self.single_output)
 
     # ------------------------------------------------------------------ code generation

@@ -105,6 +105,8 @@ WIDEN = 3.0
 LAM_FACTOR_MAX = 4.0
 #: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
 C_FILTER = 4.0
+#: the prefilter of the measurements the law sees, in multiples of ``w_max``.
+C_MEASURE = 4.0
 #: the prefilter of the adaptation signal, in multiples of ``w_max``.
 C_PREFILTER = 2.0
 #: a digital filter's bandwidth is at most ``C_EULER / T``.
@@ -133,6 +135,8 @@ class Configuration(NamedTuple):
     u_rate: float
     #: prefilter bandwidth of the adaptation signal q (rad/s; inf = none)
     omega_q: float
+    #: prefilter bandwidth of the measurements the law sees (rad/s; inf = none)
+    omega_m: float
     #: back-calculation rate of the anti-windup (1/s; 0 = none)
     k_aw: float
     #: radius of the projection ball of theta (inf = none)
@@ -147,11 +151,17 @@ class Configuration(NamedTuple):
         return math.isfinite(self.omega_q)
 
     @property
+    def measured_through_filter(self) -> bool:
+        return math.isfinite(self.omega_m)
+
+    @property
     def projected(self) -> bool:
         return math.isfinite(self.theta_max)
 
 
-IDENTITY = Configuration(1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf)
+IDENTITY = Configuration(
+    1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf
+)
 
 
 def _number(owner: str, key: str, v, *, allow_inf: bool, positive: bool = False) -> float:
@@ -322,18 +332,28 @@ class ConstraintAware:
                 omega_f = min(omega_f, 1.0 / self.lag)
             if self.sample_time > 0:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
-        omega_q = math.inf
+        omega_q = omega_m = math.inf
         if self.noise > 0:
             omega_q = C_PREFILTER * w
+            omega_m = C_MEASURE * w
             if self.sample_time > 0:
                 omega_q = min(omega_q, C_EULER / self.sample_time)
+                omega_m = min(omega_m, C_EULER / self.sample_time)
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
         return Configuration(
-            scale, lam_factor, WIDEN if scale < 1.0 else 1.0, omega_f, u_max, u_rate, omega_q,
-            k_aw, self.theta_max
+            scale,
+            lam_factor,
+            WIDEN if scale < 1.0 else 1.0,
+            omega_f,
+            u_max,
+            u_rate,
+            omega_q,
+            omega_m,
+            k_aw,
+            self.theta_max,
         )
 
 
@@ -372,14 +392,27 @@ def project_ball(dY, Y, theta_max, at, size):
 
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
-    after the adaptive laws)``. The numbers go to ``D.c`` (``g.consts``): configurations of
-    the same shape share one compiled loop. States from ``at`` on: one command filter state
-    per output, then one prefilter state per output."""
+    after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
+    (``g.consts``): configurations of the same shape share one compiled loop. States from
+    ``at`` on: one measurement filter state per plant state (with noise), one command filter
+    state per output (with limits), one prefilter state of ``q`` per output (with noise)."""
     p = g.p
     c0 = len(g.consts)
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
-    wf, umax, urate, wq, kaw, tmax = (f"c[{c0 + k}]" for k in range(6))
-    control, pre, post = [], [], []
+    g.consts.append(cfg.omega_m)
+    wf, umax, urate, wq, kaw, tmax, wm = (f"c[{c0 + k}]" for k in range(7))
+    control, pre, post, measure = [], [], [], []
+    if cfg.measured_through_filter:  # the law sees x + noise through a first-order filter
+        nx = g.nx
+        g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
+        g.y0_extra.extend([0.0] * nx)  # assemble starts them at x(0)
+        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        measure = [
+            f"    for i in range({nx}):  # constraint-aware: the law sees filtered measurements",
+            f"        dY[{at} + i] = {wm} * ({seen} - Y[{at} + i])",
+            f"        sig[i] = Y[{at} + i]",
+        ]
+        at += nx
     at_q = at
     if cfg.filtered:
         g.use("command_filter", command_filter)
@@ -414,4 +447,4 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
         g.use("project_ball", project_ball)
         for _, a, size in blocks:
             post.append(f"    project_ball(dY, Y, {tmax}, {a}, {size})")
-    return control, pre, post
+    return control, pre, post, measure

@@ -937,8 +937,9 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    ca_measure = []
     if ctrl.constraint_aware is not None:  # its states after the design's own
-        ca_control, ca_pre, ca_post = ctrl.emit_constraint_aware(
+        ca_control, ca_pre, ca_post, ca_measure = ctrl.emit_constraint_aware(
             g, blocks, extra_at + len(g.y0_extra)
         )
         control_src = control_src + ca_control
@@ -974,10 +975,15 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         f"    x = Y[0:{nx}]",
         "    c = D.c",
         *[_view(name) for name in _WORK],
-        f"    for i in range({nx}):",
-        "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
-        if has_meas
-        else "        sig[i] = x[i]",
+        *(
+            ca_measure
+            or [
+                f"    for i in range({nx}):",
+                "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
+                if has_meas
+                else "        sig[i] = x[i]",
+            ]
+        ),
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
         "        reference(t, c, ref)",
         *[f"        {line}" for line in g.per_time],
@@ -1443,6 +1449,9 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     if loop.actuators is not None and loop.actuators.initial:
         at = layout["at_act"]
         y0[at : at + g.m] = loop.actuators.initial
+    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
+        at = nx + g.adaptive_names.index("measurement_filter1")
+        y0[at : at + nx] = y0[:nx]
     if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
         raise ConfigurationError(
             f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "
