@@ -113,6 +113,8 @@ C_PREFILTER = 2.0
 C_EULER = 0.5
 #: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
 C_AW = 1.0
+#: decay rate of the compensated error, in multiples of ``w_max``.
+C_HEDGE = 1.0
 #: the command filter keeps this fraction of the declared rate and travel (margin).
 C_MARGIN = 0.9
 
@@ -139,6 +141,10 @@ class Configuration(NamedTuple):
     omega_m: float
     #: back-calculation rate of the anti-windup (1/s; 0 = none)
     k_aw: float
+    #: gain of the compensated-error (hedging) filter, the nominal input gain (0 = none)
+    hedge: float
+    #: decay rate of the compensated-error filter (1/s)
+    omega_h: float
     #: radius of the projection ball of theta (inf = none)
     theta_max: float
 
@@ -160,7 +166,7 @@ class Configuration(NamedTuple):
 
 
 IDENTITY = Configuration(
-    1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, 0.0, math.inf
+    1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, 0.0, 0.0, 0.0, math.inf
 )
 
 
@@ -203,13 +209,20 @@ class ConstraintAware:
         rule). For studies of the rule; not needed otherwise.
     theta_max
         Radius of the projection ball of each output's ``theta``; ``inf`` = no projection.
+    input_gain
+        The designer's nominal ``|d s'/d u0|`` of the healthy plant (``sum_j b_j dy''/du_j``;
+        ``plant.input_gains()``): with rate or travel limits, the gain of the compensated-
+        error filter that hedges the limited command out of the adaptation; 0 (default) = no
+        hedging. Measured on the hypersonic rate-limit cases it did not prevent the
+        divergence (docs/hardware.md), so :meth:`from_loop` leaves it at 0. Not a
+        constraint: a model with only ``input_gain`` is ideal.
 
     Examples
     --------
     >>> ConstraintAware().is_ideal
     True
-    >>> ConstraintAware(lag=0.05).configure(w0=205.0, b_max=2.0).scale  # 0.25/0.05 = 5 1/s
-    0.024390243902439025
+    >>> ConstraintAware(lag=0.05).configure(w0=205.0, b_max=2.0).scale  # 1/0.05 = 20 1/s
+    0.0975609756097561
     """
 
     lag: float = 0.0
@@ -219,6 +232,7 @@ class ConstraintAware:
     noise: float = 0.0
     bandwidth: float | None = None
     theta_max: float = math.inf
+    input_gain: float = 0.0
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -228,6 +242,7 @@ class ConstraintAware:
         _number(owner, "sample_time", self.sample_time, allow_inf=False)
         _number(owner, "noise", self.noise, allow_inf=False)
         _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
+        _number(owner, "input_gain", self.input_gain, allow_inf=False)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
 
@@ -353,6 +368,8 @@ class ConstraintAware:
             omega_q,
             omega_m,
             k_aw,
+            self.input_gain if limited else 0.0,
+            C_HEDGE * w,
             self.theta_max,
         )
 
@@ -374,6 +391,14 @@ def back_calculation(dY, phi, excess, k_aw, off, at, size):
     d = k_aw * excess / nrm
     for l in range(size):
         dY[at + l] -= d * phi[off + l]
+
+
+def hedged_q(q, s, xi, dxi, k, k0, eps0):
+    """``q`` of the compensated error ``s - xi``: ``q - xi' - k xi + k0 (tanh((s - xi)/eps0)
+    - tanh(s/eps0))``, where ``xi' = -w xi + b (u0c - u0)`` is the part of ``s`` that the
+    limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
+    2003)."""
+    return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
 
 
 def project_ball(dY, Y, theta_max, at, size):
@@ -399,8 +424,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
     p = g.p
     c0 = len(g.consts)
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
-    g.consts.append(cfg.omega_m)
-    wf, umax, urate, wq, kaw, tmax, wm = (f"c[{c0 + k}]" for k in range(7))
+    g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
+    wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
     control, pre, post, measure = [], [], [], []
     if cfg.measured_through_filter:  # the law sees x + noise through a first-order filter
         nx = g.nx
@@ -422,6 +447,19 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
         control.append("    # constraint-aware: the law's command u0c through the command filter")
         for i in range(p):
             control += [f"    uc{i} = u0[{i}]", f"    u0[{i}] = Y[{at + i}]"]
+    if cfg.filtered and cfg.hedge > 0:  # compensated error (Farrell et al. 2009)
+        g.use("hedged_q", hedged_q)
+        g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
+        g.y0_extra.extend([0.0] * p)
+        pre.append("    # constraint-aware: the laws see the compensated error s - xi")
+        for i in range(p):
+            h = at_q + i
+            pre += [
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at + i}])",
+                f"    q[{i}] = hedged_q(q[{i}], sig[{g.nx + 2 * p + i}], Y[{h}], dY[{h}],"
+                f" c[K + {i}], c[K0 + {i}], c[EPS0])",
+            ]
+        at_q += p
     if cfg.prefiltered:
         g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
         g.y0_extra.extend([0.0] * p)
