@@ -66,6 +66,21 @@ HYPERSONIC_CASES = (
 )
 
 
+def cases_from_ideal(sc, ideal_result) -> tuple[Case, ...]:
+    """Issue 25 item (c): lag 50 ms, 50 Hz, a rate limit at half the ideal run's peak command
+    rate, noise at 1 % of the reference amplitude (on the output positions; 10x on their
+    rates)."""
+    r = ideal_result
+    rate = float(np.max(np.abs(np.diff(r.u_cmd, axis=0)) / np.diff(r.time)[:, None]))
+    amp = float(np.max(np.ptp(r.yd, axis=0)) / 2.0)
+    return (
+        Case("lag 50 ms", lag=0.05),
+        Case("digital 50 Hz", hz=50.0),
+        Case(f"rate {rate / 2:.3g} (half the ideal peak)", rate=rate / 2),
+        Case(f"noise {0.01 * amp:.2g} (1 % of the reference)", noise=0.01 * amp),
+    )
+
+
 def case_loop(sc, case: Case, duration: float | None = None):
     """The scenario's loop and solver under ``case``'s hardware (thesis law)."""
     loop, solver = sc.loop, replace(sc.solver, record_dt=REC_DT)
@@ -80,9 +95,13 @@ def case_loop(sc, case: Case, duration: float | None = None):
         )
     fixed = False
     if case.noise > 0:
-        names = loop.plant.state_names
-        noise = {n: case.noise * 10.0**i for i, n in enumerate(names)}
-        loop = replace(loop, sensors=Sensors(noise=noise, rate=1000.0, seed=0))
+        plant = loop.plant
+        noise = [0.0] * plant.n_states
+        for i in plant.position_index:
+            noise[i] = case.noise
+        for i in plant.velocity_index:
+            noise[i] = 10.0 * case.noise
+        loop = replace(loop, sensors=Sensors(noise=tuple(noise), rate=1000.0, seed=0))
         fixed = True
     dt = 1e-3
     if math.isfinite(case.hz):
@@ -163,7 +182,10 @@ def run_cases(scenario: str, cases=HYPERSONIC_CASES, duration=None, laws=("thesi
     loop, solver = case_loop(sc, Case("ideal"), duration)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DivergenceWarning)
-        ideal = metrics(simulate(loop, solver), loop, window)
+        ideal_run = simulate(loop, solver)
+    ideal = metrics(ideal_run, loop, window)
+    if cases is None:
+        cases = cases_from_ideal(sc, ideal_run)
     fast_max = 0.03 * ideal["pp"]
     peak_max = 10.0 * ideal["peak_u"]
     rows = [{"case": "ideal", "law": "thesis", **ideal, "verdict": "-"}]
@@ -197,8 +219,15 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=None)
     ap.add_argument("--only", default=None, help="substring of the case names to run")
     ap.add_argument("--laws", default="thesis,aware")
+    ap.add_argument(
+        "--ideal-cases",
+        action="store_true",
+        help="the cases of issue 25 (c), sized from the ideal run, instead of the hypersonic set",
+    )
     args = ap.parse_args(argv)
     cases = [c for c in HYPERSONIC_CASES if args.only is None or args.only in c.name]
+    if args.ideal_cases:
+        cases = None
     print("| case | law | error (rad) | fast (rad) | peak |u| | at rate | verdict |")
     print("|---|---|---|---|---|---|---|")
     _, ideal = run_cases(args.scenario, cases, args.duration, tuple(args.laws.split(",")))

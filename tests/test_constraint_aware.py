@@ -210,3 +210,41 @@ def test_hedging_is_generated_only_with_an_input_gain_and_limits(direct):
     lag_only = replace(hedged, rate=math.inf)
     text = source_of(replace(loop, controller=replace(loop.controller, constraint_aware=lag_only)))
     assert "hedged_q" not in text
+
+
+def test_the_filters_keep_running_while_adaptation_is_frozen(direct):
+    """Regression: with ``adapt = false`` (the claims' frozen baseline) the measurement and
+    command filters were frozen with the estimates: the law saw x(0) and held its command."""
+    loop, solver = direct
+    hw = replace(
+        loop,
+        actuators=Actuators(rate=10.0),
+        sensors=Sensors(noise={"alpha": 1e-4, "q": 1e-3}, seed=0),
+        adapt=False,
+        t_final=10.0,
+    )
+    r = _run(_aware(hw), replace(solver, method="rk4", dt=1e-3))
+    seen = r.adaptive_state("measurement_filter1")
+    assert np.max(np.abs(seen - r.y[:, 0])) < 0.01 < np.ptp(r.y[:, 0])
+    assert np.ptp(r.adaptive_state("command_filter1")) > 0.0
+    np.testing.assert_array_equal(r.theta[-1], r.theta[0])  # the estimates are frozen
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "hypersonic-direct-s1",
+        "hypersonic-sign-s1-rho0pos",
+        "hypersonic-nussbaum-s1-pos",
+        "hypersonic-estimation-s1",
+        "spacecraft-mimo-s1",
+    ],
+)
+def test_every_design_scales_its_adaptation_gains_by_the_same_factor(name):
+    ctrl = load_scenario(name).loop.controller
+    slow = replace(ctrl, constraint_aware=ConstraintAware(lag=0.05))
+    r = slow.adaptation_scale
+    assert 0 < r < 1 and ctrl.adaptation_scale == 1.0
+    sigmas = {"sigma", "sigma0", "sigma1"}  # leakage coefficients keep their value
+    for key, thesis, aware in zip(ctrl.gains()._fields, ctrl.gains(), slow.gains(), strict=True):
+        assert aware == pytest.approx(thesis if key in sigmas else r * thesis), key

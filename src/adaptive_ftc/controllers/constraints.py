@@ -418,69 +418,77 @@ def project_ball(dY, Y, theta_max, at, size):
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
-    (``g.consts``): configurations of the same shape share one compiled loop. States from
-    ``at`` on: one measurement filter state per plant state (with noise), one command filter
-    state per output (with limits), one prefilter state of ``q`` per output (with noise)."""
-    p = g.p
+    (``g.consts``): configurations of the same shape share one compiled loop.
+
+    States from ``at`` on: the compensated errors (one per output, with limits and an
+    ``input_gain``) and the prefilters of ``q`` (one per output, with noise), which stop with
+    the adaptation; then the measurement filters (one per plant state, with noise) and the
+    command filters (one per output, with limits), which run even while adaptation is frozen
+    (``g.free_running`` counts them)."""
+    p, nx = g.p, g.nx
     c0 = len(g.consts)
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
     wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
+    hedged = cfg.filtered and cfg.hedge > 0
+    # places of the states
+    at_h = at
+    at_q = at_h + (p if hedged else 0)
+    at_m = at_q + (p if cfg.prefiltered else 0)
+    at_f = at_m + (nx if cfg.measured_through_filter else 0)
+    end = at_f + (p if cfg.filtered else 0)
+    if hedged:
+        g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
+    if cfg.prefiltered:
+        g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
+    if cfg.measured_through_filter:
+        g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
+    if cfg.filtered:
+        g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
+    g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
+    g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
     if cfg.measured_through_filter:  # the law sees x + noise through a first-order filter
-        nx = g.nx
-        g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
-        g.y0_extra.extend([0.0] * nx)  # assemble starts them at x(0)
         seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
         measure = [
             f"    for i in range({nx}):  # constraint-aware: the law sees filtered measurements",
-            f"        dY[{at} + i] = {wm} * ({seen} - Y[{at} + i])",
-            f"        sig[i] = Y[{at} + i]",
+            f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
+            f"        sig[i] = Y[{at_m} + i]",
         ]
-        at += nx
-    at_q = at
     if cfg.filtered:
         g.use("command_filter", command_filter)
-        g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
-        g.y0_extra.extend([0.0] * p)
-        at_q = at + p
         control.append("    # constraint-aware: the law's command u0c through the command filter")
         for i in range(p):
-            control += [f"    uc{i} = u0[{i}]", f"    u0[{i}] = Y[{at + i}]"]
-    if cfg.filtered and cfg.hedge > 0:  # compensated error (Farrell et al. 2009)
+            f = at_f + i
+            control += [
+                f"    uc{i} = u0[{i}]",
+                f"    u0[{i}] = Y[{f}]",
+                f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
+            ]
+    if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
-        g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
-        g.y0_extra.extend([0.0] * p)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")
         for i in range(p):
-            h = at_q + i
+            h = at_h + i
             pre += [
-                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at + i}])",
-                f"    q[{i}] = hedged_q(q[{i}], sig[{g.nx + 2 * p + i}], Y[{h}], dY[{h}],"
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at_f + i}])",
+                f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
                 f" c[K + {i}], c[K0 + {i}], c[EPS0])",
             ]
-        at_q += p
     if cfg.prefiltered:
-        g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
-        g.y0_extra.extend([0.0] * p)
         pre.append("    # constraint-aware: the laws see the prefiltered q")
         for i in range(p):
             pre += [
                 f"    dY[{at_q + i}] = {wq} * (q[{i}] - Y[{at_q + i}])",
                 f"    q[{i}] = Y[{at_q + i}]",
             ]
-    if cfg.filtered:
-        for i in range(p):
-            post.append(
-                f"    dY[{at + i}] = command_filter(uc{i}, Y[{at + i}], {wf}, {umax}, {urate})"
-            )
-        if cfg.k_aw > 0:
-            g.use("back_calculation", back_calculation)
-            post.append("    # anti-windup: the estimates do not learn the limits")
-            for r, (o, a, size) in enumerate(blocks):
-                i = 0 if single_output else r
-                excess = f"uc{i} - (Y[{at + i}] + dY[{at + i}] / {wf})"
-                post.append(f"    back_calculation(dY, phi, {excess}, {kaw}, {o}, {a}, {size})")
+    if cfg.filtered and cfg.k_aw > 0:
+        g.use("back_calculation", back_calculation)
+        post.append("    # anti-windup: the estimates do not learn the limits")
+        for r, (o, a, size) in enumerate(blocks):
+            i = 0 if single_output else r
+            excess = f"uc{i} - (Y[{at_f + i}] + dY[{at_f + i}] / {wf})"
+            post.append(f"    back_calculation(dY, phi, {excess}, {kaw}, {o}, {a}, {size})")
     if cfg.projected:
         g.use("project_ball", project_ball)
         for _, a, size in blocks:

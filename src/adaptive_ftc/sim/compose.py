@@ -127,6 +127,9 @@ class Generator:
     #: lines that depend on t alone, run once per distinct t (with the reference): a
     #: Rosenbrock step evaluates its Jacobian's columns at one t
     per_time: list[str] = field(default_factory=list)
+    #: the last controller states that keep running while adaptation is frozen (filters of
+    #: the constraint-aware option)
+    free_running: int = 0
 
     # sizes fixed by the plant
     @property
@@ -1095,7 +1098,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             body.append("    misc[2] = sd")
     body += [
         "    if c[ADAPT] == 0.0:  # adaptation frozen",
-        f"        for i in range({nx}, {filt}):",
+        f"        for i in range({nx}, {filt - g.free_running}):",
         "            dY[i] = 0.0",
         *["    " + ln for ln in held],
         "        return",
