@@ -23,8 +23,8 @@ design, not another design) it derives, by the rules below, one configuration
    allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
    The boundary layer is also widened ``WIDEN`` times at the same slope (``k0 -> W k0``,
    ``eps0 -> W eps0 / r``): the saturating integral path limit-cycles behind a lag.
-   Where lag, sampling or a rate limit bind (not noise), ``lam -> min(max(lam, C_LAM
-   w_max), lam / r, LAM_FACTOR_MAX lam)``: the scaled loop's low-frequency gain (what
+   Where the loop is slowed, ``lam -> min(max(lam, C_LAM w_max), lam / r, F lam)`` with
+   ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's low-frequency gain (what
    rejects a failure's disturbance) falls as ``r^2 lam``; this gives part of it back.
 2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
    Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007), with rate or
@@ -111,8 +111,10 @@ C_CAP = 0.1
 C_LAM = 0.8
 #: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
 WIDEN = 3.0
-#: ``lam`` is raised at most this many times.
+#: ``lam`` is raised at most this many times ...
 LAM_FACTOR_MAX = 4.0
+#: ... and this many where noise binds (``lam`` multiplies the position noise in ``s``).
+LAM_FACTOR_NOISE = 2.0
 #: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
 C_FILTER = 4.0
 #: the prefilter of the measurements the law sees, in multiples of ``w_max``.
@@ -347,8 +349,9 @@ class ConstraintAware:
         w, noisy = self.omega_max(w0, b_max)
         scale = w / w0
         lam_factor = 1.0
-        if not noisy and scale < 1.0:
-            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, LAM_FACTOR_MAX)
+        if scale < 1.0:
+            top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
+            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, top)
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         omega_f = math.inf
         if limited:
