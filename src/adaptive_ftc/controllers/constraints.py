@@ -24,8 +24,9 @@ design, not another design) it derives, by the rules below, one configuration
    The boundary layer is also widened ``WIDEN`` times at the same slope (``k0 -> W k0``,
    ``eps0 -> W eps0 / r``): the saturating integral path limit-cycles behind a lag.
    Where the loop is slowed, ``lam -> min(max(lam, C_LAM w_max), lam / r, F lam)`` with
-   ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's low-frequency gain (what
-   rejects a failure's disturbance) falls as ``r^2 lam``; this gives part of it back.
+   ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's
+   low-frequency gain (what rejects a failure's disturbance) falls as ``r^2 lam``; this
+   gives part of it back.
 2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
    Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007), with rate or
    travel limits: the law's command ``u0c`` passes through
