@@ -18,6 +18,7 @@ from typing import Any
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
+from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.hardware import Actuators, Sensors
@@ -594,6 +595,42 @@ def _component(cls: type, table: dict[str, Any], ctx: _Ctx, where: str, skip=fro
     return _build(cls, table, ctx, where)
 
 
+def _constraint_aware(table: Any, ctrl, plant, hardware: dict[str, Any], ctx: _Ctx):
+    """``[controller.constraint_aware]``: the designer's model of the hardware, given field
+    by field or ``from_hardware = true`` (the declared [actuators], [sensors] and
+    [digital] tables; other keys then override)."""
+    where = "controller.constraint_aware"
+    table = ctx.table(table, where)
+    if table is None:
+        return None
+    table = dict(table)
+    schema = _class_schema(ConstraintAware)
+    if not ctx.keys(table, set(schema["properties"]) | {"from_hardware"}, where):
+        return None
+    derive = table.pop("from_hardware", False)
+    if not isinstance(derive, bool):
+        ctx.add(where, f"`from_hardware`: expected true or false, got {_show(derive)}.")
+        return None
+    if not ctx.typed(table, schema["properties"], where):
+        return None
+    try:
+        if derive:
+            ca = ConstraintAware.from_hardware(
+                actuators=hardware.get("actuators"),
+                sensors=hardware.get("sensors"),
+                sample_time=hardware.get("sample_time", 0.0),
+                plant=plant,
+                lam=ctrl.lam,
+                **table,
+            )
+        else:
+            ca = ConstraintAware(**table)
+    except (ConfigurationError, ValueError, TypeError) as exc:
+        ctx.add(where, str(exc))
+        return None
+    return dataclasses.replace(ctrl, constraint_aware=ca)
+
+
 def _regressor(table: Any, ctx: _Ctx, where: str):
     table = ctx.table(table, where)
     if table is None:
@@ -697,6 +734,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         outputs = ["0"] * plant.n_outputs
     # ---------------------------------------------------------------- controller
     ctrl = None
+    ca_tab = None  # [controller.constraint_aware], built once the hardware is read
     adapt = True
     allocation = None
     built_regressors: tuple = ()
@@ -724,6 +762,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             elif _choice(ctx, "controller", "design", design, list(DESIGNS) + ["none"]):
                 dcls = DESIGNS[design]
                 adapt = ctab.pop("adapt", True)
+                ca_tab = ctab.pop("constraint_aware", None)
                 if not isinstance(adapt, bool):
                     ctx.add("controller", f"`adapt`: expected true or false, got {_show(adapt)}.")
                     adapt = True
@@ -844,6 +883,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         ctx.add("figure", "write figures as [[figure]] tables.")
     else:
         _check_figures(figs, plant, ctx)
+    if ca_tab is not None and ctrl is not None and plant is not None:
+        ctrl = _constraint_aware(ca_tab, ctrl, plant, hardware, ctx)
     # ---------------------------------------------------------------- the loop
     # the later stages run on whatever parts were built, so every problem shows at once
     if plant is None or not _plant_parts_ok(plant, x0, outputs, failures, ctx):

@@ -127,6 +127,9 @@ class Generator:
     #: lines that depend on t alone, run once per distinct t (with the reference): a
     #: Rosenbrock step evaluates its Jacobian's columns at one t
     per_time: list[str] = field(default_factory=list)
+    #: the last controller states that keep running while adaptation is frozen (filters of
+    #: the constraint-aware option)
+    free_running: int = 0
 
     # sizes fixed by the plant
     @property
@@ -937,6 +940,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    ca_measure = []
+    if ctrl.constraint_aware is not None:  # its states after the design's own
+        ca_control, ca_pre, ca_post, ca_measure = ctrl.emit_constraint_aware(
+            g, blocks, extra_at + len(g.y0_extra)
+        )
+        control_src = control_src + ca_control
+        adapt_src = ca_pre + adapt_src + ca_post
     # ``gains(D).x`` at each use: building them once per call (``gs = gains(D)``) ran 1.5 %
     # slower (the NamedTuple then lives across the whole right-hand side)
     control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
@@ -968,10 +978,15 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         f"    x = Y[0:{nx}]",
         "    c = D.c",
         *[_view(name) for name in _WORK],
-        f"    for i in range({nx}):",
-        "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
-        if has_meas
-        else "        sig[i] = x[i]",
+        *(
+            ca_measure
+            or [
+                f"    for i in range({nx}):",
+                "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
+                if has_meas
+                else "        sig[i] = x[i]",
+            ]
+        ),
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
         "        reference(t, c, ref)",
         *[f"        {line}" for line in g.per_time],
@@ -1083,7 +1098,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             body.append("    misc[2] = sd")
     body += [
         "    if c[ADAPT] == 0.0:  # adaptation frozen",
-        f"        for i in range({nx}, {filt}):",
+        f"        for i in range({nx}, {filt - g.free_running}):",
         "            dY[i] = 0.0",
         *["    " + ln for ln in held],
         "        return",
@@ -1189,12 +1204,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
+    lam_law, k_law, k0_law, eps0_law = ctrl.robust_settings()  # the thesis's or constraint-aware
     settings = {
-        "lam": _per_output(ctrl.lam, p, "lam"),
-        "k": _per_output(ctrl.k, p, "k"),
-        "k0": _per_output(ctrl.k0, p, "k0"),
+        "lam": _per_output(lam_law, p, "lam"),
+        "k": _per_output(k_law, p, "k"),
+        "k0": _per_output(k0_law, p, "k0"),
         "R": tuple(np.ravel(loop.R)),
-        "eps0": (float(ctrl.eps0),),
+        "eps0": (float(eps0_law),),
         "filter_tau": (0.01,),
         "adapt": (1.0 if loop.adapt else 0.0,),
         "centers": tuple(g.centers),
@@ -1436,6 +1452,9 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     if loop.actuators is not None and loop.actuators.initial:
         at = layout["at_act"]
         y0[at : at + g.m] = loop.actuators.initial
+    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
+        at = nx + g.adaptive_names.index("measurement_filter1")
+        y0[at : at + nx] = y0[:nx]
     if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
         raise ConfigurationError(
             f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "
