@@ -183,6 +183,7 @@ _SHAPES = {
         failure_times=(60.0, 80.0),
         scale=0.05,
     ),
+    "manipulator": dict(outputs=("q1", "q2"), actuators=("tau1", "tau2", "tau3", "tau4")),
     "wingrock": dict(outputs=("phi",), actuators=("delta_a1", "delta_a2", "delta_a3", "delta_a4")),
 }
 
