@@ -19,8 +19,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
-from adaptive_ftc import list_scenarios, load_scenario
-from adaptive_ftc import plots
+from adaptive_ftc import list_scenarios, load_scenario, plots
 from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.study_plots import plot_robustness
 
@@ -245,3 +244,172 @@ def test_every_catalogue_figure_fits_its_canvas(name, spec):
         kwargs["baselines"] = {"frozen adaptation": base, "nominal inverse": r}
     fp = plots.plot(r, spec["kind"], outputs=spec.get("outputs"), title=title, **kwargs)
     assert_print_ready(fp.figure, f"{name}: {title}")
+
+
+def test_the_check_catches_a_legend_clipped_at_the_right_edge():
+    """The check itself: a two-column legend pushed past the right edge is reported."""
+    r = _result_for("spacecraft-mimo-s1", {"kind": "control_parameters"})
+    fp = plots.plot(r, "control_parameters", title="Fig. 3.12")
+    assert not layout_problems(fp.figure)
+    fp.axes[0].get_legend().set_bbox_to_anchor((1.3, 1.0), transform=fp.axes[0].transAxes)
+    fp.figure.set_layout_engine("none")
+    assert any("legend leaves" in p for p in layout_problems(fp.figure))
+
+
+def test_long_titles_are_wrapped_inside_the_canvas():
+    title = "Hypersonic angle of attack, failure estimation and compensation design (§2.4), " * 3
+    r = _synthetic(**_SHAPES["hypersonic"])
+    fp = plots.plot(r, "tracking", title=title)
+    suptitle = fp.figure.get_suptitle()
+    assert suptitle.count("\n") >= 2 and suptitle.replace("\n", " ") == title.strip()
+    assert_print_ready(fp.figure, "long title")
+
+
+def test_an_open_loop_run_draws_no_reference():
+    r = _synthetic(**_SHAPES["wingrock"], open_loop=True, n_theta=1)
+    fp = plots.plot(r, "tracking")
+    labels = [ln.get_label() for ax in fp.axes for ln in ax.get_lines()]
+    assert "reference" not in labels
+    closed = plots.plot(_synthetic(**_SHAPES["wingrock"]), "tracking")
+    assert "reference" in [ln.get_label() for ax in closed.axes for ln in ax.get_lines()]
+
+
+def test_every_axis_of_a_real_run_has_a_unit():
+    r = _real_sign_run()
+    for kind in plots.KINDS:
+        if kind == "modal":
+            continue
+        fp = plots.plot(r, kind, title=f"{kind} of a real run")
+        for ax in fp.figure.axes:
+            if not ax.get_visible():
+                continue
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                assert not label or label.rstrip().endswith(")"), (kind, label)
+        assert_print_ready(fp.figure, kind)
+
+
+# ---------------------------------------------------------------------------- Fig. 4.12's zoom
+_REAL: dict[str, object] = {}
+
+
+def _real_sign_run():
+    """hypersonic-sign-s1-rho0neg (Fig. 4.12) over 10 s: rho(0) = -1 turns positive at 0.02 s."""
+    if "r" not in _REAL:
+        sc = load_scenario("hypersonic-sign-s1-rho0neg")
+        sc = dataclasses.replace(sc, loop=dataclasses.replace(sc.loop, t_final=10.0))
+        _REAL["sc"], _REAL["r"] = sc, sc.run()
+    return _REAL["r"]
+
+
+def test_the_direction_zoom_shows_the_solver_resolution():
+    from adaptive_ftc.reproduce import _zoom_record
+
+    r = _real_sign_run()
+    sc = _REAL["sc"]
+    spec = next(s for s in load_scenario(sc.name).figure_specs if s["kind"] == "direction")
+    a, b = plots.zoom_window(r, spec)
+    coarse = np.count_nonzero((r.time >= a) & (r.time <= b))
+    assert coarse <= 20  # what the recorded run alone shows: a handful of samples
+    dense = _zoom_record(sc, r, spec)
+    fp = plots.plot(r, "direction", title="Fig. 4.12", zoom_result=dense)
+    zoom = next(ax for ax in fp.figure.axes if ax.get_gid() == "zoom")
+    estimate = next(ln for ln in zoom.get_lines() if ln.get_marker() == ".")
+    t = np.asarray(estimate.get_xdata(), dtype=float)
+    assert t.size >= 500 and t[0] >= a - 1e-12 and t[-1] <= b + 1e-12
+    assert np.max(np.diff(t)) <= (b - a) / 900
+    assert "re-simulated" in zoom.get_legend().get_title().get_text()
+    # the re-simulation is the same run: it agrees with the recorded samples where both exist
+    common = np.isin(np.round(r.time, 9), np.round(dense.time, 9)) & (r.time <= b)
+    idx = np.searchsorted(dense.time, r.time[common] - 1e-12)
+    np.testing.assert_allclose(dense.gain[idx], r.gain[common], rtol=1e-5, atol=1e-8)
+    assert_print_ready(fp.figure, "Fig. 4.12 with its zoom")
+    # without the dense run the zoom says it draws the recorded samples
+    plain = plots.plot(r, "direction")
+    zoom = next(ax for ax in plain.figure.axes if ax.get_gid() == "zoom")
+    assert "recorded samples" in zoom.get_legend().get_title().get_text()
+
+
+# ---------------------------------------------------------------------------- study and campaign
+def _robustness_table(rate_limits=(20.0, 50.0, 100.0, 200.0, 500.0)) -> pd.DataFrame:
+    rows = []
+    for scen in ("hypersonic-direct-s1", "hypersonic-sign-s1-rho0pos"):
+        for knob, values, unit in (
+            ("noise", (1e-6, 1e-5, 1e-4, 1e-3, 1e-2), "rad"),
+            ("controller_rate", (5000.0, 2000.0, 1000.0, 500.0, 200.0, 100.0, 50.0), "Hz"),
+            ("lag", (1e-4, 1e-3, 1e-2, 0.1, 0.2), "s"),
+            ("rate_limit", rate_limits, "rad/s"),
+        ):
+            for k, v in enumerate(values):
+                diverged = k == len(values) - 1
+                rows.append(
+                    {
+                        "scenario": scen,
+                        "knob": knob,
+                        "value": v,
+                        "unit": unit,
+                        "seed": 0,
+                        "status": "diverged" if diverged else "completed",
+                        "rms_error": np.nan if diverged else 1e-6 * 10**k,
+                        "threshold": 8.7e-4,
+                        "broken": diverged or 1e-6 * 10**k > 8.7e-4,
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize(
+    "rate_limits", [(20.0, 50.0, 100.0, 200.0, 500.0), (5.0, 7.0, 10.0, 15.0, 20.0, 30.0)]
+)
+def test_the_robustness_figure_fits_its_canvas(rate_limits):
+    fig = plot_robustness(
+        _robustness_table(rate_limits),
+        title="Robustness of the hypersonic designs (§2.3 direct, §4.4 sign estimation)",
+    )
+    assert_print_ready(fig, f"robustness figure, rate limits {rate_limits}")
+    for ax in fig.axes:
+        assert ax.get_ylabel().endswith("(rad)")
+
+
+def test_the_shipped_robustness_table_draws_print_ready():
+    from pathlib import Path
+
+    csv = Path(__file__).resolve().parents[1] / "docs" / "figures" / "robustness.csv"
+    if not csv.is_file():
+        pytest.skip("docs/figures/robustness.csv is not in this checkout")
+    assert_print_ready(plot_robustness(pd.read_csv(csv), title="Robustness"), "robustness.csv")
+
+
+def test_the_campaign_figures_fit_their_canvas(tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    from adaptive_ftc.campaigns import summary
+
+    rng = np.random.default_rng(0)
+    n = 60
+    df = pd.concat(
+        [
+            pd.DataFrame(
+                {
+                    "index": np.arange(n),
+                    "design": design,
+                    "severity": rng.uniform(0, 1, n),
+                    "success": rng.uniform(0, 1, n) > 0.3,
+                    "rms_error_final": 10 ** rng.uniform(-6, 0, n),
+                    "status": np.where(rng.uniform(0, 1, n) > 0.9, "diverged", "completed"),
+                }
+            )
+            for design in ("direct-adaptive", "nominal-inverse", "fixed-gain")
+        ],
+        ignore_index=True,
+    )
+    drawn = []
+    monkeypatch.setattr(plt, "close", drawn.append)  # keep the figures to check them
+    paths = summary._figures(df, tmp_path)
+    assert len(drawn) == len(paths) == 3
+    for fig, name in zip(drawn, paths, strict=True):
+        assert_print_ready(fig, f"campaign figure {name}")
+        for ax in fig.axes:
+            assert ax.get_xlabel().endswith(")") and ax.get_ylabel().endswith(")"), name
+    monkeypatch.undo()
+    for fig in drawn:
+        plt.close(fig)

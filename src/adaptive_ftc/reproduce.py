@@ -261,13 +261,16 @@ def _figure_task(
     baselines: dict[str, SimResult],
     formats: Sequence[str] = ("png",),
     dpi: int | None = None,
+    zoom_result: SimResult | None = None,
 ) -> str:
     """Render one figure in a worker process; returns an error text or ``""``."""
     from adaptive_ftc.plots import save_figure
 
     try:
         base = baselines if spec.get("kind") == "tracking" and baselines else None
-        save_figure(result, spec, path, baselines=base, formats=formats, dpi=dpi)
+        save_figure(
+            result, spec, path, baselines=base, formats=formats, dpi=dpi, zoom_result=zoom_result
+        )
         return ""
     except Exception as exc:  # noqa: BLE001 - a broken figure must not stop the reproduction
         return f"{type(exc).__name__}: {exc}"
@@ -762,8 +765,9 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     new = []
     for spec, fname in items:
         path = out / "figures" / fname
+        zoom = _zoom_record(sc, adaptive, spec)
         fut = executor.submit(
-            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi
+            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi, zoom
         )
         entry = FigureEntry(
             number=str(spec.get("number", "")),
@@ -774,6 +778,27 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
         )
         new.append((fut, ("fig", sc.name, fname), entry))
     return new
+
+
+def _zoom_record(sc: Scenario, result: SimResult, spec: dict[str, Any]) -> SimResult | None:
+    """The run re-simulated up to the end of a figure's zoom window and recorded there at the
+    solver's own resolution (every RK4 step; 1000 samples over the window for an adaptive-step
+    method), or ``None`` when the figure has no zoom or the short run fails (the zoom then
+    draws the recorded samples and says so)."""
+    from adaptive_ftc.plots import zoom_window
+
+    window = zoom_window(result, spec)
+    if window is None:
+        return None
+    a, b = window
+    solver = sc.solver
+    step = solver.dt if solver.method == "rk4" else (b - a) / 1000.0
+    short = dataclasses.replace(sc, loop=dataclasses.replace(sc.loop, t_final=b))
+    try:
+        dense = short.run(solver=dataclasses.replace(solver, record_dt=min(step, solver.record_dt)))
+    except Exception:  # noqa: BLE001 - a zoom must not stop the reproduction
+        return None
+    return dense if dense.status == "completed" else None
 
 
 class _InlineExecutor(cf.Executor):
