@@ -413,3 +413,16 @@ def test_the_campaign_figures_fit_their_canvas(tmp_path, monkeypatch):
     monkeypatch.undo()
     for fig in drawn:
         plt.close(fig)
+
+
+def test_figure_titles_quote_angles_in_the_unit_of_their_axes():
+    """The figures draw angles in rad: a caption quoting degrees also gives the value in rad
+    (Fig. 2.5's title said "1 deg" above a rad axis)."""
+    import re
+
+    for name, spec in _FIGURES:
+        caption = spec["caption"]
+        for value in re.findall(r"([\d.]+) deg\b", caption):
+            rad = np.deg2rad(float(value))
+            quoted = [float(v) for v in re.findall(r"([\d.]+) rad\b", caption)]
+            assert any(abs(q - rad) <= 5e-4 * max(rad, 1.0) for q in quoted), (name, caption)
