@@ -249,6 +249,7 @@ def _legend(ax: Axes) -> None:
         borderaxespad=0.0,
         ncol=ncol,
         columnspacing=1.0,
+        alignment="left",
     )
 
 
