@@ -302,15 +302,13 @@ def _real_sign_run():
 
 
 def test_the_direction_zoom_shows_the_solver_resolution():
-    from adaptive_ftc.reproduce import _zoom_record
-
     r = _real_sign_run()
     sc = _REAL["sc"]
     spec = next(s for s in load_scenario(sc.name).figure_specs if s["kind"] == "direction")
     a, b = plots.zoom_window(r, spec)
     coarse = np.count_nonzero((r.time >= a) & (r.time <= b))
     assert coarse <= 20  # what the recorded run alone shows: a handful of samples
-    dense = _zoom_record(sc, r, spec)
+    dense = plots.dense_zoom(sc, r, spec)
     fp = plots.plot(r, "direction", title="Fig. 4.12", zoom_result=dense)
     zoom = next(ax for ax in fp.figure.axes if ax.get_gid() == "zoom")
     estimate = next(ln for ln in zoom.get_lines() if ln.get_marker() == ".")
@@ -426,3 +424,25 @@ def test_figure_titles_quote_angles_in_the_unit_of_their_axes():
             rad = np.deg2rad(float(value))
             quoted = [float(v) for v in re.findall(r"([\d.]+) rad\b", caption)]
             assert any(abs(q - rad) <= 5e-4 * max(rad, 1.0) for q in quoted), (name, caption)
+
+
+def test_aftc_run_draws_the_direction_zoom_re_simulated(tmp_path, monkeypatch):
+    from adaptive_ftc.cli import main
+
+    src = tmp_path / "short.toml"
+    src.write_text(
+        'extends = "hypersonic-sign-s1-rho0neg"\nname = "short"\nduration = 10.0\n'
+        '[[figure]]\nkind = "direction"\ncaption = "direction"\n'
+    )
+    seen = []
+    real = plots.save_figure
+
+    def spy(result, spec, path, **kwargs):
+        seen.append((spec["kind"], kwargs.get("zoom_result")))
+        return real(result, spec, path, **kwargs)
+
+    monkeypatch.setattr(plots, "save_figure", spy)
+    assert main(["run", str(src), "--out", str(tmp_path / "o"), "--quiet", "--no-baselines"]) == 0
+    (kind, zoom), *_ = seen
+    assert kind == "direction" and zoom is not None and zoom.time.size > 500
+    assert zoom.time[-1] <= 0.2 and (tmp_path / "o" / "figures" / "fig_1.png").is_file()

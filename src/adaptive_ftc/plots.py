@@ -58,6 +58,7 @@ __all__ = [
     "STYLE",
     "check_formats",
     "default_figure_specs",
+    "dense_zoom",
     "figure_style",
     "new_figure",
     "plot",
@@ -596,6 +597,45 @@ def zoom_window(result: SimResult, spec: Mapping[str, Any]) -> tuple[float, floa
     if zoom is not None:
         return float(zoom[0]), float(zoom[1])
     return _auto_zoom(result)
+
+
+def dense_zoom(
+    scenario: Any, result: SimResult, spec: Mapping[str, Any], solver: Any = None
+) -> SimResult | None:
+    """The run re-simulated up to the end of a figure's zoom window (:func:`zoom_window`) and
+    recorded at the solver's own resolution: every step of the fixed-step RK4, 1000 samples
+    over the window for an adaptive-step method.
+
+    Parameters
+    ----------
+    scenario
+        The :class:`~adaptive_ftc.scenarios.loader.Scenario` that produced ``result``.
+    result, spec
+        The run and its figure table.
+    solver
+        The :class:`~adaptive_ftc.sim.engine.SolverOptions` the run used (default: the
+        scenario's).
+
+    Returns
+    -------
+    SimResult or None
+        ``None`` when the figure has no zoom or the short run does not complete (the zoom
+        panel then draws the recorded samples, and says so).
+    """
+    window = zoom_window(result, spec)
+    if window is None:
+        return None
+    a, b = window[0], min(window[1], _t_end(result))
+    if not b > a:
+        return None
+    solver = solver or scenario.solver
+    step = solver.dt if solver.method == "rk4" else (b - a) / 1000.0
+    short = dataclasses.replace(scenario, loop=dataclasses.replace(scenario.loop, t_final=b))
+    try:
+        dense = short.run(solver=dataclasses.replace(solver, record_dt=min(step, solver.record_dt)))
+    except Exception:  # noqa: BLE001 - a zoom must not stop the figure
+        return None
+    return dense if dense.status == "completed" else None
 
 
 def _zoom_panel(

@@ -753,6 +753,8 @@ def run_reproduction(
 
 def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
     """Submit the figure tasks of a scenario whose runs are all done."""
+    from adaptive_ftc.plots import dense_zoom
+
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
         return []
@@ -765,7 +767,7 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     new = []
     for spec, fname in items:
         path = out / "figures" / fname
-        zoom = _zoom_record(sc, adaptive, spec)
+        zoom = dense_zoom(sc, adaptive, spec)
         fut = executor.submit(
             _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi, zoom
         )
@@ -778,27 +780,6 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
         )
         new.append((fut, ("fig", sc.name, fname), entry))
     return new
-
-
-def _zoom_record(sc: Scenario, result: SimResult, spec: dict[str, Any]) -> SimResult | None:
-    """The run re-simulated up to the end of a figure's zoom window and recorded there at the
-    solver's own resolution (every RK4 step; 1000 samples over the window for an adaptive-step
-    method), or ``None`` when the figure has no zoom or the short run fails (the zoom then
-    draws the recorded samples and says so)."""
-    from adaptive_ftc.plots import zoom_window
-
-    window = zoom_window(result, spec)
-    if window is None:
-        return None
-    a, b = window
-    solver = sc.solver
-    step = solver.dt if solver.method == "rk4" else (b - a) / 1000.0
-    short = dataclasses.replace(sc, loop=dataclasses.replace(sc.loop, t_final=b))
-    try:
-        dense = short.run(solver=dataclasses.replace(solver, record_dt=min(step, solver.record_dt)))
-    except Exception:  # noqa: BLE001 - a zoom must not stop the reproduction
-        return None
-    return dense if dense.status == "completed" else None
 
 
 class _InlineExecutor(cf.Executor):
