@@ -7,6 +7,12 @@ a grid and every failure onset/recovery time marked as a dashed vertical line
 (``gid="divergence"``) at the last sample. :func:`plot` returns a :class:`FigurePlot` holding the
 figure, its axes and its lines (like python-control's ``ControlPlot``).
 
+Every figure of the project (these, the robustness study's and the campaign's) is drawn and
+saved in one style, :data:`STYLE` applied by :func:`figure_style`, with constrained layout
+(:func:`new_figure`): legends, wrapped titles and tick labels fit the canvas without overlapping
+(``tests/test_figure_layout.py`` checks every text box of every figure kind). An open-loop run
+(``design = "none"``) is drawn without a reference.
+
 Kinds
 -----
 ``tracking``
@@ -24,8 +30,10 @@ Kinds
     Control signals; the sign of the direction estimate ``N(tau)`` or ``rho`` against the true
     control direction ``sign(control gain)``; the estimate itself (Figs 4.3-4.4, 4.11-4.12).
     When the estimate's sign settles within 1 % of the time axis (Fig. 4.12: 0.02 s of 120 s)
-    or the figure table gives ``zoom = [start, end]``, a fourth panel zooms on it at full
-    resolution (``gid="zoom"``).
+    or the figure table gives ``zoom = [start, end]``, a fourth panel zooms on it
+    (``gid="zoom"``): on the run re-simulated over the window at the solver's resolution when
+    one is given (``zoom_result``, from :func:`dense_zoom`; ``aftc run`` and ``aftc
+    reproduce`` do), else on the recorded samples, and its legend says which.
 """
 
 from __future__ import annotations
