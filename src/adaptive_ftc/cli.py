@@ -298,7 +298,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         figures = []
         for i, spec in enumerate(specs):
             name = f"fig_{spec.get('number', i + 1)}.png"
-            plots.save_figure(main, spec, stage / "figures" / name, baselines=baselines or None)
+            zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
+            plots.save_figure(
+                main, spec, stage / "figures" / name, baselines=baselines or None, zoom_result=zoom
+            )
             figures.append(str(out / "figures" / name))
         verdicts = _run_claims(sc, results, args.no_baselines)
         if verdicts:

@@ -261,13 +261,16 @@ def _figure_task(
     baselines: dict[str, SimResult],
     formats: Sequence[str] = ("png",),
     dpi: int | None = None,
+    zoom_result: SimResult | None = None,
 ) -> str:
     """Render one figure in a worker process; returns an error text or ``""``."""
     from adaptive_ftc.plots import save_figure
 
     try:
         base = baselines if spec.get("kind") == "tracking" and baselines else None
-        save_figure(result, spec, path, baselines=base, formats=formats, dpi=dpi)
+        save_figure(
+            result, spec, path, baselines=base, formats=formats, dpi=dpi, zoom_result=zoom_result
+        )
         return ""
     except Exception as exc:  # noqa: BLE001 - a broken figure must not stop the reproduction
         return f"{type(exc).__name__}: {exc}"
@@ -750,6 +753,8 @@ def run_reproduction(
 
 def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
     """Submit the figure tasks of a scenario whose runs are all done."""
+    from adaptive_ftc.plots import dense_zoom
+
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
         return []
@@ -762,8 +767,9 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     new = []
     for spec, fname in items:
         path = out / "figures" / fname
+        zoom = dense_zoom(sc, adaptive, spec)
         fut = executor.submit(
-            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi
+            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi, zoom
         )
         entry = FigureEntry(
             number=str(spec.get("number", "")),
