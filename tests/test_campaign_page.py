@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptive_ftc.campaigns import load_campaign, run_campaign, summary
+from adaptive_ftc.campaigns import load_campaign, summary
 from adaptive_ftc.campaigns.summary import (
     headline,
     member_success,
@@ -290,14 +290,28 @@ def test_every_table_scrolls_inside_its_own_container(synthetic_page):
     assert '<meta name="viewport"' in page
 
 
-def test_a_tiny_real_campaign_against_the_fair_baselines(tmp_path):
-    spec = spec_for(runs=2)
-    run = run_campaign(spec, tmp_path / "c", jobs=1, progress=False)
-    info = run.summary
+def test_a_tiny_real_campaign_against_the_fair_baselines(tmp_path, capsys):
+    import json
+
+    from adaptive_ftc.cli import main as aftc
+
+    spec = tmp_path / "tiny.toml"
+    spec.write_text(
+        'name = "tiny"\nbase = "hypersonic-direct-s1"\nruns = 2\nseed = 1\nduration = 2.0\n'
+        'designs = ["adaptive", "nominal-inverse", "fixed-gain", "frozen"]\n'
+        "[success]\nrms_error_final = 0.001\nfinal_window = 0.5\n"
+        "[failures]\nonset = {uniform = [0.5, 1.5]}\n"
+        "[failures.models.loss_of_effectiveness]\neffectiveness = {uniform = [0.1, 0.9]}\n"
+    )
+    out = tmp_path / "c"
+    assert aftc(["campaign", str(spec), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    info = json.loads((out / "summary.json").read_text())
     assert set(info["per_design"]) == set(DESIGNS)
     assert info["comparison"][0]["baseline"] in ("nominal-inverse", "fixed-gain")
     assert info["headline"].startswith("Over 2 random failure draws, adaptive succeeded in ")
-    assert (tmp_path / "c" / "summary.html").is_file()
+    printed = capsys.readouterr().out  # the CLI ends with the headline
+    assert info["headline"].replace("\u00a0", " ") in printed
+    assert (out / "summary.html").is_file()
 
 
 # ------------------------------------------------------------------------ a real browser

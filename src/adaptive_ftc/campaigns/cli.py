@@ -72,6 +72,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     for design, rate in run.summary.get("success_rate", {}).items():
         print(f"  {design}: success rate {rate:.1%}")
+    if run.summary.get("headline"):
+        print(run.summary["headline"].replace("\u00a0", " "))
     print(f"results: {run.results}; summary: {run.out / 'summary.html'}")
     return 0
 

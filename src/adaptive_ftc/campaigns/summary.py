@@ -502,7 +502,7 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
         if threshold is not None and threshold > 0:
             ax.axvline(math.log10(threshold), color="0.15", ls="--", lw=1.0, label="success limit")
         ax.set_title(f"{d}", loc="left", fontsize=9)
-        ax.set_ylabel("runs")
+        ax.set_ylabel("runs (count)")
         ax.set_xlim(lo - 0.02 * (div - lo), div + 0.06 * (div - lo))
     _log_ticks(axes[-1], lo, hi, div)
     axes[-1].set_xlabel(f"final-window RMS tracking error ({unit}, log scale)")
