@@ -415,6 +415,7 @@ def draw_figures(
 
 def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str, Any]:
     import pandas as pd
+    from matplotlib.ticker import MaxNLocator
 
     from adaptive_ftc.plots import new_figure, wrap_title
 
@@ -457,14 +458,12 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
         xs, rates, lo, hi = [], [], [], []
         for b in range(len(centers)):
             sel = (df["design"] == d) & (bins == b)
-            if not sel.any():
-                continue
-            r = _rate_record(ok[sel])
+            r = _rate_record(ok[sel])  # an empty bin is NaN: the line breaks there
             xs.append(centers[b] + off)
             rates.append(100 * r["rate"])
             lo.append(100 * (r["rate"] - r["ci_low"]))
             hi.append(100 * (r["ci_high"] - r["rate"]))
-        if xs:
+        if np.isfinite(rates).any():
             ax.errorbar(
                 xs, rates, yerr=[lo, hi], fmt="o-", capsize=3, color=colours[d], label=d, ms=4
             )
@@ -503,6 +502,7 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
             ax.axvline(math.log10(threshold), color="0.15", ls="--", lw=1.0, label="success limit")
         ax.set_title(f"{d}", loc="left", fontsize=9)
         ax.set_ylabel("runs (count)")
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=3, integer=True))
         ax.set_xlim(lo - 0.02 * (div - lo), div + 0.06 * (div - lo))
     _log_ticks(axes[-1], lo, hi, div)
     axes[-1].set_xlabel(f"final-window RMS tracking error ({unit}, log scale)")
