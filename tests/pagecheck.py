@@ -111,6 +111,7 @@ def check_page(page: Path, width: int, *, height: int = 900, timeout: float = 60
             "--headless",
             "--no-sandbox",  # CI containers run as root
             "--disable-gpu",
+            "--disable-dev-shm-usage",  # containers with a small /dev/shm
             "--hide-scrollbars",
             "--allow-file-access-from-files",  # the wrapper reads the framed page
             f"--window-size={max(width, 500) + 40},{height + 100}",

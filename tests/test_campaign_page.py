@@ -14,6 +14,7 @@ import os
 import re
 
 import numpy as np
+import pagecheck
 import pandas as pd
 import pytest
 
@@ -247,6 +248,25 @@ def test_diverged_runs_rank_and_draw_as_worse_than_any_completed_run():
     assert red[0].get_x() > max(p.get_x() + p.get_width() for p in others)
 
 
+def test_an_empty_severity_bin_breaks_the_line_and_counts_are_whole_runs():
+    df = frame({"adaptive": "ssse", "frozen": "eeee"}, severity=np.array([0.1, 0.1, 0.9, 0.9]))
+    figs = summary.draw_figures(df, threshold=THRESHOLD, unit="rad")
+    (line, *_) = figs["success_vs_severity"].axes[0].get_lines()
+    y = np.asarray(line.get_ydata(), dtype=float)
+    assert y[0] == 100 and y[-1] == 50 and np.isnan(y[1:4]).all()  # no line across 20-80 %
+    for ax in figs["error_histogram"].axes:
+        ticks = ax.get_yticks()
+        assert np.allclose(ticks, np.round(ticks)), ticks
+
+
+def test_a_campaign_where_nothing_completed_still_has_a_page(tmp_path):
+    frame({"adaptive": "ddi", "nominal-inverse": "did"}).to_parquet(tmp_path / "results.parquet")
+    info = write_summary(spec_for(designs=("adaptive", "nominal-inverse"), runs=3), tmp_path)
+    assert info["per_design"]["adaptive"]["successes"] == 0
+    assert "adaptive succeeded in 0\u00a0% of its runs (0/3;" in info["headline"]
+    assert "2 of its runs (66.7\u00a0%) diverged" in info["headline"]
+
+
 # ------------------------------------------------------------------------ the page
 
 
@@ -315,8 +335,6 @@ def test_a_tiny_real_campaign_against_the_fair_baselines(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------ a real browser
-
-pagecheck = pytest.importorskip("pagecheck")
 
 
 def _need_browser():
