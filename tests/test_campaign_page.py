@@ -331,6 +331,11 @@ def test_a_tiny_real_campaign_against_the_fair_baselines(tmp_path, capsys):
     assert info["headline"].startswith("Over 2 random failure draws, adaptive succeeded in ")
     printed = capsys.readouterr().out  # the CLI ends with the headline
     assert info["headline"].replace("\u00a0", " ") in printed
+    r = info["per_design"]["nominal-inverse"]
+    assert (
+        f"nominal-inverse: success rate {r['rate']:.1%} ({r['successes']}/2; 95 % CI "
+        f"{r['ci_low']:.1%}-{r['ci_high']:.1%})"
+    ) in printed
     assert (out / "summary.html").is_file()
 
 
