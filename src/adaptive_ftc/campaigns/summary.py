@@ -30,11 +30,16 @@ from adaptive_ftc.campaigns.store import read_results
 __all__ = [
     "FAIR_COMPETITORS",
     "FLOOR",
+    "OUTCOMES",
     "SEVERITY_BINS",
     "SEVERITY_WORDS",
+    "draw_figures",
     "headline",
     "member_success",
     "outcome_classes",
+    "pct",
+    "role",
+    "severity_label",
     "success_tables",
     "wilson_interval",
     "write_summary",
@@ -60,7 +65,7 @@ _OUTCOME_COLOURS = {
     "diverged": "#c62828",
     "invalid draw": "#9aa5b1",
 }
-_Z_NOTE = (
+_CI_NOTE = (
     "95 % confidence interval of the success rate: the Wilson score interval "
     "(scipy.stats.binomtest(k, n).proportion_ci(method='wilson')), which stays inside 0-100 % "
     "and is honest for small counts and for rates near 0 or 100 %."
@@ -279,7 +284,7 @@ def _comparisons(df, ok, designs: list[str], per: dict[str, dict]) -> list[dict[
     return out
 
 
-def pct(x: float, n: int | None = None) -> str:
+def pct(x: float) -> str:
     """A rate in percent for a reader: one decimal at most, never a rounded 0 % or 100 % that
     is not exact (``<0.1 %``, ``>99.9 %``)."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
@@ -840,7 +845,7 @@ def write_summary(spec: CampaignSpec, out: str | Path) -> dict[str, Any]:
             + f'<p class="meta">Success: {e(info["success_criterion"])}. A diverged run is a '
             "failure. <i>completed, failed</i>: the run finished but missed the success "
             "criterion; <i>invalid draws</i>: members the closed loop refused to build (counted "
-            f"as failures). {e(_Z_NOTE)}</p>",
+            f"as failures). {e(_CI_NOTE)}</p>",
         ),
         ("Against the best fair baseline", _comparison_html(info, unit)),
         (
