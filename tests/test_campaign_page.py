@@ -297,6 +297,7 @@ def test_the_page_speaks_in_percentages_words_and_units_not_dumps(synthetic_page
     for label in ("mild (0–20 %)", "extreme (80–100 %)", "unrated", "loss of effectiveness"):
         assert label in text
     assert "0.001 rad" in text  # the success limit with its unit
+    assert "RMS tracking error ≤ 0.001 rad" in text
     assert "nominal-inverse" in text and "best fair baseline" in text
     assert (out / "summary.html").read_text().count('src="data:image/png;base64,') == 4
     for name in ("outcomes", "success_vs_severity", "error_histogram", "worst_runs"):

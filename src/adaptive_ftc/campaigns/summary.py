@@ -811,7 +811,7 @@ def write_summary(spec: CampaignSpec, out: str | Path) -> dict[str, Any]:
     thr = _num(spec.success_rms, unit)
     info["success_criterion"] = (
         f"completed, and final-window ({spec.final_window:g} s) RMS tracking error "
-        f"<= {spec.success_rms:g} {unit}".rstrip()
+        f"≤ {spec.success_rms:g} {unit}".rstrip()
     )
     info["headline"] = headline(info)
     tested = [d for d in info["designs"] if role(d) == "tested"] or info["designs"][:1]
