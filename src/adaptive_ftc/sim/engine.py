@@ -178,6 +178,10 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     SimResult
         Recorded states and signals. If the run diverged, ``status == "diverged"``, the result
         holds everything up to the last good sample and a :class:`DivergenceWarning` is issued.
+        ``meta`` holds the integrator's statistics: ``steps`` (accepted), ``rejected_steps``
+        (absent where the method does not report them: scipy's Radau, BDF and LSODA),
+        ``rhs_evaluations`` (every call of the loop's right-hand side, those of finite-difference
+        Jacobians included), ``jacobian_evaluations`` and ``lu_decompositions``.
 
     Examples
     --------
@@ -206,8 +210,11 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     if message.startswith("Interrupted"):
         result.status = "interrupted"
     result.meta["steps"] = int(stats[0])
-    result.meta["rejected_steps"] = int(stats[1])
+    if stats[1] >= 0:  # -1: not known (scipy's implicit methods do not count them)
+        result.meta["rejected_steps"] = int(stats[1])
     result.meta["rhs_evaluations"] = int(stats[2])
+    result.meta["jacobian_evaluations"] = int(stats[3])
+    result.meta["lu_decompositions"] = int(stats[4])
     return result
 
 
@@ -304,7 +311,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
         else:
             message = _diverged_message(loop, asm, float(t_stop), int(bad), solver)
     else:
-        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop, atol)
+        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop, atol, stats)
     wall = time.perf_counter() - start
     if envelope:
         nrec, message = _check_envelope(loop, Y, t_rec, nrec, message)
@@ -467,6 +474,29 @@ def _diverged_message(
     )
 
 
+def _counting_method(name: str, counts: np.ndarray):
+    """scipy's ``name`` solver class, counting its accepted steps into ``counts[0]`` and, for
+    the explicit Runge-Kutta methods (whose every attempt costs ``n_stages`` evaluations),
+    its rejected steps into ``counts[1]``."""
+    from scipy.integrate._ivp.ivp import METHODS
+
+    base = METHODS[name]
+    stages = getattr(base, "n_stages", None)
+    stages = stages if isinstance(stages, int) else None
+
+    class Counting(base):  # type: ignore[misc,valid-type]
+        def _step_impl(self):
+            before = self.nfev
+            ok, message = super()._step_impl()
+            counts[0] += int(ok)
+            if stages:
+                counts[1] += (self.nfev - before) // stages - int(ok)
+            return ok, message
+
+    Counting.__name__ = Counting.__qualname__ = f"Counting{name}"
+    return Counting
+
+
 def _integrate_scipy(
     asm: Assembled,
     bps: np.ndarray,
@@ -474,7 +504,12 @@ def _integrate_scipy(
     solver: SolverOptions,
     loop: ClosedLoop,
     atol: np.ndarray,
+    stats: np.ndarray,
 ):
+    """The scipy path: :func:`scipy.integrate.solve_ivp` over each interval of fixed failure
+    pattern; ``stats`` receives the counts of the compiled path's ``stats`` (steps, rejected
+    steps or -1 when the method does not tell, right-hand side calls, Jacobians, LU
+    decompositions)."""
     from scipy.integrate import solve_ivp
 
     bound = solver.divergence_bound
@@ -484,6 +519,9 @@ def _integrate_scipy(
     y = asm.y0.copy()
     r = 0
     nph = bps.size - 1
+    counts = np.zeros(3, dtype=np.int64)  # accepted steps, rejected steps, rhs calls
+    method = _counting_method(solver.scipy_method, counts)
+    rejections_known = getattr(method, "n_stages", None) is not None
 
     def blowup(t, y):
         return bound - np.max(np.abs(y))
@@ -500,8 +538,12 @@ def _integrate_scipy(
         t_eval = np.append(t_want, b) if (t_want.size == 0 or t_want[-1] < b) else t_want
 
         def fun(t, y, ph=ph):
+            # the compiled rhs takes C-contiguous float64 vectors only; scipy's
+            # finite-difference Jacobians (Radau, BDF) pass columns of a matrix
+            y = np.ascontiguousarray(y, dtype=np.float64)
             dy = np.zeros(y.size)
-            asm.module.rhs(t, y, ph, asm.data, W, dy)
+            asm.module.rhs(float(t), y, ph, asm.data, W, dy)
+            counts[2] += 1
             return dy
 
         with np.errstate(all="ignore"):
@@ -509,13 +551,16 @@ def _integrate_scipy(
                 fun,
                 (a, b),
                 y,
-                method=solver.scipy_method,
+                method=method,
                 t_eval=t_eval,
                 rtol=solver.rtol,
                 atol=atol if isinstance(solver.atol, tuple) else solver.atol,
                 max_step=solver.max_step,
                 events=blowup,
             )
+        stats[3] += sol.njev
+        stats[4] += sol.nlu
+        stats[0], stats[1], stats[2] = counts[0], counts[1] if rejections_known else -1, counts[2]
         ys = sol.y[:, : min(sol.t.size, t_want.size)]
         good = np.all(np.abs(ys) < bound, axis=0)
         ngood = int(np.argmin(good)) if not good.all() else ys.shape[1]
