@@ -114,6 +114,12 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
     r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
     r.add_argument(
+        "--t-final",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="end the run at this time instead of the scenario's t_final (e.g. a quick check)",
+    )
+    r.add_argument(
         "--no-baselines",
         action="store_true",
         help="skip the frozen-adaptation and failure-free comparison runs",
@@ -207,11 +213,18 @@ def _cmd_validate(target: str) -> int:
     loop = sc.loop
     size = estimate_run_size(loop, sc.solver)
     print(
-        f"{sc.name}: OK ({loop.plant.name} plant, '{loop.controller.design}' design, "
-        f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s); {size.describe()})"
+        f"{sc.name}: OK ({loop.plant.name} plant, "
+        + (f"'{loop.controller.design}' design, " if loop.R.any() else "open loop, ")
+        + f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s); {size.describe()})"
     )
     for line in loop.describe_failures():
         print(f"  failure {line}")
+    if not loop.R.any():  # design = "none": u = 0, nothing to compensate with
+        print(
+            "compensability: not checked - an open loop (design 'none', a zero allocation) "
+            "has no controller to compensate with."
+        )
+        return EXIT_OK
     design = loop.controller.design
     known_sign = design in KNOWN_SIGN_DESIGNS and loop.adapt
     report = check_compensability(
@@ -247,6 +260,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from adaptive_ftc.sim.engine import simulate
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
+    if args.t_final is not None:  # ClosedLoop checks it (after t0)
+        sc = replace(sc, loop=replace(sc.loop, t_final=args.t_final))
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)
