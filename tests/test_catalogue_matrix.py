@@ -8,7 +8,8 @@ Each case names its scenario and command (or solver) in its test id, e.g.
 * the reproduction's per-scenario task (:func:`reproduce._simulate_task`, quick mode shortened
   further) runs every variant of the scenario without an error;
 * a short run of every scenario with every solver family (fixed-step, adaptive explicit,
-  Rosenbrock, ``auto``, each scipy method) completes with finite states;
+  Rosenbrock, ``auto``, each scipy method) completes with finite states (RK4, DOPRI5 and
+  ``auto`` run through the scenario's first failure);
 * the docs' example scenario files (TOML blocks of docs/*.md that are whole scenarios, and
   examples/*.toml) are validated and run the same way.
 
@@ -37,20 +38,15 @@ SCENARIOS = tuple(list_scenarios())
 #: simulated seconds of the short runs: compiled paths, and the scipy path (Python speed)
 SHORT, SHORT_SCIPY = 2.0, 0.25
 
+_SCIPY = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 #: every solver family: fixed-step, adaptive explicit, Rosenbrock, stiffness switching, and
 #: each scipy method
-METHODS = ("rk4", "dopri5", "rodasp", "rodas5p", "auto", "RK45", "RK23", "DOP853") + (
-    "Radau",
-    "BDF",
-    "LSODA",
-)
-_SCIPY = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+METHODS = ("rk4", "dopri5", "rodasp", "rodas5p", "auto", *_SCIPY)
 
 #: fixed steps of scenarios that run an adaptive-step method and are too stiff for RK4 at the
 #: default step (1e-3 s): wing-rock estimation needs dt < 3e-5 s (eigenvalue ~8.9e4 1/s; the
 #: scenario files' notes), and diverges within 2 ms at 1e-3 s
 RK4_DT = {"wingrock-estimation-s1": 2e-5, "wingrock-estimation-s2": 2e-5}
-
 
 #: methods cheap enough to run each scenario through its first failure (+1 s): the restart at
 #: a failure time is exercised too. The Rosenbrock methods are not: at the manipulator's
