@@ -190,6 +190,18 @@ def test_run_t_final_shortens_the_run_and_is_checked(tmp_path, capsys):
     assert code == 2 and "--t-final" in text
 
 
+def test_run_t_final_leaves_the_claims_of_a_shortened_run_unjudged(tmp_path, capsys):
+    sc = load_scenario("wingrock-free-1deg")  # a limit-cycle claim over its last 2 s of 10 s
+    assert sc.claims and sc.loop.t_final == 10.0
+    code, text = _cli(capsys, "run", sc.name, "--out", str(tmp_path), "--quiet", "--t-final", "1")
+    assert code == EXIT_OK, text
+    assert f"its {len(sc.claims)} claim(s) are not judged" in text
+    assert not (tmp_path / "claims.csv").exists()
+    # the whole duration (or more) keeps them
+    code, text = _cli(capsys, "run", sc.name, "--out", str(tmp_path), "--quiet", "--t-final", "10")
+    assert "not judged" not in text
+
+
 def test_scipy_and_compiled_families_are_all_covered():
     from adaptive_ftc.sim import engine
 

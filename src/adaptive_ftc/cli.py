@@ -261,6 +261,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
     if args.t_final is not None:  # ClosedLoop checks it (after t0)
+        if args.t_final < sc.loop.t_final and sc.claims:
+            # the claims hold for the whole run (final windows, recovery after each failure)
+            print(
+                f"note: --t-final {args.t_final:g} s shortens the run ({sc.name} lasts "
+                f"{sc.loop.t_final:g} s): its {len(sc.claims)} claim(s) are not judged.",
+                file=sys.stderr,
+            )
+            sc = replace(sc, claims=())
         sc = replace(sc, loop=replace(sc.loop, t_final=args.t_final))
     solver = sc.solver
     if args.method:
