@@ -213,18 +213,11 @@ def _cmd_validate(target: str) -> int:
     loop = sc.loop
     size = estimate_run_size(loop, sc.solver)
     print(
-        f"{sc.name}: OK ({loop.plant.name} plant, "
-        + (f"'{loop.controller.design}' design, " if loop.R.any() else "open loop, ")
-        + f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s); {size.describe()})"
+        f"{sc.name}: OK ({loop.plant.name} plant, '{loop.controller.design}' design, "
+        f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s); {size.describe()})"
     )
     for line in loop.describe_failures():
         print(f"  failure {line}")
-    if not loop.R.any():  # design = "none": u = 0, nothing to compensate with
-        print(
-            "compensability: not checked - an open loop (design 'none', a zero allocation) "
-            "has no controller to compensate with."
-        )
-        return EXIT_OK
     design = loop.controller.design
     known_sign = design in KNOWN_SIGN_DESIGNS and loop.adapt
     report = check_compensability(
