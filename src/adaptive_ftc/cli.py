@@ -6,7 +6,8 @@ Exit status (also in ``aftc --help`` and the README):
 0     success
 1     internal error (a bug: please report it with the command line)
 2     invalid input: scenario file, command-line argument, output folder
-3     the run diverged (``aftc run``)
+3     the run stopped early: diverged, nonfinite, step_underflow or singular (``aftc run``;
+      the message says why, see docs/statuses.md)
 4     thesis claims failed, or some runs raised errors (``aftc reproduce``)
 5     not compensable: the failures break the rank (3.6) or sign (2.16)/(4.6)
       conditions of the design (``aftc validate``)
@@ -60,7 +61,7 @@ _EPILOG = """exit status:
   0    success
   1    internal error (a bug: please report it with the command line)
   2    invalid input (scenario file, argument, output folder)
-  3    the run diverged (run)
+  3    the run stopped early: diverged, nonfinite, step_underflow, singular (run)
   4    thesis claims failed or runs raised errors (reproduce)
   5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
   130  interrupted (Ctrl-C, SIGTERM); earlier complete results are kept
@@ -285,11 +286,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for key, loop in tqdm(
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
+                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
                 results[key] = sc.stamp(simulate(loop, solver))
-                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
-                    raise KeyboardInterrupt
-        if results["adaptive"].message:
-            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        main = results["adaptive"]
+        if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
+            discard_staged(stage)
+            print(
+                f"aftc run: {sc.name}: {main.status} before the first sample: {main.message} "
+                f"Nothing was written to {out}.",
+                file=sys.stderr,
+            )
+            return EXIT_DIVERGED
+        if main.message:
+            print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         for key, res in results.items():
             stem = sc.name if key == "adaptive" else f"{sc.name}_{key}"
@@ -300,9 +309,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(stage / "data" / f"{stem}.csv")
             summary[key] = res.metrics()
-        main = results["adaptive"]
         baselines = {
-            k.replace("_", " "): v for k, v in results.items() if k in ("frozen", "failure_free")
+            k.replace("_", " "): v
+            for k, v in results.items()
+            if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
