@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-__all__ = ["RunStatus", "SimulationInterrupted", "StatusReason", "describe"]
+__all__ = ["RunStatus", "SimulationInterrupted", "StatusReason", "describe", "short"]
 
 
 class RunStatus(str, Enum):
@@ -103,6 +103,18 @@ def _num(v: float | None) -> str:
     if not math.isfinite(v):
         return str(v)
     return f"{v:.4g}"
+
+
+def short(status: RunStatus | str, reason: StatusReason | None) -> str:
+    """A few words for a table cell: ``"nonfinite at t = 5 s ('sqrt(5-t)')"``."""
+    status = RunStatus(status)
+    if status is RunStatus.COMPLETED or reason is None:
+        return str(status)
+    text = str(status)
+    if reason.time is not None:
+        text += f" at t = {reason.time:.4g} s"
+    what = f"'{reason.expression}'" if reason.expression else reason.signal
+    return f"{text} ({what})" if what else text
 
 
 def describe(status: RunStatus | str, reason: StatusReason | None, label: str = "") -> str:
