@@ -31,6 +31,10 @@ STIFF_ADVICE = (
     "rtol/atol."
 )
 
+#: A value this large (or the divergence bound, if larger) counts as a pole: an adaptive step
+#: stops just short of where ``1/(t - 3)`` is infinite, and sees a huge finite value there.
+POLE = 1e10
+
 
 def stop_outcome(
     loop: ClosedLoop,
@@ -72,13 +76,18 @@ def stop_outcome(
             method=method,
         )  # fmt: skip
     # an expression of the scenario non-finite near the stop: the cause, whatever the code
-    found = _nonfinite_expression(loop, asm, t_prev, t_stop, y_stop if finite_stop else y_prev)
+    pole = max(bound, POLE)
+    found = _nonfinite_expression(
+        loop, asm, t_prev, t_stop, y_stop if finite_stop else y_prev, pole
+    )
     if found is not None:
         return RunStatus.NONFINITE, found
     # the right-hand side at the last finite state
     y_rhs, t_rhs = (y_stop, t_stop) if finite_stop else (y_prev, t_prev)
     if y_rhs is not None:
-        found = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method)
+        # a step-size underflow at a plant derivative past the bound: a singular equation
+        huge = pole if code == 2 else math.inf
+        found = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method, huge)
         if found is not None:
             return found
     if code == 1:
@@ -218,10 +227,16 @@ def _value(expr, env: dict[str, float]) -> float:
 
 
 def _nonfinite_expression(
-    loop: ClosedLoop, asm: Assembled, t_lo: float, t_stop: float, y: np.ndarray | None
+    loop: ClosedLoop,
+    asm: Assembled,
+    t_lo: float,
+    t_stop: float,
+    y: np.ndarray | None,
+    bound: float,
 ) -> StatusReason | None:
-    """The first expression of ``loop`` that is non-finite near ``t_stop``, and when it first
-    was (``None``: every expression is finite there)."""
+    """The first expression of ``loop`` that is non-finite (or at least ``bound`` in size: a
+    pole an adaptive step stops just short of) near ``t_stop``, and when it first was
+    (``None``: every expression is finite there)."""
     try:
         cands = _candidates(loop)
     except Exception:  # noqa: BLE001 - e.g. a derivative too large to take
@@ -243,8 +258,8 @@ def _nonfinite_expression(
                 env = _env(loop, asm, t, None if of_t else y, actuator)
                 envs[key] = env
             v = _value(e, env)
-            if not math.isfinite(v):
-                t_first = _first_time(e, env, prev, float(t), active)
+            if not abs(v) < bound:
+                t_first = _first_time(e, env, prev, float(t), active, bound)
                 return StatusReason(
                     time=t_first, expression=text, source=source, value=v,
                 )  # fmt: skip
@@ -258,13 +273,13 @@ def _actuator_of(source: str) -> int:
     return 0
 
 
-def _first_time(e, env: dict, t_ok: float | None, t_bad: float, active) -> float:
-    """Bisect between a time where ``e`` is finite and one where it is not."""
+def _first_time(e, env: dict, t_ok: float | None, t_bad: float, active, bound: float) -> float:
+    """Bisect between a time where ``e`` is finite (below ``bound``) and one where it is not."""
     if t_ok is None:
         return t_bad
     env = dict(env)
     env["t"] = t_ok
-    if not math.isfinite(_value(e, env)):
+    if not abs(_value(e, env)) < bound:
         return t_bad
     lo, hi = t_ok, t_bad
     for _ in range(80):
@@ -272,7 +287,7 @@ def _first_time(e, env: dict, t_ok: float | None, t_bad: float, active) -> float
         if mid in (lo, hi):
             break
         env["t"] = mid
-        if active(mid) and not math.isfinite(_value(e, env)):
+        if active(mid) and not abs(_value(e, env)) < bound:
             hi = mid
         else:
             lo = mid
@@ -286,10 +301,12 @@ def _nonfinite_rhs(
     t_stop: float,
     y: np.ndarray,
     method: str,
+    huge: float = math.inf,
 ) -> tuple[RunStatus, StatusReason] | None:
     """A non-finite closed-loop derivative at state ``y`` from ``t_state`` to just past
     ``t_stop``: ``singular`` when it is a plant equation at finite states and inputs, else
-    ``nonfinite`` naming the derivative."""
+    ``nonfinite`` naming the derivative. A plant derivative of ``huge`` or more counts as
+    non-finite (an adaptive step stops just short of the pole of ``1/(x - 2)``)."""
     scale = max(1.0, abs(t_stop))
     times = np.unique(
         np.concatenate(
@@ -304,11 +321,13 @@ def _nonfinite_rhs(
         except Exception:  # noqa: BLE001 - a diagnosis never hides the run's own outcome
             return None
         off = ~np.isfinite(dy)
+        n = loop.plant.n_states
+        off[:n] |= np.abs(dy[:n]) >= huge
         if not off.any():
             continue
         i = int(np.argmax(off))
         row = _signals_row(loop, asm, float(t), y)
-        n, m, p = loop.plant.n_states, loop.plant.n_actuators, loop.plant.n_outputs
+        m, p = loop.plant.n_actuators, loop.plant.n_outputs
         c = 9 * p
         u = row[c : c + 2 * m] if row is not None else np.full(2 * m, math.nan)
         if i < n and np.all(np.isfinite(y)) and np.all(np.isfinite(u)):

@@ -152,7 +152,7 @@ def describe(status: RunStatus | str, reason: StatusReason | None, label: str = 
         if r.expression:
             text = (
                 f"{who} stopped at {at}: the expression '{r.expression}' of {r.source} is "
-                f"non-finite there ({_num(r.value)}). {keep} Fix the expression so that it is "
+                f"non-finite or unbounded there ({_num(r.value)}). {keep} Fix the expression so that it is "
                 "finite over the whole run (e.g. keep the argument of sqrt/log in its domain, "
                 "no division by zero)."
             )
@@ -166,7 +166,7 @@ def describe(status: RunStatus | str, reason: StatusReason | None, label: str = 
         text = (
             f"{who} stopped at {at}: {r.source or 'a plant equation'}"
             + (f" ('{r.expression}')" if r.expression else "")
-            + f" is non-finite ({_num(r.value)}) at finite states and inputs"
+            + f" is non-finite or unbounded ({_num(r.value)}) at finite states and inputs"
             + (f" ({r.states})" if r.states else "")
             + f": the equation is singular there (a division by zero). {keep} Check the "
             "initial state, the failures and the gains, or the equation's domain."
