@@ -114,9 +114,9 @@ def _probe_times(t_lo: float, t_stop: float) -> np.ndarray:
     adaptive step stops short of where the right-hand side becomes non-finite) and the round
     numbers near it (where ``1/(t - 3)`` is infinite)."""
     scale = max(1.0, abs(t_stop))
-    ahead = t_stop + scale * np.array([1e-14, 1e-12, 1e-10, 1e-8, 1e-6])
+    ahead = t_stop + scale * np.array([1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-5, 1e-4, 1e-3])
     times = [np.linspace(min(t_lo, t_stop), t_stop, 65), ahead]
-    hi = t_stop + 1e-6 * scale
+    hi = t_stop + 1e-3 * scale
     rounded = [round(t_stop, k) for k in range(13)]
     times.append(np.array([t for t in rounded if min(t_lo, t_stop) <= t <= hi]))
     return np.unique(np.concatenate(times))
