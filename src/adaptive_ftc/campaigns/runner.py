@@ -23,6 +23,7 @@ from adaptive_ftc.sim.result import SimResult
 
 __all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
 
+
 @dataclass(frozen=True)
 class CampaignRun:
     """What :func:`run_campaign` did: the folder, the runs done now and before, timing."""
@@ -71,9 +72,7 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
         row[key] = float(m.get(key, math.nan))
     reason = result.reason  # where and what stopped the run, never parsed from the message
     stopped = reason is not None and result.status != "completed"
-    row["divergence_time"] = (
-        float(reason.time) if stopped and reason.time is not None else math.nan
-    )
+    row["divergence_time"] = float(reason.time) if stopped and reason.time is not None else math.nan
     row["divergence_signal"] = (reason.signal or reason.expression) if stopped else ""
     rec = recovery_times(result, spec.recovery_tolerance)
     row["worst_recovery_time"] = max(rec) if rec else 0.0

@@ -99,9 +99,7 @@ def stop_outcome(
             time=t_stop, signal=label, value=value if value is not None else math.nan,
             method=method,
         )  # fmt: skip
-    return RunStatus.STEP_UNDERFLOW, StatusReason(
-        time=t_stop, method=method, advice=STIFF_ADVICE
-    )
+    return RunStatus.STEP_UNDERFLOW, StatusReason(time=t_stop, method=method, advice=STIFF_ADVICE)
 
 
 def _state_label(loop: ClosedLoop, asm: Assembled, index: int) -> str:
@@ -135,10 +133,17 @@ def _candidates(loop: ClosedLoop):
         d1 = e.derivative("t")
         always = _always
         out.append((f"the reference of output '{name}'", str(text), e, always))
-        out.append((f"the reference of output '{name}' (its derivative {d1})", str(text), d1, always))
+        out.append(
+            (f"the reference of output '{name}' (its derivative {d1})", str(text), d1, always)
+        )
         d2 = d1.derivative("t")
         out.append(
-            (f"the reference of output '{name}' (its second derivative {d2})", str(text), d2, always)
+            (
+                f"the reference of output '{name}' (its second derivative {d2})",
+                str(text),
+                d2,
+                always,
+            )
         )
     aliases = tuple(loop.plant.aliases())
     variables = ("t", "u", *aliases)

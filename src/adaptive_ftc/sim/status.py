@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 __all__ = ["RunStatus", "SimulationInterrupted", "StatusReason", "describe", "short"]
 
 
-class RunStatus(str, Enum):
+class RunStatus(StrEnum):
     """How a simulation ended (a ``str``: ``result.status == "diverged"`` keeps working and
     files store the plain value).
 
@@ -34,12 +34,6 @@ class RunStatus(str, Enum):
     SINGULAR = "singular"
     INTERRUPTED = "interrupted"
     INVALID = "invalid"
-
-    def __str__(self) -> str:
-        return self.value
-
-    def __format__(self, spec: str) -> str:
-        return format(self.value, spec)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -152,9 +146,9 @@ def describe(status: RunStatus | str, reason: StatusReason | None, label: str = 
         if r.expression:
             text = (
                 f"{who} stopped at {at}: the expression '{r.expression}' of {r.source} is "
-                f"non-finite or unbounded there ({_num(r.value)}). {keep} Fix the expression so that it is "
-                "finite over the whole run (e.g. keep the argument of sqrt/log in its domain, "
-                "no division by zero)."
+                f"non-finite or unbounded there ({_num(r.value)}). {keep} Fix the expression "
+                "so that it is finite over the whole run (e.g. keep the argument of sqrt/log in "
+                "its domain, no division by zero)."
             )
         else:
             text = (

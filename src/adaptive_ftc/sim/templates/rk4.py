@@ -93,7 +93,8 @@ def integrate_rk4(
 
     Returns ``(n_recorded, status, t_stop, bad_index)``; status 0 = finished, 1 = diverged,
     3 = interrupted; on status 1 the state where the run stopped is left in
-    ``out_Y[n_recorded]`` (when that row exists). ``stats`` receives [steps, rejected, rhs evaluations, 0, 0].
+    ``out_Y[n_recorded]`` (when that row exists). ``stats`` receives [steps, rejected, rhs
+    evaluations, 0, 0].
     """
     for i in range(y0.size):
         Y[i] = y0[i]
