@@ -49,6 +49,7 @@ def test_run_status_is_a_str_enum_exported_with_its_reason():
 
     assert {"RunStatus", "StatusReason", "SimulationInterrupted"} <= set(adaptive_ftc.__all__)
     assert RunStatus.DIVERGED == "diverged" and f"{RunStatus.NONFINITE}" == "nonfinite"
+    assert repr(RunStatus.COMPLETED) == "'completed'"  # printed as before the enum
     assert {s.value for s in RunStatus} == {
         "completed",
         "diverged",

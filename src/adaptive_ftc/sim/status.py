@@ -35,6 +35,11 @@ class RunStatus(StrEnum):
     INTERRUPTED = "interrupted"
     INVALID = "invalid"
 
+    def __repr__(self) -> str:
+        # shown as the plain value, as before the enum: ``[r.status for r in runs]`` prints
+        # ``['completed', 'diverged']``
+        return repr(self.value)
+
 
 @dataclass(frozen=True, kw_only=True)
 class StatusReason:
