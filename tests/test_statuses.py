@@ -266,3 +266,12 @@ def test_ctrl_c_during_aftc_run_exits_130(tmp_path, capsys):
     assert code == 130
     assert "interrupted" in capsys.readouterr().err
     assert not list(out.glob("data/*"))
+
+
+def test_report_cell_says_where_and_what_stopped_the_run(tmp_path):
+    from adaptive_ftc.reproduce import _short_status
+
+    r = _run(_scenario(tmp_path, "cell", _stuck("sqrt(5-t)")))
+    assert _short_status(r) == "nonfinite at t = 5 s ('sqrt(5-t)')"
+    ok = _run(_scenario(tmp_path, "ok", "", 1.0))
+    assert _short_status(ok) == "completed"

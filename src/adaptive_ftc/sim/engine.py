@@ -9,7 +9,7 @@ import os
 import threading
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -318,6 +318,11 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
                 loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
                 Y[nrec].copy() if kept else None,
             )  # fmt: skip
+            if outcome[0] is RunStatus.STEP_UNDERFLOW and method != "rk4":
+                from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
+
+                if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
+                    outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
     else:
         Y, phases, nrec, outcome = _integrate_scipy(asm, bps, t_rec, solver, loop, atol)
     wall = time.perf_counter() - start
@@ -571,8 +576,6 @@ def _integrate_scipy(
                 loop, asm, solver, t_rec, Y, r, code, t_bad, bad, np.array(yb, dtype=float)
             )
             if sol.status == -1:
-                from dataclasses import replace
-
                 reason = replace(reason, detail=str(sol.message))
             return Y, phases, r, (status, reason)
         y = sol.y[:, -1].copy()

@@ -70,6 +70,8 @@ class StatusReason:
         ``diverged``: the bound is the plant's envelope (else the divergence bound).
     states
         ``singular``: the plant states then (``"x = 1, v = 0"``).
+    step_limit
+        ``step_underflow``: the step count limit when that, not the step size, stopped it.
     """
 
     time: float | None = None
@@ -83,6 +85,7 @@ class StatusReason:
     detail: str = ""
     envelope: bool = False
     states: str = ""
+    step_limit: int | None = None
 
 
 class SimulationInterrupted(KeyboardInterrupt):
@@ -170,10 +173,15 @@ def describe(status: RunStatus | str, reason: StatusReason | None, label: str = 
             + f": the equation is singular there (a division by zero). {keep} Check the "
             "initial state, the failures and the gains, or the equation's domain."
         )
+    elif r.step_limit is not None:  # STEP_UNDERFLOW at the step count limit
+        text = (
+            f"{who} stopped at {at}: the '{r.method}' method reached its limit of "
+            f"{r.step_limit:,} steps. {keep}"
+        )
     else:  # STEP_UNDERFLOW
         text = (
             f"{who} stopped at {at}: the '{r.method}' step size fell below what the tolerances "
-            f"allow (or the step count limit was reached). {keep}"
+            f"allow. {keep}"
         )
     if r.advice:
         text += f" {r.advice}"
