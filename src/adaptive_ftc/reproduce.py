@@ -469,7 +469,6 @@ def _staged(fn):
 DATA_MAX_SAMPLES = 6000
 
 
-@_staged
 def _short_status(result) -> str:
     """The status of a run with where and what stopped it (report tables)."""
     from adaptive_ftc.sim.status import short
@@ -477,6 +476,7 @@ def _short_status(result) -> str:
     return short(result.status, result.reason)
 
 
+@_staged
 def run_reproduction(
     out_dir: str | Path,
     *,
