@@ -275,3 +275,13 @@ def test_report_cell_says_where_and_what_stopped_the_run(tmp_path):
     assert _short_status(r) == "nonfinite at t = 5 s ('sqrt(5-t)')"
     ok = _run(_scenario(tmp_path, "ok", "", 1.0))
     assert _short_status(ok) == "completed"
+
+
+def test_simulation_interrupted_pickles_with_its_result_and_message():
+    import pickle
+
+    exc = pickle.loads(
+        pickle.dumps(SimulationInterrupted({"partial": 1}, "Interrupted at t = 2 s"))
+    )
+    assert isinstance(exc, KeyboardInterrupt)
+    assert exc.result == {"partial": 1} and str(exc) == "Interrupted at t = 2 s"

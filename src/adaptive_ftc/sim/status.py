@@ -98,6 +98,9 @@ class SimulationInterrupted(KeyboardInterrupt):
         super().__init__(message)
         self.result = result
 
+    def __reduce__(self):  # pickled with its result (a worker process's interrupt)
+        return (type(self), (self.result, str(self)))
+
 
 def _num(v: float | None) -> str:
     if v is None:
