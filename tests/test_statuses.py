@@ -158,18 +158,27 @@ def test_a_plant_equation_dividing_by_zero_mid_run_is_singular_naming_equation_a
     assert "rodasp" not in r.message and "equation of w'" in r.message
 
 
-def test_divergence_bound_crossed_at_t0_is_reported_not_plotted(tmp_path, capsys):
+def test_divergence_bound_crossed_at_t0_is_reported_not_plotted(tmp_path, capsys, monkeypatch):
     """Regression: alpha(0) = 0.03 over a bound of 1e-6 was called 'left the plant's envelope
-    |alpha| <= 1.571' and `aftc run` died with an internal error plotting no samples."""
-    body = "[solver]\ndivergence_bound = 1e-6\n"
-    sc = _scenario(tmp_path, "tiny-bound", body)
-    r = _run(sc)
+    |alpha| <= 1.571' and `aftc run` died with an internal error plotting no samples. The
+    loader now refuses such a bound in a file, so the run gets it from a patched simulate():
+    a run with no samples must still be reported (exit 3), not plotted."""
+    from adaptive_ftc.sim import engine
+
+    sc = load_scenario("hypersonic-direct-s1")
+    r = _run(replace(sc, solver=replace(sc.solver, divergence_bound=1e-6)))
     assert r.status == RunStatus.DIVERGED and r.time.size == 0
     assert r.reason.signal == "alpha" and r.reason.bound == 1e-6 and r.reason.time == 0.0
     assert r.reason.value == pytest.approx(0.03) and not r.reason.envelope
     assert "envelope" not in r.message and "1e-06" in r.message
+    real = engine.simulate
+    monkeypatch.setattr(
+        engine, "simulate", lambda loop, solver: real(loop, replace(solver, divergence_bound=1e-6))
+    )
+    src = tmp_path / "short.toml"
+    src.write_text(BASE.format(name="short", duration=2.0))
     out = tmp_path / "out"
-    code = main(["run", str(tmp_path / "tiny-bound.toml"), "--out", str(out), "--quiet"])
+    code = main(["run", str(src), "--out", str(out), "--quiet"])
     err = capsys.readouterr().err
     assert code == 3, err
     assert "internal error" not in err and "before the first sample" in err

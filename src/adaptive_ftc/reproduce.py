@@ -60,6 +60,7 @@ from typing import Any
 from adaptive_ftc.baselines import BASELINES, FAIR_BASELINES, baseline_loop, baseline_solver
 from adaptive_ftc.claims import (
     FAIL,
+    FINDING,
     NOT_EVALUATED,
     NOT_REPRODUCED,
     PASS,
@@ -319,6 +320,8 @@ def _metrics_row(name: str, variant: str, result: SimResult | None, err: str, wa
         peak_applied=m.get("peak_applied", math.nan),
         wall_time_s=wall,
     )
+    # control activity over the final window (worst actuator; sim/activity.py)
+    row.update({k: m.get(k, math.nan) for k in _ACTIVITY_METRICS})
     return row
 
 
@@ -337,6 +340,20 @@ def _error_ratio(adaptive: SimResult | None, frozen: SimResult | None) -> float:
     return f / a if a > 0 else math.inf
 
 
+#: Control-activity columns of metrics.csv (the final window's worst actuator, see
+#: :meth:`adaptive_ftc.sim.result.SimResult.metrics`).
+_ACTIVITY_METRICS = (
+    "fast_rms_max",
+    "tv_per_s_max",
+    "peak_rate_max",
+    "rate_limited_fraction_max",
+    "travel_limited_fraction_max",
+    "peak_command_travel_ratio_max",
+    "peak_to_peak_max",
+    "activity_record_dt",
+    "activity_record_ok",
+)
+
 _METRIC_FIELDS = [
     "scenario",
     "variant",
@@ -350,6 +367,7 @@ _METRIC_FIELDS = [
     "max_error_final",
     "peak_command",
     "peak_applied",
+    *_ACTIVITY_METRICS,
     "wall_time_s",
     "error_ratio_frozen_over_adaptive",
     "error_ratio_best_fair_baseline_over_adaptive",
@@ -523,7 +541,9 @@ def run_reproduction(
     -------
     dict
         ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``,
-        ``n_not_evaluated``, ``n_not_reproduced``, ``n_errors``, ``wall_time_s``, ``report``
+        ``n_not_evaluated``, ``n_not_reproduced``, ``n_finding`` (claims marked ``finding``
+        that the data show: never PASS, not counted as FAIL), ``n_errors``, ``wall_time_s``,
+        ``report``
         (path of report.html) and ``out_dir``.
 
     Examples
@@ -602,7 +622,7 @@ def run_reproduction(
 
     # claims, metrics, report
     metric_rows, claim_rows, entries = [], [], []
-    n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = 0
+    n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = n_finding = 0
     for sc in scenarios:
         adaptive = results[(sc.name, "adaptive")]["result"]
         frozen = results.get((sc.name, "frozen"), {}).get("result")
@@ -654,6 +674,7 @@ def run_reproduction(
             n_fail += c.status == FAIL
             n_not_evaluated += c.status == NOT_EVALUATED
             n_not_reproduced += c.status == NOT_REPRODUCED
+            n_finding += c.status == FINDING
             claim_rows.append(
                 {
                     "scenario": sc.name,
@@ -665,6 +686,7 @@ def run_reproduction(
                     "unit": c.unit,
                     "text": " ".join(c.text.split()),
                     "detail": c.detail,
+                    "finding": c.finding,
                 }
             )
         for entry in figures[sc.name]:
@@ -711,6 +733,7 @@ def run_reproduction(
             "unit",
             "text",
             "detail",
+            "finding",
         ],
         claim_rows,
     )
@@ -719,11 +742,12 @@ def run_reproduction(
     return {
         "n_scenarios": len(scenarios),
         "n_runs": len(sim_tasks),
-        "n_claims": n_pass + n_fail + n_not_evaluated + n_not_reproduced,
+        "n_claims": n_pass + n_fail + n_not_evaluated + n_not_reproduced + n_finding,
         "n_pass": n_pass,
         "n_fail": n_fail,
         "n_not_evaluated": n_not_evaluated,
         "n_not_reproduced": n_not_reproduced,
+        "n_finding": n_finding,
         "n_errors": n_errors,
         "wall_time_s": time.perf_counter() - t_start,
         "report": report,

@@ -25,6 +25,8 @@ _SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 #: Compiled adaptive-step methods (``sim/templates/adaptive.py``; evidence in docs/solvers.md).
 _ADAPTIVE_METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
 _METHODS = ("rk4", *_ADAPTIVE_METHODS, "accurate", *_SCIPY_METHODS)
+#: Time constant (s) of a continuous controller's s' filter (``SolverOptions.filter_tau``).
+DEFAULT_FILTER_TAU = 0.01
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -57,6 +59,10 @@ class SolverOptions:
         ``"filtered"``: a first-order dirty-derivative filter of ``s`` with time constant
         ``filter_tau`` (what a real system could measure); ``"auto"`` (default): ``"filtered"``
         when the loop has measurement noise or a digital controller, else ``"exact"``.
+    filter_tau
+        Time constant (s) of the ``s'`` filter; ``None`` (default): 0.01 s, or twice the
+        sample time of a digital controller slower than 50 Hz (:meth:`filter_tau_for`), so
+        that the sampled filter is stable (it needs ``sample_time < 2 filter_tau``).
     divergence_bound
         A run stops (keeping its partial result) when any state leaves ``|y| < bound`` or
         becomes non-finite.
@@ -69,7 +75,7 @@ class SolverOptions:
     max_step: float = math.inf
     record_dt: float = 0.01
     sdot: str = "auto"
-    filter_tau: float = 0.01
+    filter_tau: float | None = None
     divergence_bound: float = 1e8
 
     def __post_init__(self) -> None:
@@ -105,7 +111,7 @@ class SolverOptions:
             *(() if isinstance(self.atol, tuple) else ("atol",)),
             "max_step",
             "record_dt",
-            "filter_tau",
+            *(() if self.filter_tau is None else ("filter_tau",)),
             "divergence_bound",
         ):
             v = getattr(self, key)
@@ -126,6 +132,13 @@ class SolverOptions:
         if self.sdot != "auto":
             return self.sdot
         return "filtered" if loop.measured_with_noise else "exact"
+
+    def filter_tau_for(self, loop: ClosedLoop) -> float:
+        """The ``s'`` filter's time constant on ``loop``: ``filter_tau`` when given, else
+        ``max(0.01, 2 sample_time)`` (0.01 s for a continuous controller)."""
+        if self.filter_tau is not None:
+            return float(self.filter_tau)
+        return max(DEFAULT_FILTER_TAU, 2.0 * float(loop.sample_time))
 
     @property
     def compiled_method(self) -> str | None:
@@ -252,7 +265,7 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
     from adaptive_ftc.sim.budget import check_run_size
 
     check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
-    asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau)
+    asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau_for(loop))
     t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
     bps = np.array(asm.breakpoints)
     n = asm.y0.size

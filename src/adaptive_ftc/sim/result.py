@@ -61,6 +61,12 @@ class SimResult:
         UDUNITS strings declared by the plant class (``state_units``, ``output_units``,
         ``actuator_units`` class attributes); empty when the plant declares none, and the
         exported file then says ``"1"`` with a comment.
+    actuator_position
+        Actuator positions (time, actuator) when the actuators have states (declared
+        :class:`~adaptive_ftc.hardware.Actuators` or a dynamics failure): the position state
+        of an actuator with dynamics, else its command clipped to its travel; ``None`` for
+        ideal actuators. The limits are in ``meta["actuator_limits"]``
+        (:mod:`adaptive_ftc.sim.activity`).
     """
 
     time: np.ndarray
@@ -92,6 +98,7 @@ class SimResult:
     state_units: tuple[str, ...] = ()
     output_units: tuple[str, ...] = ()
     actuator_units: tuple[str, ...] = ()
+    actuator_position: np.ndarray | None = None
     reason: StatusReason | None = None
 
     def __post_init__(self) -> None:
@@ -152,6 +159,11 @@ class SimResult:
             "sample_time": loop.sample_time,
         }
         plant = loop.plant
+        from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
+
+        u_cmd = out[:, c : c + m]
+        if loop.has_actuator_dynamics:
+            meta["actuator_limits"] = actuator_limits_meta(loop, asm)
         return cls(
             # views of the recorded block, like the signals below: copying them cost ~1 ms
             # of a 60 ms run
@@ -166,7 +178,7 @@ class SimResult:
             s=cols[5],
             sdot=cols[6],
             u0=cols[8],
-            u_cmd=out[:, c : c + m],
+            u_cmd=u_cmd,
             u_applied=out[:, c + m : c + 2 * m],
             u_f=out[:, c + 2 * m],
             gain=out[:, c + 2 * m + 1],
@@ -186,6 +198,7 @@ class SimResult:
             output_units=_declared_units(plant, ("output_units",), p)
             or _output_units(loop.plant.state_names, loop.plant.output_names, su),
             actuator_units=_declared_units(plant, ("actuator_units",), m),
+            actuator_position=actuator_positions(loop, asm, Y, phases, u_cmd),
         )
 
     def __repr__(self) -> str:
@@ -285,6 +298,38 @@ class SimResult:
             "t_end": t_end,
             "status": self.status,
         }
+        out.update(self._activity_metrics(t_end - fw, t_end))
+        return out
+
+    def activity(
+        self, start: float | None = None, end: float | None = None, f_c: float = 1.0
+    ) -> dict[str, Any]:
+        """Control activity per actuator over ``[start, end]`` (default: the whole run):
+        fast command content above ``f_c`` Hz, total variation per second, peak rate,
+        fractions of time at a rate or travel limit, peak command against the declared travel,
+        peak to peak. Actuator name -> :class:`~adaptive_ftc.sim.activity.ActuatorActivity`
+        (see :mod:`adaptive_ftc.sim.activity` for the definitions and the aliasing rule)."""
+        from adaptive_ftc.sim.activity import activity
+
+        return activity(self, start, end, f_c=f_c)
+
+    def _activity_metrics(self, start: float, end: float) -> dict[str, Any]:
+        """The final window's activity for :meth:`metrics`: per actuator
+        ``<metric>_<actuator>``, the worst actuator's ``<metric>_max`` and the record check."""
+        from adaptive_ftc.sim.activity import ACTIVITY_FIELDS, DEFAULT_F_C
+
+        acts = self.activity(start, end, f_c=DEFAULT_F_C)
+        out: dict[str, Any] = {}
+        for name, a in acts.items():
+            for key in ACTIVITY_FIELDS:
+                out[f"{key}_{name}"] = getattr(a, key)
+        for key in ACTIVITY_FIELDS:
+            vals = [getattr(a, key) for a in acts.values() if not math.isnan(getattr(a, key))]
+            out[f"{key}_max"] = max(vals) if vals else math.nan
+        first = next(iter(acts.values()), None)
+        out["activity_f_c"] = DEFAULT_F_C
+        out["activity_record_dt"] = first.record_dt if first else math.nan
+        out["activity_record_ok"] = bool(first.record_ok) if first else False
         return out
 
     # ------------------------------------------------------------------ export
@@ -354,6 +399,12 @@ class SimResult:
             self.u_applied[idx],
             _attrs("actuator output after failures u^f", act_units, declared=declared_u),
         )
+        if self.actuator_position is not None:
+            data["u_position"] = (
+                ("time", "actuator"),
+                self.actuator_position[idx],
+                _attrs("actuator position (declared actuators)", act_units, declared=declared_u),
+            )
         data["u_f"] = (
             ("time",),
             self.u_f[idx],
@@ -525,6 +576,7 @@ class SimResult:
             state_units=tuple(info.get("state_units", ())),
             output_units=tuple(info.get("output_units", ())),
             actuator_units=tuple(info.get("actuator_units", ())),
+            actuator_position=arr("u_position") if "u_position" in ds else None,
         )
 
     def to_pandas(self) -> pd.DataFrame:
