@@ -6,7 +6,8 @@ Exit status (also in ``aftc --help`` and the README):
 0     success
 1     internal error (a bug: please report it with the command line)
 2     invalid input: scenario file, command-line argument, output folder
-3     the run diverged (``aftc run``)
+3     the run stopped early: diverged, nonfinite, step_underflow or singular (``aftc run``;
+      the message says why, see docs/statuses.md)
 4     claims failed (``aftc run``: the scenario's ``[[claims]]``; ``aftc reproduce``: the
       thesis claims), or some runs raised errors (``aftc reproduce``); a claim marked as an
       expected ``finding`` that the data show is reported as FINDING, not as a failure
@@ -62,7 +63,7 @@ _EPILOG = """exit status:
   0    success
   1    internal error (a bug: please report it with the command line)
   2    invalid input (scenario file, argument, output folder)
-  3    the run diverged (run)
+  3    the run stopped early: diverged, nonfinite, step_underflow, singular (run)
   4    claims failed (run, reproduce) or runs raised errors (reproduce); FINDING is not a
        failure
   5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
@@ -272,11 +273,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for key, loop in tqdm(
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
+                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
                 results[key] = sc.stamp(simulate(loop, solver))
-                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
-                    raise KeyboardInterrupt
-        if results["adaptive"].message:
-            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        main = results["adaptive"]
+        if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
+            discard_staged(stage)
+            print(
+                f"aftc run: {sc.name}: {main.status} before the first sample: {main.message} "
+                f"Nothing was written to {out}.",
+                file=sys.stderr,
+            )
+            return EXIT_DIVERGED
+        if main.message:
+            print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         for key, res in results.items():
@@ -290,9 +299,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
-        main = results["adaptive"]
         baselines = {
-            k.replace("_", " "): v for k, v in results.items() if k in ("frozen", "failure_free")
+            k.replace("_", " "): v
+            for k, v in results.items()
+            if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []

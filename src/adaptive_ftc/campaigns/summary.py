@@ -30,9 +30,9 @@ def success_tables(df) -> dict[str, Any]:
     out: dict[str, Any] = {}
     out["success_rate"] = df.groupby("design", sort=False)["success"].mean().to_dict()
     out["runs"] = df.groupby("design", sort=False).size().to_dict()
-    out["diverged"] = (
-        df.assign(d=df["status"] == "diverged").groupby("design", sort=False)["d"].sum().to_dict()
-    )
+    # every run that stopped early (diverged, nonfinite, step_underflow, singular)
+    stopped = ~df["status"].isin(["completed", "invalid", "interrupted"])
+    out["diverged"] = df.assign(d=stopped).groupby("design", sort=False)["d"].sum().to_dict()
     out["compensable_fraction"] = float(df.drop_duplicates("index")["compensable"].mean())
     exploded = df.assign(model=df["models"].str.split("+")).explode("model")
     exploded["model"] = exploded["model"].replace("", "none")
