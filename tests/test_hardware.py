@@ -233,7 +233,7 @@ def test_bad_hardware_settings_are_clear_errors():
     with pytest.raises(ConfigurationError, match="no incipient form"):
         Sluggish(actuator=1, onset=1.0, ramp=0.5, tau=0.1)
     with pytest.raises(ConfigurationError, match="filter_tau"):
-        simulate(_loop((0.0,), sample_time=0.05), SolverOptions(sdot="filtered"))
+        simulate(_loop((0.0,), sample_time=0.05), SolverOptions(sdot="filtered", filter_tau=0.01))
 
 
 def test_interop_refuses_sampled_loops():

@@ -16,6 +16,12 @@ Verdicts
     show it) and the data indeed contradict it: reported with the measured number and the
     reason, counted apart from FAIL. If such a claim passes, the verdict is PASS and the detail
     says that the note is stale.
+``FINDING``
+    The claim carries ``finding = "<name>"``: an expected, named finding of the project (e.g.
+    "the thesis law chatters at 16 Hz under 200 Hz sampling"), judged like any claim. When
+    the data contradict the claim it is reported as FINDING with its measured number and the
+    name, never as PASS and never counted as FAIL (exit codes); if it passes, the verdict is
+    PASS and the detail says that the finding no longer shows.
 
 Conventions
 -----------
@@ -26,6 +32,12 @@ Conventions
 - Tracking errors are judged per output; the measured number is the worst output.
 - A window ``[a, b)`` "before ``time``" excludes ``time`` itself (the recorded sample at a
   failure time already shows the failed actuator).
+- An ``activity`` claim judges the command of every actuator (or of ``actuators``) over the
+  last ``window`` seconds (:mod:`adaptive_ftc.sim.activity`); it refuses (:class:`ClaimError`)
+  a record too coarse for its cut-off frequency (the aliasing rule of that module).
+- ``bounded`` holds the command and applied signals of an actuator with a declared travel
+  (``Actuators(lower=..., upper=...)``) within that travel, the rest within ``bound``; the
+  measured number is then the largest ``|.|`` relative to its own limit (threshold 1).
 - ``baseline_ratio`` is held against the *best* (smallest RMS error) non-oracle baseline run
   given (fixed-gain, nominal inverse, frozen adaptation; :mod:`adaptive_ftc.baselines`); a
   diverged baseline counts as infinitely worse. The oracle's ratio is reported, not judged.
@@ -59,6 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "CLAIM_KINDS",
     "FAIL",
+    "FINDING",
     "NOT_EVALUATED",
     "NOT_REPRODUCED",
     "PASS",
@@ -73,8 +86,9 @@ PASS = "PASS"
 FAIL = "FAIL"
 NOT_EVALUATED = "NOT EVALUATED"
 NOT_REPRODUCED = "NOT REPRODUCED"
+FINDING = "FINDING"
 #: Every verdict a :class:`ClaimResult` can carry.
-VERDICTS: tuple[str, ...] = (PASS, FAIL, NOT_EVALUATED, NOT_REPRODUCED)
+VERDICTS: tuple[str, ...] = (PASS, FAIL, NOT_EVALUATED, NOT_REPRODUCED, FINDING)
 
 
 class ClaimError(ValueError):
@@ -103,6 +117,8 @@ class ClaimResult:
     baselines
         For a claim with ``baseline_ratio``: ``(baseline, RMS error, RMS error / measured)``
         of every baseline run given, the oracle included (``inf`` for a diverged run).
+    finding
+        The name of the expected finding of a claim marked ``finding`` (``""``: none).
     """
 
     kind: str
@@ -114,6 +130,7 @@ class ClaimResult:
     status: str = ""
     unit: str = ""
     baselines: tuple[tuple[str, float, float], ...] = ()
+    finding: str = ""
 
     def __post_init__(self) -> None:
         status = self.status or (PASS if self.passed else FAIL)
@@ -129,7 +146,7 @@ class ClaimResult:
 
     @property
     def verdict(self) -> str:
-        """``"PASS"``, ``"FAIL"``, ``"NOT EVALUATED"`` or ``"NOT REPRODUCED"``."""
+        """``"PASS"``, ``"FAIL"``, ``"NOT EVALUATED"``, ``"NOT REPRODUCED"`` or ``"FINDING"``."""
         return self.status
 
     @property
@@ -158,10 +175,42 @@ _KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
         {"after": _NONE, "until": _NONE, "threshold": _NONE},
     ),
     "estimate_change": (("start", "end", "min_change"), {}),
+    "activity": (
+        (),
+        {
+            "window": 20.0,
+            "f_c": 1.0,
+            "actuators": _NONE,
+            "max_fast_rms": _NONE,
+            "max_fast_rms_relative": _NONE,
+            "reference_peak_to_peak": _NONE,
+            "max_tv_per_s": _NONE,
+            "max_peak_rate": _NONE,
+            "max_rate_limited_fraction": _NONE,
+            "max_travel_limited_fraction": _NONE,
+            "max_peak_command": _NONE,
+            "within_travel": _NONE,
+        },
+    ),
 }
 #: keys every kind accepts
-_COMMON = {"not_reproduced": _NONE}
-_NON_NUMERIC = {"kind", "text", "healthy", "states", "actuator", "state", "measure", "parameters"}
+_COMMON = {"not_reproduced": _NONE, "finding": _NONE}
+_NON_NUMERIC = {
+    "kind",
+    "text",
+    "healthy",
+    "states",
+    "actuator",
+    "state",
+    "measure",
+    "parameters",
+    "actuators",
+    "within_travel",
+    # a number or one per actuator (checked by the activity claim)
+    "max_fast_rms",
+    "reference_peak_to_peak",
+    "max_peak_command",
+}
 _POSITIVE = {
     "window",
     "threshold",
@@ -173,6 +222,10 @@ _POSITIVE = {
     "tolerance",
     "max_duration",
     "min_change",
+    "f_c",
+    "max_fast_rms_relative",
+    "max_tv_per_s",
+    "max_peak_rate",
 }
 
 #: The claim kinds of ``docs/claims.md``.
@@ -211,14 +264,20 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
         if key not in claim:
             raise ClaimError(f"{_name(claim)} is missing the key '{key}'.")
     out = {**_COMMON, **optional, **dict(claim)}
-    reason = out["not_reproduced"]
-    if reason is not None and (not isinstance(reason, str) or not reason.strip()):
+    for key, what in (("not_reproduced", "the reason"), ("finding", "the finding's name")):
+        reason = out[key]
+        if reason is not None and (not isinstance(reason, str) or not reason.strip()):
+            raise ClaimError(
+                f"Key '{key}' of {_name(claim)} must be a non-empty text giving {what}; "
+                f"got {reason!r}."
+            )
+    if out["not_reproduced"] is not None and out["finding"] is not None:
         raise ClaimError(
-            f"Key 'not_reproduced' of {_name(claim)} must be a non-empty text giving the reason; "
-            f"got {reason!r}."
+            f"{_name(claim)} has both 'not_reproduced' and 'finding': a claim is either a thesis "
+            "statement our runs do not show or a named finding of ours; keep one."
         )
     for key, value in out.items():
-        if key in _NON_NUMERIC or key == "not_reproduced" or value is None:
+        if key in _NON_NUMERIC or key in _COMMON or value is None:
             continue
         if (
             isinstance(value, bool)
@@ -231,7 +290,15 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
         if key in _POSITIVE and value <= 0:
             if not (key == "min_level" and value == 0):
                 raise ClaimError(f"Key '{key}' of {_name(claim)} must be positive; got {value!r}.")
+        if key in _FRACTIONS and not 0 <= value <= 1:
+            raise ClaimError(
+                f"Key '{key}' of {_name(claim)} is a fraction of the window: it must be in "
+                f"[0, 1]; got {value!r}."
+            )
     return out
+
+
+_FRACTIONS = {"max_rate_limited_fraction", "max_travel_limited_fraction"}
 
 
 def _actuator_index(claim: Mapping[str, Any], key: str, value: Any, m: int) -> int:
@@ -315,6 +382,13 @@ def _result(
         elif math.isfinite(measured) or math.isinf(measured):
             status = NOT_REPRODUCED
             detail += f" [not reproduced: {reason}]"
+    finding = c.get("finding") or ""
+    if finding:
+        if passed:
+            detail += f" [the catalogue expected the finding '{finding}': it no longer shows]"
+        else:
+            status = FINDING
+            detail += f" [finding: {finding}]"
     return ClaimResult(
         kind=str(c["kind"]),
         text=str(c.get("text", "")),
@@ -324,21 +398,30 @@ def _result(
         detail=detail,
         status=status,
         unit=unit,
+        finding=str(finding),
     )
 
 
 def _skip(c: Mapping[str, Any], threshold: float, why: str, unit: str = "") -> ClaimResult:
-    """FAIL (``why`` starts with ``"fail:"``) or NOT EVALUATED, with nothing measured."""
+    """FAIL (``why`` starts with ``"fail:"``; FINDING for a claim marked ``finding``) or NOT
+    EVALUATED, with nothing measured."""
     failed = why.startswith("fail:")
+    finding = str(c.get("finding") or "")
+    detail = why.removeprefix("fail:")
+    status = FAIL if failed else NOT_EVALUATED
+    if failed and finding:
+        status = FINDING
+        detail += f" [finding: {finding}]"
     return ClaimResult(
         kind=str(c["kind"]),
         text=str(c.get("text", "")),
         passed=False,
         measured=math.nan,
         threshold=float(threshold),
-        detail=why.removeprefix("fail:"),
-        status=FAIL if failed else NOT_EVALUATED,
+        detail=detail,
+        status=status,
         unit=unit,
+        finding=finding,
     )
 
 
@@ -471,6 +554,37 @@ def _recovery(c, r, frozen):
     return _result(c, ok, worst, thr, detail, unit)
 
 
+def _declared_travel(r: SimResult) -> list[tuple[float, float]] | None:
+    """``(lower, upper)`` per actuator when the run's Actuators declare a finite travel for
+    at least one actuator, else ``None``."""
+    from adaptive_ftc.sim.activity import limits_of
+
+    limits = limits_of(r)
+    if not limits:
+        return None
+    declared = limits.get("declared", {})
+    pairs = [
+        (float(lo), float(hi))
+        for lo, hi in zip(declared.get("lower", ()), declared.get("upper", ()), strict=False)
+    ]
+    if len(pairs) != len(r.actuator_names):
+        return None
+    if not any(math.isfinite(lo) or math.isfinite(hi) for lo, hi in pairs):
+        return None
+    return pairs
+
+
+def _travel_fraction(u: np.ndarray, lo: float, hi: float) -> float:
+    """Largest use of the travel ``[lo, hi]``: ``u / hi`` above zero, ``u / lo`` below (1 at
+    a limit; ``inf`` for a non-zero value beyond a limit at or across zero)."""
+    if u.size == 0:
+        return 0.0
+    top, bottom = float(np.max(u)), float(np.min(u))
+    up = 0.0 if top <= 0 or math.isinf(hi) else (top / hi if hi > 0 else math.inf)
+    down = 0.0 if bottom >= 0 or math.isinf(lo) else (bottom / lo if lo < 0 else math.inf)
+    return max(up, down)
+
+
 def _bounded(c, r, frozen):
     bound = float(c["bound"])
     if why := _uncovered(c, r, float(c["_end"])):
@@ -478,11 +592,40 @@ def _bounded(c, r, frozen):
     signals = {"plant state": r.states, "commanded": r.u_cmd, "applied": r.u_applied}
     peaks = {k: float(np.max(np.abs(v))) if v.size else 0.0 for k, v in signals.items()}
     finite = all(np.all(np.isfinite(v)) for v in signals.values())
-    worst = max(peaks.values()) if finite else math.inf
-    detail = "largest |.| (SI units of each signal): " + ", ".join(
-        f"{k} {_fmt(v)}" for k, v in peaks.items()
+    travel = _declared_travel(r)
+    if travel is None:
+        worst = max(peaks.values()) if finite else math.inf
+        detail = "largest |.| (SI units of each signal): " + ", ".join(
+            f"{k} {_fmt(v)}" for k, v in peaks.items()
+        )
+        return _result(c, finite and worst <= bound, worst, bound, f"{detail} (<= {_fmt(bound)})")
+    # a declared travel: each actuator's command and applied output within it, the plant
+    # states within the bound; measured: the largest |.| relative to its own limit
+    unit = actuator_unit(r.meta)
+    worst = peaks["plant state"] / bound
+    parts = [f"plant state {_fmt(peaks['plant state'])} (<= {_fmt(bound)})"]
+    for key, sig in (("commanded", r.u_cmd), ("applied", r.u_applied)):
+        for j, name in enumerate(r.actuator_names):
+            lo, hi = travel[j]
+            col = sig[:, j]
+            if math.isinf(lo) and math.isinf(hi):
+                peak = float(np.max(np.abs(col))) if col.size else 0.0
+                frac = peak / bound
+                parts.append(f"{key} {name} {_fmt(peak, unit)} (<= {_fmt(bound)})")
+            else:
+                frac = _travel_fraction(col, lo, hi)
+                span = f"{_fmt(float(np.min(col)))} to {_fmt(float(np.max(col)), unit)}"
+                parts.append(
+                    f"{key} {name} {span}: {_fmt(frac)} x its travel [{_fmt(lo)}, {_fmt(hi)}]"
+                )
+            worst = max(worst, frac)
+    if not finite:
+        worst = math.inf
+    detail = (
+        "largest |.| relative to its limit (the declared travel for the actuator signals, "
+        f"{_fmt(bound)} for the plant states): {_fmt(worst)} (<= 1 required); " + "; ".join(parts)
     )
-    return _result(c, finite and worst <= bound, worst, bound, f"{detail} (<= {_fmt(bound)})")
+    return _result(c, finite and worst <= 1.0, worst, 1.0, detail)
 
 
 def _parameter_bounded(c, r, frozen):
@@ -717,6 +860,146 @@ def _estimate_change(c, r, frozen):
     return _result(c, change >= need, change, need, detail)
 
 
+#: ``activity`` criteria: claim key, metric of :class:`~adaptive_ftc.sim.activity.
+#: ActuatorActivity`, words, unit kind ("u": actuator unit, "u/s": per second, "": none)
+_ACTIVITY_CRITERIA = (
+    ("max_fast_rms", "fast_rms", "fast command content", "u"),
+    ("max_tv_per_s", "tv_per_s", "command total variation per second", "u/s"),
+    ("max_peak_rate", "peak_rate", "peak command rate", "u/s"),
+    ("max_rate_limited_fraction", "rate_limited_fraction", "fraction at the rate limit", ""),
+    ("max_travel_limited_fraction", "travel_limited_fraction", "fraction at a travel limit", ""),
+    ("max_peak_command", "peak_command", "peak |command|", "u"),
+    ("within_travel", "peak_command_travel_ratio", "peak |command| / declared travel", ""),
+)
+
+
+def _per_actuator_numbers(c: Mapping[str, Any], key: str, m: int) -> list[float]:
+    """A number, or one positive number per actuator, as a list of ``m`` numbers."""
+    value = c[key]
+    values = list(value) if isinstance(value, (list, tuple)) else [value] * m
+    ok = len(values) == m and all(
+        not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and v > 0
+        for v in values
+    )
+    if not ok:
+        raise ClaimError(
+            f"Key '{key}' of {_name(c)} must be a positive number or one positive number per "
+            f"actuator ({m}); got {value!r}."
+        )
+    return [float(v) for v in values]
+
+
+def _activity_thresholds(c, r) -> list[tuple[str, str, str, str, list[float]]]:
+    """``(key, metric, words, unit kind, threshold per actuator)`` of every criterion the
+    claim states."""
+    m = len(r.actuator_names)
+    if c["max_fast_rms"] is not None and c["max_fast_rms_relative"] is not None:
+        raise ClaimError(
+            f"{_name(c)} has both 'max_fast_rms' and 'max_fast_rms_relative': give one."
+        )
+    out = []
+    for key, metric, words, kind in _ACTIVITY_CRITERIA:
+        if key == "max_fast_rms" and c["max_fast_rms_relative"] is not None:
+            if c["reference_peak_to_peak"] is None:
+                raise ClaimError(
+                    f"{_name(c)} has 'max_fast_rms_relative' and needs "
+                    "'reference_peak_to_peak' (the ideal run's command peak to peak, one "
+                    "number or one per actuator)."
+                )
+            ref = _per_actuator_numbers(c, "reference_peak_to_peak", m)
+            rel = float(c["max_fast_rms_relative"])
+            out.append((key, metric, words, kind, [rel * v for v in ref]))
+            continue
+        if c[key] is None:
+            continue
+        if key == "within_travel":
+            if not isinstance(c[key], bool):
+                raise ClaimError(f"Key 'within_travel' of {_name(c)} must be true or false.")
+            if c[key]:
+                out.append((key, metric, words, kind, [1.0] * m))
+        elif key in ("max_fast_rms", "max_peak_command"):
+            out.append((key, metric, words, kind, _per_actuator_numbers(c, key, m)))
+        else:
+            out.append((key, metric, words, kind, [float(c[key])] * m))
+    if not out:
+        keys = ", ".join(k for k, *_ in _ACTIVITY_CRITERIA) + ", max_fast_rms_relative"
+        raise ClaimError(f"{_name(c)} states no criterion: give at least one of {keys}.")
+    return out
+
+
+def _activity(c, r, baselines):
+    from adaptive_ftc.sim.activity import activity, limits_of, max_record_dt
+
+    m = len(r.actuator_names)
+    chosen = c["actuators"]
+    if chosen is None:
+        idx = list(range(m))
+    else:
+        if isinstance(chosen, (int, np.integer)) and not isinstance(chosen, bool):
+            chosen = [chosen]
+        if not isinstance(chosen, Sequence) or isinstance(chosen, str) or not chosen:
+            raise ClaimError(f"Key 'actuators' of {_name(c)} must be a list of actuator numbers.")
+        idx = [_actuator_index(c, "actuators", j, m) for j in chosen]
+    criteria = _activity_thresholds(c, r)
+    f_c = float(c["f_c"])
+    u_unit = actuator_unit(r.meta)
+    units = {"u": u_unit, "u/s": f"{u_unit}/s" if u_unit else "", "": ""}
+    first_unit = units[criteria[0][3]]
+    if any(key == "within_travel" for key, *_ in criteria):
+        limits = limits_of(r) or {}
+        declared = limits.get("declared", {})
+        for j in idx:
+            lo = declared.get("lower", [-math.inf] * m)[j]
+            hi = declared.get("upper", [math.inf] * m)[j]
+            if math.isinf(float(lo)) and math.isinf(float(hi)):
+                raise ClaimError(
+                    f"{_name(c)} asks for 'within_travel' but actuator {j + 1} "
+                    f"({r.actuator_names[j]}) declares no travel (Actuators lower/upper): use "
+                    "'max_peak_command' (e.g. 10x the ideal run's peak) instead."
+                )
+    start, end = _last_window(c, r)
+    if why := _uncovered(c, r, end):
+        return _skip(c, criteria[0][4][idx[0]], why, first_unit)
+    acts = activity(r, start, end, f_c=f_c)
+    sample_time = float(r.meta.get("sample_time") or 0.0)
+    some = next(iter(acts.values()))
+    if not some.record_ok:
+        need = max_record_dt(f_c, sample_time)
+        raise ClaimError(
+            f"{_name(c)} cannot judge this run: it is recorded every {some.record_dt:.4g} s, "
+            f"too coarse for activity above {f_c:g} Hz (aliasing; the rule in "
+            f"adaptive_ftc.sim.activity needs <= {need:.4g} s here). Set record_dt = {need:g} "
+            "(or less) in the scenario's [solver] table."
+        )
+    worst: tuple[float, float, float, str] | None = None  # (ratio, value, threshold, unit)
+    ok, parts = True, []
+    for _key, metric, words, kind, thresholds in criteria:
+        unit = units[kind]
+        items = []
+        for j in idx:
+            name = r.actuator_names[j]
+            value = float(getattr(acts[name], metric))
+            thr = thresholds[j]
+            note = ""
+            if math.isnan(value):
+                if metric in ("rate_limited_fraction", "travel_limited_fraction"):
+                    value, note = 0.0, " (no such limit declared)"
+                else:
+                    value, note = math.inf, " (not measurable: record too short)"
+            ratio = value / thr if thr > 0 else (math.inf if value > 0 else 0.0)
+            ok = ok and value <= thr
+            if worst is None or ratio > worst[0]:
+                worst = (ratio, value, thr, unit)
+            items.append(f"{name} {_fmt(value, unit)}{note} (<= {_fmt(thr, unit)})")
+        parts.append(f"{words}: {', '.join(items)}")
+    assert worst is not None
+    detail = (
+        f"command activity over [{start:g}, {end:g}] s (fast content above {f_c:g} Hz, "
+        f"records every {some.record_dt:.3g} s): " + "; ".join(parts)
+    )
+    return _result(c, ok, worst[1], worst[2], detail, worst[3])
+
+
 _EVALUATORS: dict[str, Callable[[dict[str, Any], SimResult, SimResult | None], ClaimResult]] = {
     "tracking": _tracking,
     "rate_tracking": _rate_tracking,
@@ -731,6 +1014,7 @@ _EVALUATORS: dict[str, Callable[[dict[str, Any], SimResult, SimResult | None], C
     "limit_cycle": _limit_cycle,
     "transient": _transient,
     "estimate_change": _estimate_change,
+    "activity": _activity,
 }
 
 

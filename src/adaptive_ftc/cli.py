@@ -6,8 +6,11 @@ Exit status (also in ``aftc --help`` and the README):
 0     success
 1     internal error (a bug: please report it with the command line)
 2     invalid input: scenario file, command-line argument, output folder
-3     the run diverged (``aftc run``)
-4     thesis claims failed, or some runs raised errors (``aftc reproduce``)
+3     the run stopped early: diverged, nonfinite, step_underflow or singular (``aftc run``;
+      the message says why, see docs/statuses.md)
+4     claims failed (``aftc run``: the scenario's ``[[claims]]``; ``aftc reproduce``: the
+      thesis claims), or some runs raised errors (``aftc reproduce``); a claim marked as an
+      expected ``finding`` that the data show is reported as FINDING, not as a failure
 5     not compensable: the failures break the rank (3.6) or sign (2.16)/(4.6)
       conditions of the design (``aftc validate``)
 130   interrupted (Ctrl-C or SIGTERM); earlier complete results are kept
@@ -60,14 +63,12 @@ _EPILOG = """exit status:
   0    success
   1    internal error (a bug: please report it with the command line)
   2    invalid input (scenario file, argument, output folder)
-  3    the run diverged (run)
-  4    thesis claims failed or runs raised errors (reproduce)
+  3    the run stopped early: diverged, nonfinite, step_underflow, singular (run)
+  4    claims failed (run, reproduce) or runs raised errors (reproduce); FINDING is not a
+       failure
   5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
   130  interrupted (Ctrl-C, SIGTERM); earlier complete results are kept
 """
-
-#: Designs that assume a known control direction (sign conditions (2.16)/(4.6) apply).
-KNOWN_SIGN_DESIGNS = ("direct", "estimation", "mimo")
 
 
 def _positive_float(text: str) -> float:
@@ -186,26 +187,7 @@ def _cmd_list() -> int:
     return EXIT_OK
 
 
-def _plant_gains(plant) -> tuple[float, ...] | None:
-    """Per-actuator plant gains ``g_j`` when the plant exposes them, else ``None`` (all 1)."""
-    m = plant.n_actuators
-    try:  # measured from the plant's own equations (any plant, user plants included)
-        return tuple(float(v) for v in plant.input_gains()[0])
-    except Exception:  # noqa: BLE001 - fall back to declared gains
-        pass
-    for attr in ("actuator_gains", "b"):
-        value = getattr(plant, attr, None)
-        try:
-            gains = tuple(float(v) for v in value)  # type: ignore[union-attr]
-        except (TypeError, ValueError):
-            continue
-        if len(gains) == m:
-            return gains
-    return None
-
-
 def _cmd_validate(target: str) -> int:
-    from adaptive_ftc.faults.schedule import check_compensability
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import estimate_run_size
 
@@ -219,22 +201,21 @@ def _cmd_validate(target: str) -> int:
     for line in loop.describe_failures():
         print(f"  failure {line}")
     design = loop.controller.design
-    known_sign = design in KNOWN_SIGN_DESIGNS and loop.adapt
-    report = check_compensability(
-        loop.failures,
-        loop.R,
-        loop.t_final,
-        state_names=tuple(loop.plant.aliases()),
-        t0=loop.t0,
-        known_sign=known_sign,
-        gains=_plant_gains(loop.plant),
-    )
+    known_sign = loop.known_sign
+    report = loop.compensability(design=True)
     conditions = "rank condition (3.6), one effective actuator per output"
     if known_sign:
         conditions += f"; sign conditions (2.16)/(4.6): '{design}' assumes a known direction"
     print(f"compensability ({conditions}):")
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
+    for j in report.dead_actuators:  # a warning: the others may still compensate
+        print(
+            f"warning: actuator {j + 1} ({loop.plant.actuator_names[j]}) is never effective "
+            f"from {loop.t0:g} s to {loop.t_final:g} s (its failures leave no dependence on "
+            "its command): it never contributes. Remove its failure or give it a later onset "
+            "if that is not intended."
+        )
     if not report.ok:
         print(
             f"{sc.name}: NOT COMPENSABLE - some intervals break the conditions above; the "
@@ -247,7 +228,14 @@ def _cmd_validate(target: str) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
-    from adaptive_ftc._atomic import check_output_dir, commit_staged, discard_staged, staging_dir
+    from adaptive_ftc._atomic import (
+        check_output_dir,
+        commit_staged,
+        discard_staged,
+        inside,
+        safe_stem,
+        staging_dir,
+    )
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import check_run_size
     from adaptive_ftc.sim.engine import simulate
@@ -301,31 +289,49 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for key, loop in tqdm(
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
+                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
                 results[key] = sc.stamp(simulate(loop, solver))
-                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
-                    raise KeyboardInterrupt
-        if results["adaptive"].message:
-            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        main = results["adaptive"]
+        if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
+            discard_staged(stage)
+            print(
+                f"aftc run: {sc.name}: {main.status} before the first sample: {main.message} "
+                f"Nothing was written to {out}.",
+                file=sys.stderr,
+            )
+            return EXIT_DIVERGED
+        if main.message:
+            print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
+        base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         for key, res in results.items():
-            stem = sc.name if key == "adaptive" else f"{sc.name}_{key}"
+            stem = base_stem if key == "adaptive" else f"{base_stem}_{key}"
             res.meta["variant"] = key
             res.to_netcdf(
-                stage / "data" / f"{stem}.nc", float32=args.float32, decimate=args.decimate
+                inside(stage, stage / "data" / f"{stem}.nc"),
+                float32=args.float32,
+                decimate=args.decimate,
             )
             if args.csv:
-                res.to_csv(stage / "data" / f"{stem}.csv")
+                res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
-        main = results["adaptive"]
         baselines = {
-            k.replace("_", " "): v for k, v in results.items() if k in ("frozen", "failure_free")
+            k.replace("_", " "): v
+            for k, v in results.items()
+            if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
         for i, spec in enumerate(specs):
             name = f"fig_{spec.get('number', i + 1)}.png"
-            plots.save_figure(main, spec, stage / "figures" / name, baselines=baselines or None)
+            zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
+            plots.save_figure(
+                main, spec, stage / "figures" / name, baselines=baselines or None, zoom_result=zoom
+            )
             figures.append(str(out / "figures" / name))
+        verdicts = _run_claims(sc, results, args.no_baselines)
+        if verdicts:
+            _write_claims_csv(stage / "claims.csv", sc, verdicts)
         (stage / "metrics.json").write_text(
             json.dumps(
                 {
@@ -333,6 +339,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     "runs": summary,
                     "recovery": main.recovery(),
                     "figures": figures,
+                    "claims": [_claim_row(sc, c) for c in verdicts],
                 },
                 indent=2,
                 default=float,
@@ -369,8 +376,94 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     else ""
                 )
             )
-    print(f"wrote {len(figures)} figure(s) and {len(results)} dataset(s) to {out}")
-    return EXIT_OK if main.status == "completed" else EXIT_DIVERGED
+    if verdicts:
+        _print_claims(verdicts)
+    print(
+        f"wrote {len(figures)} figure(s) and {len(results)} dataset(s)"
+        + (" and claims.csv" if verdicts else "")
+        + f" to {out}"
+    )
+    if main.status != "completed":
+        return EXIT_DIVERGED
+    n_fail = sum(c.status == "FAIL" for c in verdicts)
+    if n_fail:
+        print(f"aftc run: {n_fail} claim(s) failed (see above).", file=sys.stderr)
+        return EXIT_CLAIMS_FAILED
+    return EXIT_OK
+
+
+def _run_claims(sc, results: dict, no_baselines: bool) -> list:
+    """The scenario's ``[[claims]]`` evaluated on the adaptive run of ``aftc run`` (the fair
+    baselines it ran; with ``--no-baselines`` a ``baseline_ratio`` is left unjudged and said
+    so in the detail)."""
+    from adaptive_ftc.claims import ClaimError, evaluate_claim
+
+    names = {
+        "frozen": "frozen",
+        "fixed_gain": "fixed-gain",
+        "nominal_inverse": "nominal-inverse",
+        "oracle": "oracle",
+    }
+    baselines = {names[k]: v for k, v in results.items() if k in names}
+    has_fair = any(k != "oracle" for k in baselines)
+    out = []
+    for i, claim in enumerate(sc.claims):
+        claim = dict(claim)
+        note = ""
+        if claim.get("baseline_ratio") is not None and not has_fair:
+            claim.pop("baseline_ratio")
+            note = " [baseline_ratio not judged: no baseline run (--no-baselines)]"
+        try:
+            verdict = evaluate_claim(
+                claim, results["adaptive"], baselines=baselines, duration=sc.loop.t_final
+            )
+        except ClaimError as exc:
+            raise ClaimError(f"{sc.name}: [[claims]] #{i + 1}: {exc}") from None
+        if note:
+            verdict = replace(verdict, detail=verdict.detail + note)
+        out.append(verdict)
+    return out
+
+
+def _claim_row(sc, c) -> dict:
+    return {
+        "scenario": sc.name,
+        "kind": c.kind,
+        "verdict": c.verdict,
+        "measured": c.measured,
+        "threshold": c.threshold,
+        "unit": c.unit,
+        "text": " ".join(c.text.split()),
+        "detail": c.detail,
+        "finding": c.finding,
+    }
+
+
+def _write_claims_csv(path: Path, sc, verdicts: list) -> None:
+    import csv
+
+    rows = [_claim_row(sc, c) for c in verdicts]
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _print_claims(verdicts: list) -> None:
+    counts: dict[str, int] = {}
+    for c in verdicts:
+        counts[c.verdict] = counts.get(c.verdict, 0) + 1
+    print("claims: " + ", ".join(f"{n} {v}" for v, n in counts.items()))
+    for c in verdicts:
+        unit = f" {c.unit}" if c.unit else ""
+        text = " ".join(c.text.split())
+        text = text if len(text) <= 100 else text[:97] + "..."
+        print(
+            f"  {c.verdict:<14} {c.kind}: measured {c.measured:.4g}{unit} vs {c.threshold:.4g}"
+            f"{unit}: {text}"
+        )
+        if c.finding:
+            print(f"  {'':<14} finding: {c.finding}")
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -397,7 +490,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
         f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS"
-        f" ({summary.get('n_not_reproduced', 0)} NOT REPRODUCED, "
+        f" ({summary.get('n_finding', 0)} FINDING, "
+        f"{summary.get('n_not_reproduced', 0)} NOT REPRODUCED, "
         f"{summary.get('n_not_evaluated', 0)} NOT EVALUATED, {summary.get('n_fail', 0)} FAIL); "
         f"report: {summary['report']}"
     )
@@ -444,6 +538,8 @@ def main(argv: list[str] | None = None) -> int:
         args = _parser().parse_args(argv)
     except SystemExit as exc:  # argparse: --help/--version (0) or a bad argument (2)
         return int(exc.code) if isinstance(exc.code, int) else EXIT_INVALID
+    from adaptive_ftc.claims import ClaimError  # a malformed [[claims]] table: invalid input
+
     previous = None
     try:
         previous = signal.signal(signal.SIGTERM, _sigterm)
@@ -467,7 +563,7 @@ def main(argv: list[str] | None = None) -> int:
 
             return studies.cli_main(args)
         return _cmd_reproduce(args)
-    except (ScenarioError, ConfigurationError, ExpressionError) as exc:
+    except (ScenarioError, ConfigurationError, ExpressionError, ClaimError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INVALID
     except KeyboardInterrupt:

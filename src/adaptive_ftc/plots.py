@@ -7,6 +7,12 @@ a grid and every failure onset/recovery time marked as a dashed vertical line
 (``gid="divergence"``) at the last sample. :func:`plot` returns a :class:`FigurePlot` holding the
 figure, its axes and its lines (like python-control's ``ControlPlot``).
 
+Every figure of the project (these, the robustness study's and the campaign's) is drawn and
+saved in one style, :data:`STYLE` applied by :func:`figure_style`, with constrained layout
+(:func:`new_figure`): legends, wrapped titles and tick labels fit the canvas without overlapping
+(``tests/test_figure_layout.py`` checks every text box of every figure kind). An open-loop run
+(``design = "none"``) is drawn without a reference.
+
 Kinds
 -----
 ``tracking``
@@ -24,16 +30,20 @@ Kinds
     Control signals; the sign of the direction estimate ``N(tau)`` or ``rho`` against the true
     control direction ``sign(control gain)``; the estimate itself (Figs 4.3-4.4, 4.11-4.12).
     When the estimate's sign settles within 1 % of the time axis (Fig. 4.12: 0.02 s of 120 s)
-    or the figure table gives ``zoom = [start, end]``, a fourth panel zooms on it at full
-    resolution (``gid="zoom"``).
+    or the figure table gives ``zoom = [start, end]``, a fourth panel zooms on it
+    (``gid="zoom"``): on the run re-simulated over the window at the solver's resolution when
+    one is given (``zoom_result``, from :func:`dense_zoom`; ``aftc run`` and ``aftc
+    reproduce`` do), else on the recorded samples, and its legend says which.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import re
-from collections.abc import Mapping, Sequence
+import textwrap
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,10 +63,16 @@ __all__ = [
     "FORMATS",
     "KINDS",
     "FigurePlot",
+    "STYLE",
     "check_formats",
     "default_figure_specs",
+    "dense_zoom",
+    "figure_style",
+    "new_figure",
     "plot",
     "save_figure",
+    "wrap_title",
+    "zoom_window",
 ]
 
 #: Figure kinds understood by :func:`plot`.
@@ -100,6 +116,63 @@ DPI = 150
 PNG_COMPRESS = 3
 _ZOOM_FRACTION = 0.01  # events shorter than this fraction of the time axis get a zoom panel
 
+#: The one figure style of the project (matplotlib rcParams): the thesis figures, the
+#: beyond-thesis figures, the robustness study figure and the campaign figures are all drawn and
+#: saved inside :func:`figure_style`, on figures from :func:`new_figure` (constrained layout:
+#: legends outside the panels, wrapped titles and tick labels all fit the canvas).
+STYLE: dict[str, Any] = {
+    "font.size": 9.0,
+    "axes.titlesize": 10.0,
+    "axes.labelsize": 9.5,
+    "xtick.labelsize": 8.5,
+    "ytick.labelsize": 8.5,
+    "legend.fontsize": 8.5,
+    "legend.title_fontsize": 8.5,
+    "legend.frameon": False,
+    "legend.handlelength": 1.8,
+    "figure.titlesize": 11.0,
+    "axes.grid": True,
+    "grid.linewidth": 0.4,
+    "grid.alpha": 0.6,
+    "lines.linewidth": 1.2,
+    "figure.dpi": DPI,
+    "savefig.dpi": DPI,
+    "savefig.bbox": None,  # the layout already fits the canvas: files keep the figure's size
+    "figure.constrained_layout.h_pad": 0.06,
+    "figure.constrained_layout.w_pad": 0.06,
+    "figure.constrained_layout.hspace": 0.04,
+    "figure.constrained_layout.wspace": 0.04,
+    "pdf.fonttype": 42,  # TrueType fonts in PDF (editable, accepted by print workflows)
+    "ps.fonttype": 42,
+    "svg.fonttype": "path",
+}
+
+
+@contextlib.contextmanager
+def figure_style() -> Iterator[None]:
+    """Context in which every project figure is drawn and saved (:data:`STYLE`)."""
+    import matplotlib
+
+    with matplotlib.rc_context(STYLE):
+        yield
+
+
+def new_figure(width: float, height: float) -> Figure:
+    """A bare figure (no ``pyplot``) of ``width`` x ``height`` inches with constrained layout."""
+    return Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+
+
+def wrap_title(title: str, width: float, fontsize: float | None = None) -> str:
+    """``title`` broken into lines that fit ``width`` inches at ``fontsize`` points (default:
+    the style's figure title size), at word boundaries."""
+    size = float(fontsize or STYLE["figure.titlesize"])
+    # 0.62 em: a wide average glyph of DejaVu Sans (measured: 0.55-0.60 em on the titles)
+    chars = max(20, int(0.92 * width * 72.0 / (0.62 * size)))
+    lines = []
+    for line in str(title).splitlines() or [""]:
+        lines += textwrap.wrap(line, chars, break_long_words=False) or [""]
+    return "\n".join(lines)
+
 
 # ---------------------------------------------------------------------------- helpers
 def _tex(name: str) -> str:
@@ -137,7 +210,7 @@ def _t_end(result: SimResult) -> float:
 
 def _new_figure(n_rows: int, n_cols: int = 1, *, sharex: bool = True) -> tuple[Figure, list[Axes]]:
     width = _WIDTH if n_cols == 1 else 6.0 * n_cols + _LEGEND_W
-    fig = Figure(figsize=(width, 1.2 + _ROW_HEIGHT * n_rows), dpi=DPI)
+    fig = new_figure(width, 1.2 + _ROW_HEIGHT * n_rows)
     axes = fig.subplots(n_rows, n_cols, sharex=sharex, squeeze=False)
     return fig, list(axes.ravel())
 
@@ -183,10 +256,9 @@ def _legend(ax: Axes) -> None:
         loc="upper left",
         bbox_to_anchor=(1.01, 1.0),
         borderaxespad=0.0,
-        fontsize=8.5,
         ncol=ncol,
-        frameon=False,
-        handlelength=1.8,
+        columnspacing=1.0,
+        alignment="left",
     )
 
 
@@ -195,18 +267,7 @@ def _finish(fig: Figure, axes: Sequence[Axes], title: str | None) -> Figure:
         if ax.get_subplotspec() is not None and ax.get_subplotspec().is_last_row():
             ax.set_xlabel("time (s)")
     if title:
-        fig.suptitle(title, fontsize=11, y=1.0 - 0.12 / fig.get_figheight())
-    # fixed margins in inches: as neat as a layout engine here, and several times faster
-    w, h = fig.get_figwidth(), fig.get_figheight()
-    n_cols = fig.axes[0].get_gridspec().ncols if fig.axes else 1
-    fig.subplots_adjust(
-        left=0.95 / w,
-        right=1.0 - _LEGEND_W / w,
-        bottom=0.55 / h,
-        top=1.0 - (0.5 if title else 0.2) / h,
-        hspace=0.35 / _ROW_HEIGHT * 1.0,
-        wspace=_LEGEND_W / 6.0 + 0.15 if n_cols > 1 else 0.2,
-    )
+        fig.suptitle(wrap_title(title, fig.get_figwidth()))
     return fig
 
 
@@ -265,23 +326,31 @@ def _tracking_panels(
 ) -> None:
     pos_unit, vel_unit = _unit(result, 0), _unit(result, 1)
     vel = _velocity(result)
+    closed = not _open_loop(result)
     for k, i in enumerate(picked):
         name = result.output_names[i]
         ax_p, ax_v = axes[2 * k], axes[2 * k + 1]
-        ax_p.plot(
-            result.time, result.yd[:, i], color="k", linewidth=1.0, linestyle=":", label="reference"
-        )
+        if closed:
+            ax_p.plot(
+                result.time,
+                result.yd[:, i],
+                color="k",
+                linewidth=1.0,
+                linestyle=":",
+                label="reference",
+            )
         ax_p.plot(
             result.time, result.y[:, i], color="tab:blue", linewidth=1.2, zorder=3, label=_tex(name)
         )
-        ax_v.plot(
-            result.time,
-            result.yd_dot[:, i],
-            color="k",
-            linewidth=1.0,
-            linestyle=":",
-            label="reference",
-        )
+        if closed:
+            ax_v.plot(
+                result.time,
+                result.yd_dot[:, i],
+                color="k",
+                linewidth=1.0,
+                linestyle=":",
+                label="reference",
+            )
         ax_v.plot(
             result.time,
             vel[:, i],
@@ -321,10 +390,16 @@ def _tracking_panels(
                     ax.plot(base.time[-1:], sig[-1:], marker="x", color=color, linestyle="none")
         ax_p.set_ylabel(_with_unit(_tex(name), pos_unit))
         ax_v.set_ylabel(_with_unit(_tex(f"{name}_dot"), vel_unit))
-        _clip_to_main(ax_p, result.y[:, i], result.yd[:, i])
-        _clip_to_main(ax_v, vel[:, i], result.yd_dot[:, i])
+        _clip_to_main(ax_p, result.y[:, i], *([result.yd[:, i]] if closed else []))
+        _clip_to_main(ax_v, vel[:, i], *([result.yd_dot[:, i]] if closed else []))
         _decorate(ax_p, result)
         _decorate(ax_v, result)
+
+
+def _open_loop(result: SimResult) -> bool:
+    """An open-loop run (``design = "none"``: no adaptation, every command zero): it tracks no
+    reference, so none is drawn."""
+    return result.meta.get("adapt") is False and not np.any(result.u_cmd)
 
 
 def _clip_to_main(ax: Axes, *signals: np.ndarray) -> None:
@@ -515,7 +590,65 @@ def _auto_zoom(result: SimResult) -> tuple[float, float] | None:
     return max(t0, a - pad), min(t1, b + pad)
 
 
-def _zoom_panel(ax: Axes, full: SimResult, window: tuple[float, float], est: str) -> None:
+def zoom_window(result: SimResult, spec: Mapping[str, Any]) -> tuple[float, float] | None:
+    """The zoom window ``(start, end)`` in s of a figure table, or ``None`` when it has none.
+
+    Only ``direction`` figures zoom: on the table's ``zoom = [start, end]``, else automatically
+    on the direction estimate's sign mismatches when they all end within 1 % of the time axis.
+    A caller that can re-simulate records the run densely on ``[t0, end]`` and passes it as
+    ``zoom_result`` to :func:`plot` / :func:`save_figure`, so the zoom shows the solver's own
+    resolution rather than the recorded samples.
+    """
+    if spec.get("kind") != "direction" or result.time.size == 0:
+        return None
+    zoom = spec.get("zoom")
+    if zoom is not None:
+        return float(zoom[0]), float(zoom[1])
+    return _auto_zoom(result)
+
+
+def dense_zoom(
+    scenario: Any, result: SimResult, spec: Mapping[str, Any], solver: Any = None
+) -> SimResult | None:
+    """The run re-simulated up to the end of a figure's zoom window (:func:`zoom_window`) and
+    recorded at the solver's own resolution: every step of the fixed-step RK4, 1000 samples
+    over the window for an adaptive-step method.
+
+    Parameters
+    ----------
+    scenario
+        The :class:`~adaptive_ftc.scenarios.loader.Scenario` that produced ``result``.
+    result, spec
+        The run and its figure table.
+    solver
+        The :class:`~adaptive_ftc.sim.engine.SolverOptions` the run used (default: the
+        scenario's).
+
+    Returns
+    -------
+    SimResult or None
+        ``None`` when the figure has no zoom or the short run does not complete (the zoom
+        panel then draws the recorded samples, and says so).
+    """
+    window = zoom_window(result, spec)
+    if window is None:
+        return None
+    a, b = window[0], min(window[1], _t_end(result))
+    if not b > a:
+        return None
+    solver = solver or scenario.solver
+    step = solver.dt if solver.method == "rk4" else (b - a) / 1000.0
+    short = dataclasses.replace(scenario, loop=dataclasses.replace(scenario.loop, t_final=b))
+    try:
+        dense = short.run(solver=dataclasses.replace(solver, record_dt=min(step, solver.record_dt)))
+    except Exception:  # noqa: BLE001 - a zoom must not stop the figure
+        return None
+    return dense if dense.status == "completed" else None
+
+
+def _zoom_panel(
+    ax: Axes, full: SimResult, window: tuple[float, float], est: str, dense: bool
+) -> None:
     a, b = window
     m = (full.time >= a - 1e-12) & (full.time <= b + 1e-12)
     t = full.time[m]
@@ -553,12 +686,14 @@ def _zoom_panel(ax: Axes, full: SimResult, window: tuple[float, float], est: str
     ax.grid(True, linewidth=0.4, alpha=0.6)
     ax.set_xlabel("time (s)")
     _legend(ax)
+    step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    how = "re-simulated, a sample" if dense else "recorded samples,"
     ax.get_legend().set_title(
-        f"zoom on {a:.3g} to {b:.3g} s\n(full resolution)", prop={"size": 8.5}
+        f"zoom on {a:.3g} to {b:.3g} s\n({how} every {step:.2g} s)", prop={"size": 8.5}
     )
 
 
-def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, **_):
+def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, zoom_result=None, **_):
     full = result if full is None else full
     window = tuple(float(v) for v in zoom) if zoom is not None else _auto_zoom(full)
     fig, axes = _new_figure(3 + (window is not None), sharex=False)
@@ -603,7 +738,8 @@ def _plot_direction(result, outputs, baselines, *, full=None, zoom=None, **_):
         for ax in axes[1:3]:
             ax.axvspan(*window, color="tab:orange", alpha=0.25, gid="zoom-region")
         axes[2].tick_params(labelbottom=True)
-        _zoom_panel(axes[3], full, window, est)
+        dense = zoom_result is not None and zoom_result.time.size > 1
+        _zoom_panel(axes[3], zoom_result if dense else full, window, est, dense)
     return fig, axes
 
 
@@ -651,13 +787,15 @@ class FigurePlot:
     def savefig(self, fname: Any, **kwargs: Any) -> None:
         """Save the figure (``Figure.savefig``; PNG at :data:`DPI` unless ``dpi`` is given)."""
         kwargs.setdefault("dpi", DPI)
-        self.figure.savefig(fname, **kwargs)
+        with figure_style():
+            self.figure.savefig(fname, **kwargs)
 
     def _repr_png_(self) -> bytes:  # Jupyter
         import io
 
         buf = io.BytesIO()
-        self.figure.savefig(buf, format="png", dpi=100)
+        with figure_style():
+            self.figure.savefig(buf, format="png", dpi=100)
         return buf.getvalue()
 
     def __repr__(self) -> str:
@@ -706,6 +844,7 @@ def plot(
     title: str | None = None,
     baselines: Mapping[str, SimResult] | None = None,
     zoom: Sequence[float] | None = None,
+    zoom_result: SimResult | None = None,
 ) -> FigurePlot:
     """Draw a thesis-style figure of a recorded run.
 
@@ -725,6 +864,9 @@ def plot(
     zoom
         ``(start, end)`` in s of the zoom panel of a ``direction`` figure (default: automatic
         when the direction estimate settles within 1 % of the time axis).
+    zoom_result
+        The same run recorded densely over the zoom window (see :func:`zoom_window`): the zoom
+        panel draws it instead of the recorded samples of ``result``.
 
     Returns
     -------
@@ -765,8 +907,11 @@ def plot(
         if not ok:
             raise ValueError(f"`zoom` must be [start, end] in s with start < end; got {zoom!r}.")
     thin_baselines = {k: _thin(v) for k, v in (baselines or {}).items()}
-    fig, axes = _BUILDERS[kind](_thin(result), outputs, thin_baselines, full=result, zoom=zoom)
-    _finish(fig, axes, title)
+    with figure_style():
+        fig, axes = _BUILDERS[kind](
+            _thin(result), outputs, thin_baselines, full=result, zoom=zoom, zoom_result=zoom_result
+        )
+        _finish(fig, axes, title)
     return FigurePlot(
         figure=fig,
         axes=tuple(axes),
@@ -784,6 +929,7 @@ def save_figure(
     baselines: Mapping[str, SimResult] | None = None,
     formats: str | Sequence[str] | None = None,
     dpi: int | None = None,
+    zoom_result: SimResult | None = None,
 ) -> Path:
     """Render one ``[[figure]]`` table of a scenario to image files.
 
@@ -805,6 +951,8 @@ def save_figure(
         :data:`FORMATS` each. Default: the suffix of ``path``.
     dpi
         Resolution of raster files (default :data:`DPI`).
+    zoom_result
+        See :func:`plot`.
 
     Returns
     -------
@@ -829,15 +977,17 @@ def save_figure(
         title=title,
         baselines=baselines,
         zoom=spec.get("zoom"),
+        zoom_result=zoom_result,
     )
     path.parent.mkdir(parents=True, exist_ok=True)
     first = None
     for fmt in fmts:
         target = path.with_suffix(f".{fmt}")
         extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS}} if fmt == "png" else {}
-        fp.figure.savefig(
-            target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title), **extra
-        )
+        with figure_style():
+            fp.figure.savefig(
+                target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title), **extra
+            )
         first = first or target
     return first
 

@@ -10,7 +10,8 @@ It opens with the verdict totals and a summary table (scenario, thesis section, 
 passed, frozen/adaptive and best-fair-baseline/adaptive error ratios), then one section per
 scenario: its description, failure list and run status, the error ratio of every baseline run
 (fixed-gain, nominal inverse, oracle, frozen; :mod:`adaptive_ftc.baselines`), and its figures
-beside the thesis's claims with the verdict (PASS, FAIL, NOT EVALUATED, NOT REPRODUCED) and the
+beside the thesis's claims with the verdict (PASS, FAIL, NOT EVALUATED, NOT REPRODUCED, FINDING:
+an expected, named finding of the project that the data show, never a PASS) and the
 measured number with its unit against the threshold; a ``baseline_ratio`` claim lists every
 baseline's ratio, the oracle's included (shown, never compared with). A FAIL is shown as such,
 with its number.
@@ -29,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from adaptive_ftc._version import __version__
-from adaptive_ftc.claims import FAIL, NOT_EVALUATED, NOT_REPRODUCED, PASS
+from adaptive_ftc.claims import FAIL, FINDING, NOT_EVALUATED, NOT_REPRODUCED, PASS
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ftc.claims import ClaimResult
@@ -130,11 +131,13 @@ margin:0 0 10px 0;font-size:14px}
 .claim.fail{border-left-color:#c62828;background:#fff5f5}
 .claim.noteval{border-left-color:#78909c;background:#f7f9fa}
 .claim.notrepro{border-left-color:#b26a00;background:#fffaf0}
+.claim.finding{border-left-color:#6a1b9a;background:#faf5fc}
 .badge{display:inline-block;font-weight:700;font-size:12px;padding:1px 8px;border-radius:10px;
 color:#fff;margin-right:6px}
 .badge.pass{background:#2e7d32}.badge.fail{background:#c62828}
 .badge.warn,.badge.notrepro{background:#b26a00}
 .badge.noteval{background:#78909c}
+.badge.finding{background:#6a1b9a}
 .kind{font-family:monospace;color:#52606d}
 .quote{font-style:italic;margin:4px 0}
 .measure{font-variant-numeric:tabular-nums}
@@ -173,7 +176,13 @@ def _anchor(name: str) -> str:
     return "sc-" + re.sub(r"[^A-Za-z0-9_-]", "-", name)
 
 
-_CLASS = {PASS: "pass", FAIL: "fail", NOT_EVALUATED: "noteval", NOT_REPRODUCED: "notrepro"}
+_CLASS = {
+    PASS: "pass",
+    FAIL: "fail",
+    NOT_EVALUATED: "noteval",
+    NOT_REPRODUCED: "notrepro",
+    FINDING: "finding",
+}
 
 
 def _img(path: Path, embed: bool, alt: str) -> str:
@@ -196,7 +205,7 @@ def _claims_cell(entry: ScenarioEntry) -> str:
     judged = k + entry.count(FAIL)
     cls = "pass" if entry.count(FAIL) == 0 else "fail"
     out = f'<span class="badge {cls}">{k}/{judged}</span>'
-    for verdict in (NOT_REPRODUCED, NOT_EVALUATED):
+    for verdict in (FINDING, NOT_REPRODUCED, NOT_EVALUATED):
         if n := entry.count(verdict):
             out += f' <span class="badge {_CLASS[verdict]}">{n} {verdict.lower()}</span>'
     return out
@@ -264,11 +273,19 @@ def _claim_html(c: ClaimResult) -> str:
     return (
         f'<div class="claim {cls}"><span class="badge {cls}">{c.verdict}</span>'
         f'<span class="kind">{_e(c.kind)}</span>'
-        f'<div class="quote">“{_e(" ".join(c.text.split()))}”</div>'
+        f'<div class="quote">“{_e(" ".join(c.text.split()))}”</div>{_finding(c)}'
         f'<div class="measure">measured <b>{_with_unit(c.measured, unit)}</b> vs threshold '
         f"<b>{_with_unit(c.threshold, unit)}</b></div>"
         f'<div class="detail">{_e(c.detail)}</div>{_claim_baselines(c)}</div>'
     )
+
+
+def _finding(c: ClaimResult) -> str:
+    name = getattr(c, "finding", "")
+    if not name:
+        return ""
+    shown = "the data show it" if c.status == FINDING else "no longer shown by the data"
+    return f'<div class="detail"><b>Expected finding</b> ({shown}): {_e(name)}</div>'
 
 
 def _claim_baselines(c: ClaimResult) -> str:
@@ -336,11 +353,18 @@ def _scenario(s: ScenarioEntry, embed: bool = False) -> str:
 
 def _claim_counts(s: ScenarioEntry) -> str:
     parts = [f"{s.n_pass}/{s.n_pass + s.count(FAIL)} passed"]
-    parts += [f"{s.count(v)} {v.lower()}" for v in (NOT_REPRODUCED, NOT_EVALUATED) if s.count(v)]
+    parts += [
+        f"{s.count(v)} {v.lower()}" for v in (FINDING, NOT_REPRODUCED, NOT_EVALUATED) if s.count(v)
+    ]
     return ", ".join(parts)
 
 
-_VERDICT_COLOURS = {PASS: "#2e7d32", FAIL: "#c62828", NOT_REPRODUCED: "#b26a00"}
+_VERDICT_COLOURS = {
+    PASS: "#2e7d32",
+    FAIL: "#c62828",
+    NOT_REPRODUCED: "#b26a00",
+    FINDING: "#6a1b9a",
+}
 
 
 def render_report(
@@ -366,7 +390,7 @@ def render_report(
         files in ``figures/`` beside the report.
     """
     n = sum(len(s.claims) for s in entries)
-    counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED)}
+    counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)}
     n_noteval = sum(s.count(NOT_EVALUATED) for s in entries)
     stamp = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     banner = (
@@ -380,7 +404,7 @@ def render_report(
     )
     tots = "".join(
         f'<div class="tot"><b style="color:{_VERDICT_COLOURS[v]}">{counts[v]}</b>{v}</div>'
-        for v in (PASS, FAIL, NOT_REPRODUCED)
+        for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)
     )
     totals = (
         '<div class="totals">'

@@ -60,6 +60,7 @@ from typing import Any
 from adaptive_ftc.baselines import BASELINES, FAIR_BASELINES, baseline_loop, baseline_solver
 from adaptive_ftc.claims import (
     FAIL,
+    FINDING,
     NOT_EVALUATED,
     NOT_REPRODUCED,
     PASS,
@@ -260,13 +261,16 @@ def _figure_task(
     baselines: dict[str, SimResult],
     formats: Sequence[str] = ("png",),
     dpi: int | None = None,
+    zoom_result: SimResult | None = None,
 ) -> str:
     """Render one figure in a worker process; returns an error text or ``""``."""
     from adaptive_ftc.plots import save_figure
 
     try:
         base = baselines if spec.get("kind") == "tracking" and baselines else None
-        save_figure(result, spec, path, baselines=base, formats=formats, dpi=dpi)
+        save_figure(
+            result, spec, path, baselines=base, formats=formats, dpi=dpi, zoom_result=zoom_result
+        )
         return ""
     except Exception as exc:  # noqa: BLE001 - a broken figure must not stop the reproduction
         return f"{type(exc).__name__}: {exc}"
@@ -319,6 +323,8 @@ def _metrics_row(name: str, variant: str, result: SimResult | None, err: str, wa
         peak_applied=m.get("peak_applied", math.nan),
         wall_time_s=wall,
     )
+    # control activity over the final window (worst actuator; sim/activity.py)
+    row.update({k: m.get(k, math.nan) for k in _ACTIVITY_METRICS})
     return row
 
 
@@ -337,6 +343,20 @@ def _error_ratio(adaptive: SimResult | None, frozen: SimResult | None) -> float:
     return f / a if a > 0 else math.inf
 
 
+#: Control-activity columns of metrics.csv (the final window's worst actuator, see
+#: :meth:`adaptive_ftc.sim.result.SimResult.metrics`).
+_ACTIVITY_METRICS = (
+    "fast_rms_max",
+    "tv_per_s_max",
+    "peak_rate_max",
+    "rate_limited_fraction_max",
+    "travel_limited_fraction_max",
+    "peak_command_travel_ratio_max",
+    "peak_to_peak_max",
+    "activity_record_dt",
+    "activity_record_ok",
+)
+
 _METRIC_FIELDS = [
     "scenario",
     "variant",
@@ -350,6 +370,7 @@ _METRIC_FIELDS = [
     "max_error_final",
     "peak_command",
     "peak_applied",
+    *_ACTIVITY_METRICS,
     "wall_time_s",
     "error_ratio_frozen_over_adaptive",
     "error_ratio_best_fair_baseline_over_adaptive",
@@ -469,6 +490,13 @@ def _staged(fn):
 DATA_MAX_SAMPLES = 6000
 
 
+def _short_status(result) -> str:
+    """The status of a run with where and what stopped it (report tables)."""
+    from adaptive_ftc.sim.status import short
+
+    return short(result.status, result.reason)
+
+
 @_staged
 def run_reproduction(
     out_dir: str | Path,
@@ -516,7 +544,9 @@ def run_reproduction(
     -------
     dict
         ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``,
-        ``n_not_evaluated``, ``n_not_reproduced``, ``n_errors``, ``wall_time_s``, ``report``
+        ``n_not_evaluated``, ``n_not_reproduced``, ``n_finding`` (claims marked ``finding``
+        that the data show: never PASS, not counted as FAIL), ``n_errors``, ``wall_time_s``,
+        ``report``
         (path of report.html) and ``out_dir``.
 
     Examples
@@ -595,7 +625,7 @@ def run_reproduction(
 
     # claims, metrics, report
     metric_rows, claim_rows, entries = [], [], []
-    n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = 0
+    n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = n_finding = 0
     for sc in scenarios:
         adaptive = results[(sc.name, "adaptive")]["result"]
         frozen = results.get((sc.name, "frozen"), {}).get("result")
@@ -647,6 +677,7 @@ def run_reproduction(
             n_fail += c.status == FAIL
             n_not_evaluated += c.status == NOT_EVALUATED
             n_not_reproduced += c.status == NOT_REPRODUCED
+            n_finding += c.status == FINDING
             claim_rows.append(
                 {
                     "scenario": sc.name,
@@ -658,6 +689,7 @@ def run_reproduction(
                     "unit": c.unit,
                     "text": " ".join(c.text.split()),
                     "detail": c.detail,
+                    "finding": c.finding,
                 }
             )
         for entry in figures[sc.name]:
@@ -666,7 +698,7 @@ def run_reproduction(
                 entry.error = err
         statuses = {
             v: (
-                results[(sc.name, v)]["result"].status
+                _short_status(results[(sc.name, v)]["result"])
                 if results[(sc.name, v)]["result"] is not None
                 else ("not run: " if results[(sc.name, v)].get("skipped") else "error: ")
                 + results[(sc.name, v)]["error"].strip().splitlines()[-1]
@@ -704,6 +736,7 @@ def run_reproduction(
             "unit",
             "text",
             "detail",
+            "finding",
         ],
         claim_rows,
     )
@@ -712,11 +745,12 @@ def run_reproduction(
     return {
         "n_scenarios": len(scenarios),
         "n_runs": len(sim_tasks),
-        "n_claims": n_pass + n_fail + n_not_evaluated + n_not_reproduced,
+        "n_claims": n_pass + n_fail + n_not_evaluated + n_not_reproduced + n_finding,
         "n_pass": n_pass,
         "n_fail": n_fail,
         "n_not_evaluated": n_not_evaluated,
         "n_not_reproduced": n_not_reproduced,
+        "n_finding": n_finding,
         "n_errors": n_errors,
         "wall_time_s": time.perf_counter() - t_start,
         "report": report,
@@ -726,6 +760,8 @@ def run_reproduction(
 
 def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
     """Submit the figure tasks of a scenario whose runs are all done."""
+    from adaptive_ftc.plots import dense_zoom
+
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
         return []
@@ -738,8 +774,9 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     new = []
     for spec, fname in items:
         path = out / "figures" / fname
+        zoom = dense_zoom(sc, adaptive, spec)
         fut = executor.submit(
-            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi
+            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi, zoom
         )
         entry = FigureEntry(
             number=str(spec.get("number", "")),

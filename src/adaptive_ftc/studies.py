@@ -50,6 +50,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -58,7 +59,7 @@ from adaptive_ftc.errors import ConfigurationError, did_you_mean
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import Scenario, load_scenario
 from adaptive_ftc.sim.batch import simulate_many
-from adaptive_ftc.sim.engine import SolverOptions
+from adaptive_ftc.sim.engine import DEFAULT_FILTER_TAU, SolverOptions
 from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -118,6 +119,10 @@ _COLUMNS = [
     "peak_u_applied",
     "windup",
     "diverged_at",
+    "fast_rms",
+    "tv_per_s",
+    "rate_limited_fraction",
+    "activity_record_ok",
 ]
 
 
@@ -166,7 +171,8 @@ def _variant(
     if knob == "controller_rate":
         ts = 1.0 / value
         dt = ts / math.ceil(ts / _MAX_DT - 1e-9)
-        rk4 = replace(solver, method="rk4", dt=dt, filter_tau=max(solver.filter_tau, ts))
+        tau = max(solver.filter_tau or DEFAULT_FILTER_TAU, ts)
+        rk4 = replace(solver, method="rk4", dt=dt, filter_tau=tau)
         return replace(loop, sample_time=ts), rk4
     if knob == "lag":
         return replace(loop, actuators=Actuators(tau=value)), solver
@@ -209,6 +215,28 @@ def _metrics(r: SimResult, window: float, t_final: float) -> tuple[float, float,
     return rms, peak_cmd, peak_app, diverged_at
 
 
+def _activity(r: SimResult, window: float, t_final: float) -> dict[str, Any]:
+    """The worst actuator's fast command content (above 1 Hz), total variation per second
+    and fraction at a rate limit over the last window (NaN for a run that did not reach its
+    end), and whether the record is fine enough to judge them
+    (:mod:`adaptive_ftc.sim.activity`)."""
+    done = r.status == "completed" and r.time.size and r.time[-1] >= t_final - 1e-9
+    out: dict[str, Any] = {
+        "fast_rms": math.nan,
+        "tv_per_s": math.nan,
+        "rate_limited_fraction": math.nan,
+        "activity_record_ok": False,
+    }
+    if not done:
+        return out
+    acts = list(r.activity(t_final - window, t_final).values())
+    for key in ("fast_rms", "tv_per_s", "rate_limited_fraction"):
+        vals = [getattr(a, key) for a in acts if not math.isnan(getattr(a, key))]
+        out[key] = max(vals) if vals else math.nan
+    out["activity_record_ok"] = bool(acts and acts[0].record_ok)
+    return out
+
+
 def robustness_sweep(
     scenario: str | Scenario,
     knob: str,
@@ -221,6 +249,7 @@ def robustness_sweep(
     noise_shape: Mapping[str, float] | None = None,
     jobs: int | None = None,
     progress: bool = False,
+    record_dt: float | None = None,
 ) -> pd.DataFrame:
     """Run ``scenario`` once per knob value (and per seed for ``noise``) and tabulate the result.
 
@@ -248,16 +277,23 @@ def robustness_sweep(
         Multiplier of ``value`` per state name for the ``noise`` knob.
     jobs, progress
         Threads and progress bar of :func:`~adaptive_ftc.sim.batch.simulate_many`.
+    record_dt
+        Record spacing of every run (default: the scenario's). The activity columns need
+        records of 1 ms or finer (``activity_record_ok``; the aliasing rule of
+        :mod:`adaptive_ftc.sim.activity`); a 120 s run then keeps about 40 MB of records.
 
     Returns
     -------
     pandas.DataFrame
         One row per run, in the order of ``values`` then ``seeds``, with columns ``scenario,
         knob, value, unit, seed, status, rms_error, ideal_rms_error, ratio_to_ideal,
-        threshold, broken, peak_u_cmd, peak_u_applied, windup, diverged_at`` (``rms_error`` is
-        the largest over the outputs, NaN for a run that did not reach its end;
-        ``diverged_at`` the time of the last good sample, NaN for a completed run). The same
-        arguments give the same table.
+        threshold, broken, peak_u_cmd, peak_u_applied, windup, diverged_at, fast_rms, tv_per_s,
+        rate_limited_fraction, activity_record_ok`` (``rms_error`` is the largest over the
+        outputs, NaN for a run that did not reach its end; ``diverged_at`` the time of the
+        last good sample, NaN for a completed run; the activity columns: the worst
+        actuator's command over the last ``window`` seconds, see
+        :meth:`~adaptive_ftc.sim.result.SimResult.activity`). The same arguments give the same
+        table.
 
     Examples
     --------
@@ -272,6 +308,8 @@ def robustness_sweep(
     if knob == "noise" and not seeds:
         raise ConfigurationError("`seeds` of a noise sweep needs at least one seed.")
     loop, solver = sc.loop, sc.solver
+    if record_dt is not None:
+        solver = replace(solver, record_dt=record_dt)
     if duration is not None:
         if not duration > 0:
             raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
@@ -307,6 +345,7 @@ def robustness_sweep(
                 "peak_u_applied": peak_app,
                 "windup": bool(peak_cmd > _WINDUP * ideal[1]),
                 "diverged_at": div,
+                **_activity(r, window, loop.t_final),
             }
         )
     return pd.DataFrame(rows, columns=_COLUMNS)

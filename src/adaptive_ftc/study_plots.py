@@ -1,6 +1,7 @@
 """Figures of the robustness studies (:mod:`adaptive_ftc.studies`), in :mod:`adaptive_ftc.plots`
-style: a bare :class:`matplotlib.figure.Figure` (no ``pyplot``), SI units on the axes, a grid,
-legends outside the data.
+style (:func:`adaptive_ftc.plots.figure_style`, constrained layout): a bare
+:class:`matplotlib.figure.Figure` (no ``pyplot``), SI units on the axes, a grid, legends outside
+the data.
 
 :func:`plot_robustness` draws one panel per knob: the RMS tracking error over the last window
 against the knob value, log-log, one line per design (the median over the noise seeds), the
@@ -19,9 +20,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.plots import DPI, FORMATS
+from adaptive_ftc.plots import DPI, FORMATS, figure_style, new_figure, wrap_title
 from adaptive_ftc.studies import KNOBS, break_points
 
 __all__ = ["plot_robustness", "save_robustness_figure"]
@@ -46,6 +48,11 @@ def plot_robustness(table: pd.DataFrame, *, title: str | None = None) -> Figure:
     title
         Figure title (default: none).
     """
+    with figure_style():
+        return _plot_robustness(table, title)
+
+
+def _plot_robustness(table: pd.DataFrame, title: str | None) -> Figure:
     need = {"scenario", "knob", "value", "rms_error", "status", "broken", "threshold"}
     missing = need - set(table.columns)
     if missing or table.empty:
@@ -60,8 +67,10 @@ def plot_robustness(table: pd.DataFrame, *, title: str | None = None) -> Figure:
     bps = break_points(table).set_index(["scenario", "knob"])
     n_cols = 2 if len(knobs) > 1 else 1
     n_rows = math.ceil(len(knobs) / n_cols)
-    fig = Figure(figsize=(6.2 * n_cols + 3.4, 0.9 + 3.0 * n_rows), dpi=DPI)
+    fig = new_figure(6.2 * n_cols + 3.4, 0.9 + 3.0 * n_rows)
     axes = fig.subplots(n_rows, n_cols, squeeze=False).ravel()
+    noise_units = set(table.loc[table["knob"] == "noise", "unit"]) if "unit" in table else set()
+    error_unit = noise_units.pop() if len(noise_units) == 1 else "output unit"
     finite = table["rms_error"].to_numpy(dtype=float)
     finite = finite[np.isfinite(finite) & (finite > 0)]
     top = float(np.max(np.r_[finite, table["threshold"].to_numpy(float)])) * 10.0
@@ -118,10 +127,11 @@ def plot_robustness(table: pd.DataFrame, *, title: str | None = None) -> Figure:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_ylim(bottom, top * 2.5)
+        _log_ticks(ax.xaxis, sub["value"].to_numpy(dtype=float))
         if not KNOBS[knob][1]:
             ax.invert_xaxis()
         ax.set_xlabel(f"{_TITLES[knob]} ({KNOBS[knob][0]})")
-        ax.set_ylabel("RMS tracking error (last 20 s)")
+        ax.set_ylabel(f"RMS tracking error, last 20 s ({error_unit})")
         ax.grid(True, which="both", linewidth=0.4, alpha=0.5)
         handles, labels = ax.get_legend_handles_labels()
         ax.legend(
@@ -129,23 +139,26 @@ def plot_robustness(table: pd.DataFrame, *, title: str | None = None) -> Figure:
             labels,
             loc="upper left",
             bbox_to_anchor=(1.01, 1.0),
+            borderaxespad=0.0,
             fontsize=7.5,
-            frameon=False,
         )
     for ax in axes[len(knobs) :]:
         ax.set_visible(False)
-    w, h = fig.get_figwidth(), fig.get_figheight()
-    fig.subplots_adjust(
-        left=0.8 / w,
-        right=1.0 - 2.8 / w,
-        bottom=0.6 / h,
-        top=1.0 - (0.55 if title else 0.2) / h,
-        hspace=0.9 / 3.0,
-        wspace=3.4 / 6.2 if n_cols > 1 else 0.2,
-    )
     if title:
-        fig.suptitle(title, fontsize=11)
+        fig.suptitle(wrap_title(title, fig.get_figwidth()))
     return fig
+
+
+def _log_ticks(axis, values: np.ndarray) -> None:
+    """Labelled ticks of a log axis that never crowd: 1-2-5 per decade on a span of up to 2.5
+    decades, else one per decade; values in plain numbers (``0.001``, ``50``), no minor labels
+    (matplotlib labels minor ticks on a short log axis, and they overlapped)."""
+    v = values[np.isfinite(values) & (values > 0)]
+    decades = math.log10(v.max() / v.min()) if v.size > 1 else 0.0
+    subs = (1.0, 2.0, 5.0) if decades <= 2.5 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10.0, subs=subs))
+    axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def _common_prefix(names: Sequence[str]) -> str:
@@ -182,6 +195,7 @@ def save_robustness_figure(
     path.parent.mkdir(parents=True, exist_ok=True)
     for fmt in formats:
         p = path.with_suffix(f".{fmt}")
-        fig.savefig(p, dpi=dpi or DPI)
+        with figure_style():
+            fig.savefig(p, dpi=dpi or DPI)
         out.append(p)
     return out

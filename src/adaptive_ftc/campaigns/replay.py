@@ -11,7 +11,7 @@ from typing import Any
 from adaptive_ftc.campaigns.runner import outcome
 from adaptive_ftc.campaigns.sampling import draw_member
 from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec, load_campaign
-from adaptive_ftc.campaigns.store import read_results
+from adaptive_ftc.campaigns.store import check_manifest, read_results
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.sim.engine import simulate
 
@@ -26,7 +26,15 @@ def load_saved_spec(folder: str | Path) -> CampaignSpec:
             f"'{folder}' is not a campaign folder (no campaign.json). Give the --out folder of "
             "'aftc campaign'."
         )
-    return load_campaign(json.loads(path.read_text("utf-8")), base_dir=Path(folder))
+    try:
+        data = json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError) as exc:
+        raise CampaignError(f"'{path}' is unreadable ({exc}).") from None
+    if not isinstance(data, dict):
+        raise CampaignError(f"'{path}' does not hold a campaign spec (a JSON object).")
+    spec = load_campaign(data, base_dir=Path(folder))
+    check_manifest(spec, folder)  # an edited campaign.json is refused, not trusted
+    return spec
 
 
 def _same(a: Any, b: Any) -> bool:

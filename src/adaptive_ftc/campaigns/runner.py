@@ -4,8 +4,8 @@ its metrics row and dropped)."""
 
 from __future__ import annotations
 
+import itertools
 import math
-import re
 import signal
 import time
 import warnings
@@ -23,8 +23,6 @@ from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.result import SimResult
 
 __all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
-
-_DIVERGED = re.compile(r"diverged at t = ([-+0-9.eE]+) s: signal '([^']*)'")
 
 
 @dataclass(frozen=True)
@@ -65,17 +63,34 @@ def recovery_times(result: SimResult, tolerance: float) -> list[float]:
     return out
 
 
+#: Control-activity columns of an outcome row (:meth:`SimResult.metrics`).
+ACTIVITY_COLUMNS = (
+    "fast_rms_max",
+    "tv_per_s_max",
+    "peak_rate_max",
+    "rate_limited_fraction_max",
+    "peak_command_travel_ratio_max",
+    "activity_record_ok",
+)
+
+
 def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
     """The outcome columns of one run: status, divergence time/signal, metrics, success."""
-    row: dict[str, Any] = {"status": result.status, "message": result.message}
+    row: dict[str, Any] = {"status": str(result.status), "message": result.message}
     m = result.metrics(final_window=spec.final_window) if result.time.size else {}
     for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
         row[key] = float(m.get(key, math.nan))
     for key in ("peak_command", "peak_applied", "t_end"):
         row[key] = float(m.get(key, math.nan))
-    hit = _DIVERGED.search(result.message or "")
-    row["divergence_time"] = float(hit.group(1)) if hit else math.nan
-    row["divergence_signal"] = hit.group(2) if hit else ""
+    # control activity over the final window, worst actuator (sim/activity.py; judged only
+    # when activity_record_ok: records fine enough not to alias the chatter)
+    for key in ACTIVITY_COLUMNS:
+        value = m.get(key, math.nan)
+        row[key] = bool(value) if key == "activity_record_ok" else float(value)
+    reason = result.reason  # where and what stopped the run, never parsed from the message
+    stopped = reason is not None and result.status != "completed"
+    row["divergence_time"] = float(reason.time) if stopped and reason.time is not None else math.nan
+    row["divergence_signal"] = (reason.signal or reason.expression) if stopped else ""
     rec = recovery_times(result, spec.recovery_tolerance)
     row["worst_recovery_time"] = max(rec) if rec else 0.0
     rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []
@@ -171,9 +186,9 @@ def run_campaign(
         spec = load_campaign(spec)
     out = store.prepare_folder(spec, out)
     done = store.finished_chunks(spec, out)
-    pending = [c for c in range(spec.n_chunks) if c not in done]
+    pending = (c for c in range(spec.n_chunks) if c not in done)  # lazy: n_chunks may be large
     if max_chunks is not None:
-        pending = pending[: max(0, int(max_chunks))]
+        pending = itertools.islice(pending, max(0, int(max_chunks)))
     n_runs = spec.runs * len(spec.designs)
 
     def runs_in(c: int) -> int:
@@ -193,7 +208,7 @@ def run_campaign(
         if scheduler is not None:
             from adaptive_ftc.campaigns.dask import run_chunks_dask
 
-            source = run_chunks_dask(spec, pending, scheduler)
+            source = run_chunks_dask(spec, list(pending), scheduler)
         else:
             source = ((c, run_chunk(spec, c, jobs)) for c in pending)
         now = 0

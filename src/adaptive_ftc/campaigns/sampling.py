@@ -7,7 +7,9 @@ threads or the scheduler, and :func:`draw_member` alone replays it.
 Draw order within a member (documented so that a member can be reproduced by hand): number of
 failures; which actuators (without replacement, then sorted); per failure in actuator order:
 model, onset, ramp, whether it recovers, time to recovery, the model's params then fields in
-spec order; then the initial states, the reference amplitude and the gains in spec order.
+spec order; then the initial states, the reference amplitude and the gains in spec order;
+then the hardware (:mod:`adaptive_ftc.campaigns.hardware`): lag, rate limit, travel, sample
+time, noise per state in spec order and the noise seed.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec, _fill
+from adaptive_ftc.campaigns.checks import _fill
+from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec
 from adaptive_ftc.errors import ConfigurationError, ExpressionError
 from adaptive_ftc.faults import FAILURE_MODELS, Failure
 from adaptive_ftc.sim.system import ClosedLoop
@@ -141,8 +144,12 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             cols[f"gain_{key}"] = float(gains[key])
         ctrl = dataclasses.replace(base.controller, **gains) if gains else base.controller
         kept = tuple(base.failures.failures) if spec.keep_base else ()
+        hw_loop = base
+        if spec.hardware is not None:
+            hw_loop, hw_cols = spec.hardware.draw(rng, base)
+            cols.update(hw_cols)
         loop = dataclasses.replace(
-            base,
+            hw_loop,
             controller=ctrl,
             reference=reference,
             initial_state=tuple(x0),

@@ -20,9 +20,24 @@ from typing import Any
 
 import numpy as np
 
+from adaptive_ftc import _version
+from adaptive_ftc.campaigns.checks import (
+    _PLACEHOLDER,
+    MAX_CHUNK_SIZE,
+    MAX_CHUNKS,
+    MAX_RUNS,
+    _check_kept_overlap,
+    _fill,
+    _inline_base,
+    _short,
+    _top_numbers,
+    safe_name,
+)
+from adaptive_ftc.campaigns.hardware import HardwareSpec, parse_hardware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
-from adaptive_ftc.scenarios.loader import Scenario, load_scenario
+from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
+from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
@@ -32,6 +47,9 @@ __all__ = [
     "CampaignSpec",
     "Dist",
     "FailureModelSpec",
+    "MAX_CHUNKS",
+    "MAX_CHUNK_SIZE",
+    "MAX_RUNS",
     "list_campaigns",
     "load_campaign",
     "register_design",
@@ -42,11 +60,12 @@ EXAMPLES = Path(__file__).with_name("examples")
 
 _COMMON = ("actuator", "onset", "recovery", "ramp")
 _TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "designs"}
-_TOP |= {"duration", "success", "failures", "ranges"}
+_TOP |= {"duration", "success", "failures", "ranges", "hardware"}
 _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
 _FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
+_TEXT_KEYS = ("name", "title", "description")
 
 
 class CampaignError(ScenarioError):
@@ -140,18 +159,42 @@ def _number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) -> Dist:
-    """Parse a TOML value into a :class:`Dist`; record problems instead of raising."""
+def _dist(
+    value: Any,
+    where: str,
+    problems: list[str],
+    *,
+    numeric: bool = True,
+    vector: bool = False,
+    bounded: bool = False,
+) -> Dist:
+    """Parse a TOML value into a :class:`Dist`; record problems instead of raising.
+
+    ``vector``: a list is a vector of distributions (a vector field of a failure model);
+    elsewhere a list is refused. ``bounded``: the value feeds a model with a domain (failure
+    fields and params, gains, the reference amplitude), so a ``normal`` needs ``clip``.
+    """
     if _number(value) or (not numeric and isinstance(value, str)):
         return Dist("constant", (value,))
     if isinstance(value, list):  # a vector field (e.g. ParameterisedStuck coefficients)
+        if not vector:
+            problems.append(
+                f"[{where}] must be one number or one distribution table such as "
+                f"{{uniform = [a, b]}}, not a list; got {_short(value)}."
+            )
+            return Dist("constant", (0.0,))
+        if not value:
+            problems.append(f"[{where}] an empty list draws nothing; give at least one value.")
+            return Dist("constant", (0.0,))
         items = tuple(
-            _dist(v, f"{where}.{i + 1}", problems, numeric=numeric) for i, v in enumerate(value)
+            _dist(v, f"{where}.{i + 1}", problems, numeric=numeric, bounded=bounded)
+            for i, v in enumerate(value)
         )
         return Dist("vector", items)
     if not isinstance(value, dict):
         problems.append(
-            f"[{where}] must be a number or a table such as {{uniform = [a, b]}}; got {value!r}."
+            f"[{where}] must be a number or a table such as {{uniform = [a, b]}}; got "
+            f"{_short(value)}."
         )
         return Dist("constant", (0.0,))
     kinds = [k for k in value if k in _KINDS]
@@ -161,10 +204,13 @@ def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) 
         hint = did_you_mean(bad[0], _KINDS) if bad else ""
         problems.append(
             f"[{where}] needs exactly one of {', '.join(_KINDS)} (plus `weights` for choice, "
-            f"`clip` for normal); got keys {sorted(value)}.{hint}"
+            f"`clip` for normal); got keys {sorted(map(str, value))}.{hint}"
         )
         return Dist("constant", (0.0,))
     kind = kinds[0]
+    for key, owner in (("weights", "choice"), ("clip", "normal")):
+        if key in value and kind != owner:
+            problems.append(f"[{where}] `{key}` only applies to `{owner}`, not to `{kind}`.")
     args = value[kind]
     args = tuple(args) if isinstance(args, list) else (args,)
     if kind == "choice":
@@ -198,6 +244,13 @@ def _dist(value: Any, where: str, problems: list[str], *, numeric: bool = True) 
                 clip = None
             elif clip[0] >= clip[1]:
                 problems.append(f"[{where}] `clip` needs lo < hi; got {clip}.")
+        elif bounded:
+            problems.append(
+                f"[{where}] `normal` without `clip` draws values without bound, which can leave "
+                "the model's domain at run time (e.g. a negative effectiveness). Add "
+                f"`clip = [lo, hi]` inside the domain, e.g. {{normal = [{a}, {b}], clip = "
+                "[0, 1]} for an effectiveness, or use `uniform`."
+            )
         return Dist("normal", (float(a), float(b)), clip=tuple(clip) if clip else None)
     if a > b:
         problems.append(f"[{where}] `{kind}` needs a <= b; got [{a}, {b}].")
@@ -252,13 +305,24 @@ def _model_spec(name: str, table: Any, problems: list[str]) -> FailureModelSpec 
     if not isinstance(params_t, dict):
         problems.append(f"[{where}.params] must be a table of distributions.")
         params_t = {}
-    params = tuple((k, _dist(v, f"{where}.params.{k}", problems)) for k, v in params_t.items())
+    params = []
+    for k, v in params_t.items():
+        if not _PLACEHOLDER.fullmatch(f"{{{k}}}"):
+            problems.append(
+                f"[{where}.params] `{_short(k)}` is not a usable placeholder name: use letters, "
+                "digits and _ (not starting with a digit)."
+            )
+            continue
+        params.append((k, _dist(v, f"{where}.params.{k}", problems, bounded=True)))
     fields = []
     for key, f in own.items():
         if key not in table:
             continue
         text_ok = any(t in str(f.type) for t in ("Value", "str"))
-        fields.append((key, _dist(table[key], f"{where}.{key}", problems, numeric=not text_ok)))
+        d = _dist(
+            table[key], f"{where}.{key}", problems, numeric=not text_ok, vector=True, bounded=True
+        )
+        fields.append((key, d))
     sev = table.get("severity")
     names = [k for k, _ in fields] + [k for k, _ in params]
     if sev is not None and sev not in names:
@@ -267,7 +331,7 @@ def _model_spec(name: str, table: Any, problems: list[str]) -> FailureModelSpec 
             f" got {sev!r}."
         )
         sev = None
-    spec = FailureModelSpec(name, float(weight), tuple(fields), params, sev)
+    spec = FailureModelSpec(name, float(weight), tuple(fields), tuple(params), sev)
     _check_extremes(spec, problems)
     return spec
 
@@ -276,31 +340,31 @@ def _check_extremes(spec: FailureModelSpec, problems: list[str]) -> None:
     """Build the failure at the extremes of every distribution: an impossible value (negative
     effectiveness, ...) is refused now instead of in the middle of the campaign."""
     cls = FAILURE_MODELS[spec.model]
-    params = {k: d.support()[0] for k, d in spec.params}
+    lows = {k: d.support()[0] for k, d in spec.params}
     base = {k: d.support()[0] for k, d in spec.fields}
-    cases = [base]
+    cases = [(base, lows)]
     for key, d in spec.fields:
         for v in d.support():
-            cases.append({**base, key: v})
+            cases.append(({**base, key: v}, lows))
+    for key, d in spec.params:  # each drawn param at each end of its range
+        for v in d.support():
+            cases.append((base, {**lows, key: v}))
     seen = set()
-    for case in cases:
+    for case, params in cases:
         try:
-            kwargs = {k: _fill(v, params) for k, v in case.items()}
+            kwargs = {
+                k: _fill(v, params, f"failures.models.{spec.model}.{k}") for k, v in case.items()
+            }
             cls(actuator=1, onset=0.0, **kwargs)
-        except (ConfigurationError, ExpressionError, KeyError, ValueError, TypeError) as exc:
-            msg = str(exc) if not isinstance(exc, KeyError) else f"unknown placeholder {exc}"
+        except CampaignError as exc:  # a placeholder problem: already names its field
+            if str(exc) not in seen:
+                seen.add(str(exc))
+                problems.append(str(exc))
+        except (ConfigurationError, ExpressionError, ValueError, TypeError) as exc:
+            msg = str(exc)
             if msg not in seen:
                 seen.add(msg)
                 problems.append(f"[failures.models.{spec.model}] impossible draw: {msg}")
-
-
-def _fill(value: Any, params: dict[str, Any]) -> Any:
-    """Substitute ``{name}`` placeholders of an expression string with drawn params."""
-    if isinstance(value, str) and "{" in value:
-        return value.format(**{k: f"({float(v)!r})" for k, v in params.items()})
-    if isinstance(value, list):
-        return tuple(_fill(v, params) for v in value)
-    return value
 
 
 # ---------------------------------------------------------------------------- the spec
@@ -336,6 +400,7 @@ class CampaignSpec:
     final_window: float
     recovery_tolerance: float
     data: dict[str, Any] = field(compare=False, repr=False)
+    hardware: HardwareSpec | None = None
 
     @property
     def loop(self) -> ClosedLoop:
@@ -353,9 +418,11 @@ class CampaignSpec:
         return int(max(self.count.support()))
 
     def digest(self) -> str:
-        """SHA-256 of the self-contained spec: same digest, same campaign."""
+        """SHA-256 of the self-contained spec and the package version: same digest, same
+        campaign computed by the same code (a resume after an upgrade is refused)."""
         # key order matters (the model mix is drawn in spec order), so it is not sorted
         text = json.dumps(self.data, default=str)
+        text = f"adaptive-ftc {_version.__version__}\n{text}"
         return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -402,15 +469,26 @@ def load_campaign(
     else:
         path = _resolve(spec)
         try:
+            size = path.stat().st_size
+            if size > MAX_FILE_BYTES:
+                raise CampaignError(
+                    f"{path}: the file has {size} bytes; campaign specs are limited to "
+                    f"{MAX_FILE_BYTES} bytes."
+                )
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except tomllib.TOMLDecodeError as exc:
             raise CampaignError(f"{path}: not valid TOML: {exc}.") from None
+        except UnicodeDecodeError:
+            raise CampaignError(f"{path}: not UTF-8 text; save the spec as UTF-8.") from None
+        except OSError as exc:
+            raise CampaignError(f"{path}: cannot read the file: {exc.strerror}.") from None
+        except (ValueError, RecursionError, MemoryError) as exc:
+            raise CampaignError(
+                f"{path}: not a usable TOML file ({type(exc).__name__}: {str(exc)[:200]})."
+            ) from None
         label, base_dir = str(path), path.parent
     problems: list[str] = []
-    try:
-        spec_obj = _parse(data, base_dir, problems)
-    except ScenarioError as exc:  # the base scenario itself is broken: nothing else to check
-        raise CampaignError(f"{label}: [base] {exc}") from None
+    spec_obj = _parse(data, base_dir, problems)
     if problems:
         lines = "\n".join(f"  - {p}" for p in problems)
         raise CampaignError(f"{label}: {len(problems)} problem(s), nothing was run:\n{lines}")
@@ -422,56 +500,56 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
     for key in data:
         if key not in _TOP:
             problems.append(
-                f"[top] unknown key '{key}'.{did_you_mean(key, _TOP)} "
+                f"[top] unknown key {_short(key)}.{did_you_mean(str(key), _TOP)} "
                 f"Allowed keys: {', '.join(sorted(_TOP))}."
             )
+    for key in _TEXT_KEYS:
+        if key in data and not isinstance(data[key], str):
+            problems.append(f"[top] `{key}` must be a text; got {_short(data[key])}.")
+    if isinstance(data.get("name"), str) and not safe_name(data["name"]):
+        problems.append(
+            f"[top] `name` {_short(data['name'])} is used in file names: use 1-100 letters, "
+            "digits, '.', '_' or '-', not starting with '.' or '-'."
+        )
     # base scenario: a catalogue name, a file (relative to the spec) or an inlined scenario
     base = data.get("base")
     saved = dict(data)
-    if isinstance(base, dict):  # inlined by a previous save
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            p = Path(tmp) / f"{base.get('name', 'base')}.toml"
-            p.write_text(base["text"], encoding="utf-8")
-            scenario = load_scenario(p)
-    elif isinstance(base, str):
-        candidate = (base_dir / base) if base.endswith(".toml") else None
-        if candidate is not None and candidate.is_file():
-            scenario = load_scenario(candidate)
-            saved["base"] = {"name": candidate.stem, "text": candidate.read_text("utf-8")}
+    scenario = None
+    try:
+        if isinstance(base, dict):  # inlined by a previous save
+            scenario = _inline_base(base, problems)
+        elif isinstance(base, str):
+            candidate = (base_dir / base) if base.endswith(".toml") else None
+            if candidate is not None and candidate.is_file():
+                scenario = load_scenario(candidate)
+                saved["base"] = {"name": candidate.stem, "text": candidate.read_text("utf-8")}
+            else:
+                scenario = load_scenario(base)
+        elif base is None:
+            problems.append("[top] missing key 'base' (a catalogue scenario name or a .toml path).")
         else:
-            scenario = load_scenario(base)
-    else:
-        raise CampaignError("missing key 'base' (a catalogue scenario name or a .toml path).")
+            problems.append(
+                f"[top] `base` must be a catalogue scenario name or a .toml path; got "
+                f"{_short(base)}."
+            )
+    except ScenarioError as exc:  # the base scenario itself is broken
+        problems.append(f"[base] {exc}")
+    runs, seed, chunk, designs = _top_numbers(data, problems, DESIGN_VARIANTS)
+    if scenario is None:
+        return None
     loop = scenario.loop
     m, n = loop.plant.n_actuators, loop.plant.n_states
-    name = str(data.get("name", "campaign"))
-
-    def integer(key: str, default: Any, lo: int) -> int:
-        v = data.get(key, default)
-        if v is None or isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            problems.append(f"[top] `{key}` must be a whole number >= {lo}; got {v!r}.")
-            return max(lo, 1)
-        return v
-
-    runs = integer("runs", None, 1)
-    seed = integer("seed", None, 0)
-    chunk = integer("chunk_size", 50, 1)
-    designs = data.get("designs", ["adaptive"])
-    if not isinstance(designs, list) or not designs:
-        problems.append(f"[top] `designs` must be a non-empty list; got {designs!r}.")
-        designs = ["adaptive"]
-    for d in designs:
-        if d not in DESIGN_VARIANTS:
-            problems.append(
-                f"[top] unknown design '{d}'.{did_you_mean(str(d), DESIGN_VARIANTS)} "
-                f"Available: {', '.join(DESIGN_VARIANTS)}."
-            )
+    name = data["name"] if isinstance(data.get("name"), str) else "campaign"
     t_final = data.get("duration", loop.t_final)
     if not _number(t_final) or t_final <= loop.t0:
-        problems.append(f"[top] `duration` must be a time > {loop.t0} s; got {t_final!r}.")
+        problems.append(f"[top] `duration` must be a time > {loop.t0} s; got {_short(t_final)}.")
         t_final = loop.t_final
+    else:
+        try:  # each run of the campaign must fit the run-size budget
+            check_run_size(dataclasses.replace(loop, t_final=float(t_final)), scenario.solver)
+        except ConfigurationError as exc:
+            problems.append(f"[top] `duration = {t_final:g}` s: {exc}")
+            t_final = loop.t_final
     # success criterion
     st = data.get("success", {})
     _keys(st, _SUCCESS_KEYS, "success", problems)
@@ -576,11 +654,26 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         x0 = []
     x0d = tuple((i, _dist(v, f"ranges.initial_state.{i + 1}", problems)) for i, v in enumerate(x0))
     amp = rt.get("reference_amplitude")
-    ampd = None if amp is None else _dist(amp, "ranges.reference_amplitude", problems)
+    ampd = None
+    if amp is not None:
+        ampd = _dist(amp, "ranges.reference_amplitude", problems, bounded=True)
+        lo_a = min(ampd.support())
+        if lo_a <= 0:
+            problems.append(
+                "[ranges.reference_amplitude] the amplitude multiplies the base reference and "
+                f"must be > 0 (0 leaves nothing to track, < 0 flips it); the range reaches "
+                f"{lo_a}."
+            )
     gt = rt.get("gains", {})
+    if not isinstance(gt, dict):
+        problems.append(
+            f"[ranges.gains] must be a table of gain distributions, e.g. gains = {{gamma = "
+            f"{{uniform = [0.5, 2]}}}}; got {_short(gt)}."
+        )
+        gt = {}
     ctrl_fields = {f.name for f in dataclasses.fields(loop.controller) if f.init} - {"regressor"}
     gains = []
-    for key, v in gt.items() if isinstance(gt, dict) else ():
+    for key, v in gt.items():
         if key not in ctrl_fields:
             problems.append(
                 f"[ranges.gains] unknown gain '{key}' of design "
@@ -588,7 +681,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
                 f"Available: {', '.join(sorted(ctrl_fields))}."
             )
             continue
-        d = _dist(v, f"ranges.gains.{key}", problems)
+        d = _dist(v, f"ranges.gains.{key}", problems, bounded=True)
         for value in d.support():
             try:
                 dataclasses.replace(loop.controller, **{key: value})
@@ -596,6 +689,19 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
                 problems.append(f"[ranges.gains.{key}] impossible draw: {exc}")
                 break
         gains.append((key, d))
+    hardware = parse_hardware(
+        data.get("hardware"),
+        dataclasses.replace(loop, t_final=float(t_final)),
+        scenario.solver,
+        problems,
+        _dist,
+    )
+    keep_base = ft.get("keep_base", False)
+    if not isinstance(keep_base, bool):
+        problems.append(f"[failures] `keep_base` must be true or false; got {_short(keep_base)}.")
+        keep_base = False
+    if keep_base and hi_c > 0:
+        _check_kept_overlap(scenario, acts, onset, duration, prob, problems)
     if problems:
         return None
     return CampaignSpec(
@@ -614,7 +720,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         recovery_probability=float(prob),
         duration=duration,
         models=models,
-        keep_base=bool(ft.get("keep_base", False)),
+        keep_base=keep_base,
         initial_state=x0d,
         reference_amplitude=ampd,
         gains=tuple(gains),
@@ -622,6 +728,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         final_window=succ["final_window"],
         recovery_tolerance=succ["recovery_tolerance"],
         data=saved,
+        hardware=hardware,
     )
 
 

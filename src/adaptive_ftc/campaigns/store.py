@@ -15,19 +15,24 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from adaptive_ftc import _version
+from adaptive_ftc._atomic import owner_gone, owner_tag
 from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
 
 __all__ = [
     "OUTCOME_COLUMNS",
+    "check_manifest",
     "finished_chunks",
     "prepare_folder",
     "read_results",
+    "remove_stale_temporaries",
     "schema",
     "to_table",
     "write_part",
@@ -51,6 +56,13 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "t_end": "float64",
     "worst_recovery_time": "float64",
     "worst_recovery_rms": "float64",
+    # control activity over the final window, worst actuator (runner.ACTIVITY_COLUMNS)
+    "fast_rms_max": "float64",
+    "tv_per_s_max": "float64",
+    "peak_rate_max": "float64",
+    "rate_limited_fraction_max": "float64",
+    "peak_command_travel_ratio_max": "float64",
+    "activity_record_ok": "bool",
 }
 
 
@@ -97,6 +109,8 @@ def schema(spec: CampaignSpec):
     if spec.reference_amplitude is not None:
         cols.append(("reference_amplitude", "float64"))
     cols += [(f"gain_{k}", "float64") for k, _ in spec.gains]
+    if spec.hardware is not None:
+        cols += [(c, "float64") for c in spec.hardware.columns(spec.loop.plant.n_actuators)]
     cols += [("compensable", "bool"), ("compensability", "string")]
     cols += list(OUTCOME_COLUMNS.items())
     return pa.schema([(name, types[t]) for name, t in cols])
@@ -118,7 +132,8 @@ def to_table(rows: list[dict[str, Any]], spec: CampaignSpec):
 
 def _atomic_write(path: Path, write) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    prefix = f".{path.name}.{owner_tag()}."  # the owner: a killed run's file can go later
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
@@ -133,6 +148,30 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
         Path(tmp).write_text(json.dumps(data, indent=2, default=str), "utf-8")
 
     _atomic_write(path, write)
+
+
+_TMP = re.compile(r"\..+\.(\d+)@([A-Za-z0-9._]+)\.[A-Za-z0-9_]+\.tmp")
+
+
+def remove_stale_temporaries(out: str | Path) -> list[Path]:
+    """Remove the temporary files of killed runs (kill -9 while a part, the manifest or the
+    results were being written) from ``out`` and ``out/parts``: those whose owning process,
+    recorded in the name, is gone. Returns the removed paths."""
+    removed = []
+    for folder in (Path(out), Path(out) / "parts"):
+        try:
+            entries = list(os.scandir(folder))
+        except OSError:
+            continue
+        for entry in entries:
+            hit = _TMP.fullmatch(entry.name)
+            if hit and owner_gone(hit.group(1), hit.group(2)) and entry.is_file():
+                try:
+                    os.unlink(entry.path)
+                except OSError:
+                    continue
+                removed.append(Path(entry.path))
+    return removed
 
 
 def part_path(out: Path, chunk: int) -> Path:
@@ -158,12 +197,23 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
                 f"{manifest} is unreadable ({exc}); delete the folder or choose another --out."
             ) from None
         if old.get("digest") != spec.digest():
+            written_by = old.get("version", "an earlier version (none recorded)")
+            if written_by != _version.__version__:
+                raise CampaignError(
+                    f"'{out}' holds results written by adaptive-ftc {written_by}; this is "
+                    f"{_version.__version__}. Resuming would mix the results of two code "
+                    f"versions in one table. To start fresh, delete '{out}' (or choose another "
+                    f"--out folder); to finish the old campaign, use adaptive-ftc {written_by}."
+                )
             raise CampaignError(
                 f"'{out}' holds the results of a different campaign spec "
                 f"('{old.get('name', '?')}'). Use another --out folder, or delete '{out}' to "
                 "start again."
             )
+        remove_stale_temporaries(out)
         return out
+    if out.is_dir():
+        remove_stale_temporaries(out)  # e.g. a manifest.json being written when killed
     if out.exists() and any(out.iterdir()):
         raise CampaignError(
             f"'{out}' exists and is not a campaign folder (no manifest.json). Choose an empty "
@@ -175,6 +225,7 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
         manifest,
         {
             "name": spec.name,
+            "version": _version.__version__,
             "digest": spec.digest(),
             "runs": spec.runs,
             "designs": list(spec.designs),
@@ -185,9 +236,59 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
     return out
 
 
+def check_manifest(spec: CampaignSpec, out: str | Path) -> None:
+    """Check that ``spec`` (e.g. loaded from the folder's ``campaign.json``) is the campaign
+    recorded in ``out/manifest.json`` by the same package version.
+
+    Raises
+    ------
+    CampaignError
+        When the manifest is missing or unreadable, was written by another version, or
+        records another digest (``campaign.json`` was edited).
+    """
+    out = Path(out)
+    manifest = out / "manifest.json"
+    try:
+        old = json.loads(manifest.read_text("utf-8"))
+        recorded = old["digest"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise CampaignError(
+            f"'{out}' has no usable manifest.json ({type(exc).__name__}); it cannot be checked "
+            "against its campaign.json. Rerun the campaign into a new folder."
+        ) from None
+    if recorded == spec.digest():
+        return
+    written_by = old.get("version", "an earlier version (none recorded)")
+    if written_by != _version.__version__:
+        raise CampaignError(
+            f"'{out}' was written by adaptive-ftc {written_by}; this is {_version.__version__}, "
+            f"so a replay would not reproduce its table. Use adaptive-ftc {written_by}, or "
+            "rerun the campaign into a new folder."
+        )
+    raise CampaignError(
+        f"'{out}/campaign.json' does not match the digest recorded in its manifest.json: the "
+        "spec was edited after the campaign ran, so its table does not come from it. Restore "
+        "campaign.json, or run the edited spec into a new folder with 'aftc campaign'."
+    )
+
+
 def finished_chunks(spec: CampaignSpec, out: Path) -> set[int]:
     """Chunks whose part file is present (part files are only ever complete)."""
-    return {c for c in range(spec.n_chunks) if part_path(out, c).is_file()}
+    # one listing of parts/, not one stat per chunk (a campaign may have 1e5 chunks)
+    parts = Path(out) / "parts"
+    done = set()
+    try:
+        entries = list(os.scandir(parts))
+    except FileNotFoundError:
+        return done
+    for entry in entries:
+        hit = _PART.fullmatch(entry.name)
+        if hit and int(hit.group(1)) < spec.n_chunks and entry.is_file():
+            done.add(int(hit.group(1)))
+    return done
+
+
+_PART = re.compile(r"part-(\d{5,})\.parquet")
 
 
 def write_part(table, out: Path, chunk: int) -> Path:

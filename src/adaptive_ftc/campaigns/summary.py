@@ -30,9 +30,9 @@ def success_tables(df) -> dict[str, Any]:
     out: dict[str, Any] = {}
     out["success_rate"] = df.groupby("design", sort=False)["success"].mean().to_dict()
     out["runs"] = df.groupby("design", sort=False).size().to_dict()
-    out["diverged"] = (
-        df.assign(d=df["status"] == "diverged").groupby("design", sort=False)["d"].sum().to_dict()
-    )
+    # every run that stopped early (diverged, nonfinite, step_underflow, singular)
+    stopped = ~df["status"].isin(["completed", "invalid", "interrupted"])
+    out["diverged"] = df.assign(d=stopped).groupby("design", sort=False)["d"].sum().to_dict()
     out["compensable_fraction"] = float(df.drop_duplicates("index")["compensable"].mean())
     exploded = df.assign(model=df["models"].str.split("+")).explode("model")
     exploded["model"] = exploded["model"].replace("", "none")
@@ -52,6 +52,13 @@ def success_tables(df) -> dict[str, Any]:
 
 
 def _figures(df, folder: Path) -> dict[str, Path]:
+    from adaptive_ftc.plots import figure_style
+
+    with figure_style():  # the project's one figure style (constrained layout)
+        return _draw_figures(df, folder)
+
+
+def _draw_figures(df, folder: Path) -> dict[str, Path]:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,7 +70,7 @@ def _figures(df, folder: Path) -> dict[str, Path]:
     designs = list(dict.fromkeys(df["design"]))
     centers = 0.5 * (np.array(SEVERITY_BINS[:-1]) + np.array(SEVERITY_BINS[1:]))
     bins = pd.cut(df["severity"], SEVERITY_BINS, include_lowest=True, labels=False)
-    fig, ax = plt.subplots(figsize=(6, 3.6))
+    fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
     for d in designs:
         sel = df["design"] == d
         rates = [
@@ -71,16 +78,15 @@ def _figures(df, folder: Path) -> dict[str, Path]:
             for b in range(len(centers))
         ]
         ax.plot(centers, rates, "o-", label=d)
-    ax.set_xlabel("severity of the worst failure")
-    ax.set_ylabel("success rate")
+    ax.set_xlabel("severity of the worst failure (0 to 1)")
+    ax.set_ylabel("success rate (fraction of runs)")
     ax.set_ylim(-0.05, 1.05)
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.tight_layout()
     paths["success_vs_severity"] = folder / "success_vs_severity.png"
     fig.savefig(paths["success_vs_severity"], dpi=110)
     plt.close(fig)
-    fig, ax = plt.subplots(figsize=(6, 3.6))
+    fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
     finite = df["rms_error_final"].replace([np.inf, -np.inf], np.nan)
     logs = np.log10(finite.clip(lower=1e-12))
     edges = np.linspace(
@@ -92,22 +98,20 @@ def _figures(df, folder: Path) -> dict[str, Path]:
         vals = logs[(df["design"] == d) & logs.notna()]
         if len(vals):
             ax.hist(vals, bins=edges, alpha=0.55, label=d)
-    ax.set_xlabel("log10 final-window RMS error")
-    ax.set_ylabel("runs")
+    ax.set_xlabel("log10 of the final-window RMS error (output units)")
+    ax.set_ylabel("runs (count)")
     ax.legend()
-    fig.tight_layout()
     paths["error_histogram"] = folder / "error_histogram.png"
     fig.savefig(paths["error_histogram"], dpi=110)
     plt.close(fig)
     worst = _worst(df, designs[0], 10)
-    fig, ax = plt.subplots(figsize=(6, 3.6))
+    fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
     labels = [str(i) for i in worst["index"]]
     vals = worst["rms_error_final"].fillna(np.inf).clip(upper=1e6)
     ax.barh(labels[::-1], np.asarray(vals)[::-1], color="tab:red")
     ax.set_xscale("log")
-    ax.set_xlabel(f"final-window RMS error ({designs[0]}); diverged runs at 1e6")
-    ax.set_ylabel("member index")
-    fig.tight_layout()
+    ax.set_xlabel(f"final-window RMS error, {designs[0]} (output units; diverged at 1e6)")
+    ax.set_ylabel("campaign member (index)")
     paths["worst_runs"] = folder / "worst_runs.png"
     fig.savefig(paths["worst_runs"], dpi=110)
     plt.close(fig)

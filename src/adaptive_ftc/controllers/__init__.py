@@ -1,6 +1,7 @@
 """Controller designs of the thesis, one module per design."""
 
 from adaptive_ftc.controllers.base import AdaptiveController
+from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.controllers.direct import DirectAdaptive
 from adaptive_ftc.controllers.estimation import FailureEstimation
 from adaptive_ftc.controllers.mimo import MimoDirectAdaptive
@@ -23,6 +24,7 @@ __all__ = [
     "DESIGNS",
     "NUSSBAUM_FUNCTIONS",
     "AdaptiveController",
+    "ConstraintAware",
     "DirectAdaptive",
     "FailureEstimation",
     "MimoDirectAdaptive",

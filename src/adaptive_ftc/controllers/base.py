@@ -7,7 +7,11 @@ from abc import ABC
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers import constraints
+from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import ConfigurationError
 
 __all__ = ["AdaptiveController", "as_tuple"]
@@ -54,7 +58,14 @@ def _nonnegative(owner: str, **values: float) -> None:
 @dataclass(frozen=True, kw_only=True)
 class AdaptiveController(ABC):
     """Common settings: filtered error ``s = e' + lambda e`` (2.18) and robust term
-    ``k s + k0 tanh(s/eps0)`` (2.20). ``lam``, ``k`` and ``k0`` may be given per output."""
+    ``k s + k0 tanh(s/eps0)`` (2.20). ``lam``, ``k`` and ``k0`` may be given per output.
+
+    ``constraint_aware``: the designer's model of the hardware
+    (:class:`~adaptive_ftc.controllers.constraints.ConstraintAware`); with it the design runs
+    its constraint-aware version (scaled gains, command filter, anti-windup, prefilter,
+    projection: see :mod:`adaptive_ftc.controllers.constraints`). ``None`` (default) is the
+    thesis law, and ``dataclasses.replace(design, constraint_aware=None)`` gives it back.
+    """
 
     design: ClassVar[str]
     equation: ClassVar[str]
@@ -64,9 +75,17 @@ class AdaptiveController(ABC):
     k0: float | tuple[float, ...] = 1.0
     eps0: float = 0.01
     theta0: float = 0.0
+    constraint_aware: ConstraintAware | None = None
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
+        if self.constraint_aware is not None and not isinstance(
+            self.constraint_aware, ConstraintAware
+        ):
+            raise ConfigurationError(
+                f"`constraint_aware` of {owner} must be a ConstraintAware (the designer's "
+                f"model of the hardware) or None; got {self.constraint_aware!r}."
+            )
         for key in ("lam", "k"):
             v = getattr(self, key)
             _positive(owner, **{key: tuple(v) if not isinstance(v, (int, float)) else v})
@@ -91,6 +110,51 @@ class AdaptiveController(ABC):
     def regressors_for(self, p: int) -> tuple[Regressor, ...]:
         """The regressors for a plant with ``p`` outputs (one common channel by default)."""
         return self.regressors()
+
+    # ------------------------------------------------------------------ constraint-aware
+    def loop_rate(self) -> float:
+        """``w0 = k + k0/eps0``: the rate at which the law's linear band integrates ``s``
+        (the largest over the outputs)."""
+        k = (self.k,) if isinstance(self.k, (int, float)) else tuple(self.k)
+        k0 = (self.k0,) if isinstance(self.k0, (int, float)) else tuple(self.k0)
+        k = k * len(k0) if len(k) == 1 else k
+        k0 = k0 * len(k) if len(k0) == 1 else k0
+        return max(float(a) + float(b) / float(self.eps0) for a, b in zip(k, k0, strict=True))
+
+    def configuration(self, b_max: float = 1.0) -> constraints.Configuration:
+        """The constraint-aware configuration (the identity without ``constraint_aware``)."""
+        if self.constraint_aware is None:
+            return constraints.IDENTITY
+        lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
+        return self.constraint_aware.configure(w0=self.loop_rate(), b_max=b_max, lam=float(lam))
+
+    @property
+    def adaptation_scale(self) -> float:
+        """Factor on every adaptation gain of ``theta`` (1 for the thesis law)."""
+        return self.configuration().scale
+
+    def robust_settings(self) -> tuple:
+        """``(lam, k, k0, eps0)`` as the compiled law uses them: the thesis's, or
+        ``(f lam, r k, W k0, W eps0 / r)`` with the constraint-aware bandwidth scale ``r``,
+        error-filter factor ``f`` and boundary-layer widening ``W``."""
+        cfg = self.configuration()
+        r, f, w = cfg.scale, cfg.lam_factor, cfg.widen
+        if r == 1.0 and f == 1.0 and w == 1.0:
+            return self.lam, self.k, self.k0, self.eps0
+
+        def times(v, x):
+            return v * x if isinstance(v, (int, float)) else tuple(e * x for e in v)
+
+        return times(self.lam, f), times(self.k, r), times(self.k0, w), self.eps0 * w / r
+
+    def emit_constraint_aware(self, g, blocks, at: int):
+        """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for
+        the thesis law or an ideal designer's model."""
+        b_max = float(abs(np.asarray(g.loop.R)).max()) if np.size(g.loop.R) else 1.0
+        cfg = self.configuration(b_max)
+        if cfg == constraints.IDENTITY:
+            return [], [], [], []
+        return constraints.emit(cfg, g, blocks, at, self.single_output)
 
     # ------------------------------------------------------------------ code generation
     def code_label(self) -> str:

@@ -41,7 +41,7 @@ class DirectAdaptive(AdaptiveController):
         _nonnegative(type(self).__name__, sigma=self.sigma)
 
     def gains(self) -> DirectGains:
-        return DirectGains(float(self.gamma), float(self.sigma))
+        return DirectGains(float(self.gamma) * self.adaptation_scale, float(self.sigma))
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)

@@ -70,7 +70,8 @@ class FailureEstimation(AdaptiveController):
         return out
 
     def gains(self) -> EstimationGains:
-        return EstimationGains(float(self.eta1), float(self.eta2), float(self.sigma))
+        r = self.adaptation_scale  # 1 for the thesis law
+        return EstimationGains(float(self.eta1) * r, float(self.eta2) * r, float(self.sigma))
 
     def emit_control(self, g, blocks, extra_at: int) -> list[str]:
         basis = self.basis_for(g.m)

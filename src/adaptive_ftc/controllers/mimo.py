@@ -65,7 +65,7 @@ class MimoDirectAdaptive(AdaptiveController):
         return regs
 
     def gains(self) -> MimoGains:
-        return MimoGains(float(self.eta), float(self.sigma))
+        return MimoGains(float(self.eta) * self.adaptation_scale, float(self.sigma))
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)

@@ -64,7 +64,8 @@ class NussbaumAdaptive(AdaptiveController):
         return Expression(text, ("tau",), context="`nussbaum` of NussbaumAdaptive")
 
     def gains(self) -> NussbaumGains:
-        return NussbaumGains(float(self.alpha0), float(self.alpha1), float(self.sigma))
+        r = self.adaptation_scale  # 1 for the thesis law
+        return NussbaumGains(float(self.alpha0) * r, float(self.alpha1) * r, float(self.sigma))
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.adaptive_names.append("tau")

@@ -50,8 +50,9 @@ class SignEstimation(AdaptiveController):
         _nonnegative(type(self).__name__, sigma0=self.sigma0, sigma1=self.sigma1)
 
     def gains(self) -> SignGains:
+        r = self.adaptation_scale  # 1 for the thesis law
         return SignGains(
-            float(self.alpha0), float(self.sigma0), float(self.alpha1), float(self.sigma1)
+            float(self.alpha0) * r, float(self.sigma0), float(self.alpha1) * r, float(self.sigma1)
         )
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:

@@ -94,15 +94,39 @@ class CompensabilityReport:
     """Result of :func:`check_compensability`: one :class:`Interval` per failure pattern."""
 
     intervals: tuple[Interval, ...]
+    #: Outputs whose control gain is not positive with *healthy* actuators, for a known-sign
+    #: design (sign conditions (2.16)/(4.6) already fail before any failure).
+    healthy_reversed: tuple[int, ...] = ()
+    #: The healthy control gain of each output (``sum_j g_ij R_ij``), for a known-sign design.
+    healthy_gains: tuple[float, ...] = ()
 
     @property
     def ok(self) -> bool:
-        """True when the rank condition holds on every interval."""
-        return all(i.ok for i in self.intervals)
+        """True when the rank condition (and, for a known-sign design, the sign conditions)
+        holds on every interval and for the healthy plant."""
+        return not self.healthy_reversed and all(i.ok for i in self.intervals)
+
+    @property
+    def dead_actuators(self) -> tuple[int, ...]:
+        """Actuators (0-based) that are not effective on any interval of the run (e.g. stuck
+        or at zero effectiveness from the start to the end): they never contribute."""
+        if not self.intervals:
+            return ()
+        m = len(self.intervals[0].effective)
+        return tuple(j for j in range(m) if not any(iv.effective[j] for iv in self.intervals))
 
     def describe(self, output_names: Sequence[str] | None = None) -> str:
         """Human-readable summary naming each interval and output group that fails."""
         lines = []
+        for g in self.healthy_reversed:
+            name = output_names[g] if output_names else f"output {g + 1}"
+            gain = self.healthy_gains[g] if g < len(self.healthy_gains) else float("nan")
+            lines.append(
+                f"healthy plant: NOT compensable by this known-sign design - the control gain "
+                f"of {name} with healthy actuators is {gain:.4g}, not positive (sign conditions "
+                "(2.16)/(4.6)); flip the signs of its allocation row (docs/sign-convention.md) "
+                "or use the 'nussbaum' or 'sign' design"
+            )
         for iv in self.intervals:
             end = "end" if math.isinf(iv.end) else f"{iv.end:g} s"
 
@@ -174,11 +198,14 @@ def check_compensability(
     known_sign
         The design assumes a known control direction (``direct``, ``estimation``, ``mimo``):
         then also check the sign conditions (2.16)/(4.6): along its allocation row, each
-        output's control gain ``sum_j g_j R_ij du^f_j/du_j`` must keep the sign it has with
-        healthy actuators at every sample point (a reversal that flips it is reported, even
-        when the rank condition holds).
+        output's control gain ``sum_j g_ij R_ij du^f_j/du_j`` must be positive with healthy
+        actuators (:attr:`CompensabilityReport.healthy_reversed`) and at every sample point
+        of every interval (a reversal that flips it is reported, even when the rank condition
+        holds).
     gains
-        Per-actuator plant gains ``g_j`` weighting the directional gain (default: all 1).
+        Plant gains weighting the directional gain: one per actuator ``g_j`` (shared by every
+        output) or a ``(outputs, actuators)`` matrix ``g_ij`` (``Plant.input_gains``); default
+        all 1.
     """
     R = np.atleast_2d(np.asarray(allocation, dtype=float))
     if R.shape[1] != schedule.n_actuators:
@@ -186,12 +213,19 @@ def check_compensability(
             f"The allocation has {R.shape[1]} columns but the schedule has "
             f"{schedule.n_actuators} actuators."
         )
-    g = np.ones(schedule.n_actuators) if gains is None else np.asarray(gains, dtype=float)
-    if g.shape != (schedule.n_actuators,) or not np.all(np.isfinite(g)):
+    m = schedule.n_actuators
+    G = np.ones(m) if gains is None else np.asarray(gains, dtype=float)
+    if G.shape == (m,):
+        G = np.broadcast_to(G, R.shape)
+    if G.shape != R.shape or not np.all(np.isfinite(G)):
         raise ConfigurationError(
-            f"`gains` must be {schedule.n_actuators} finite numbers (one per actuator); got "
-            f"{gains!r}."
+            f"`gains` must be {m} finite numbers (one per actuator) or a {R.shape[0]}x{m} "
+            f"matrix (one per output and actuator); got {gains!r}."
         )
+    healthy = np.sum(G * R, axis=1)  # each output's control gain with healthy actuators
+    healthy_reversed = (
+        tuple(i for i in range(R.shape[0]) if not healthy[i] > 1e-12) if known_sign else ()
+    )
     variables = ("t", "u", *state_names)
     rng = np.random.default_rng(0)
     bps = schedule.breakpoints(t0, t_final)
@@ -204,11 +238,10 @@ def check_compensability(
         eff = tuple(bool(np.any(np.abs(d) > 1e-12)) for d in slopes)
         reversed_groups: list[int] = []
         if known_sign:
-            D = np.stack(slopes, axis=0) * g[:, None]  # (m, samples)
-            healthy = R @ g
-            directional = R @ D  # (p, samples)
+            D = np.stack(slopes, axis=0)  # (m, samples)
+            directional = (G * R) @ D  # (p, samples)
             for i in range(R.shape[0]):
-                if healthy[i] != 0 and np.any(directional[i] * np.sign(healthy[i]) <= 1e-12):
+                if i not in healthy_reversed and np.any(directional[i] <= 1e-12):
                     reversed_groups.append(i)
         lost = []
         Reff = R * np.asarray(eff, dtype=float)[None, :]
@@ -220,4 +253,8 @@ def check_compensability(
                 lost = list(range(R.shape[0]))
         reversed_groups = [i for i in reversed_groups if i not in lost]
         intervals.append(Interval(a, b, eff, tuple(lost), tuple(reversed_groups)))
-    return CompensabilityReport(tuple(intervals))
+    return CompensabilityReport(
+        tuple(intervals),
+        healthy_reversed=healthy_reversed,
+        healthy_gains=tuple(float(v) for v in healthy) if known_sign else (),
+    )

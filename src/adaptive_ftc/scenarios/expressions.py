@@ -243,7 +243,9 @@ def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> 
             raise _err(src, f"operator '{type(n.op).__name__}' is not allowed.{hint}", context)
         a = _convert(n.left, src, variables, context)
         b = _convert(n.right, src, variables, context)
-        return _bin(op, a, b)
+        if op == "/" and _is_const(b, 0.0):
+            raise _err(src, f"'{_segment(src, n)}' divides by zero.", context)
+        return _constant_checked(_bin(op, a, b), (a, b), src, n, context)
     if isinstance(n, ast.Call):
         if not isinstance(n.func, ast.Name):
             raise _err(
@@ -266,7 +268,7 @@ def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> 
                 context,
             )
         args = tuple(_convert(a, src, variables, context) for a in n.args)
-        return _call(name, args)
+        return _constant_checked(_call(name, args), args, src, n, context)
     kind = type(n).__name__
     raise _err(
         src,
@@ -274,6 +276,38 @@ def _convert(n: ast.AST, src: str, variables: tuple[str, ...], context: str) -> 
         f"{', '.join(variables)}, + - * / ** and the functions {', '.join(FUNCTIONS)}.",
         context,
     )
+
+
+def _segment(src: str, n: ast.AST) -> str:
+    """The source text of sub-expression ``n`` (shortened)."""
+    try:
+        text = ast.get_source_segment(src, n) or src
+    except (TypeError, ValueError, IndexError):  # pragma: no cover - positions always set
+        text = src
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _constant_checked(
+    node: Node, parts: tuple[Node, ...], src: str, n: ast.AST, context: str
+) -> Node:
+    """A sub-expression of constants only is folded to a number when it is built (float
+    arithmetic: no big integers, bounded cost); one that is not a finite number (``1/0``,
+    ``log(0)``, ``sqrt(-1)``, ``10**1000000``) is refused, naming it."""
+    if node[0] != "const" and all(_is_const(p) for p in parts):
+        raise _err(
+            src,
+            f"the constant '{_segment(src, n)}' is not a finite number (infinite, undefined "
+            "or too large); fix it or write its value.",
+            context,
+        )
+    if node[0] == "const" and abs(node[1]) > MAX_LITERAL:
+        raise _err(
+            src,
+            f"the constant '{_segment(src, n)}' is larger than {MAX_LITERAL:g} in magnitude; "
+            "use a smaller one.",
+            context,
+        )
+    return node
 
 
 # ----------------------------------------------------------------------------- construction
@@ -291,9 +325,10 @@ def _neg(a: Node) -> Node:
 
 def _bin(op: str, a: Node, b: Node) -> Node:
     if _is_const(a) and _is_const(b):
-        try:
-            value = float(_NUMPY_BIN[op](a[1], b[1]))
-        except (ZeroDivisionError, OverflowError, ValueError):
+        try:  # float arithmetic (no big integers); a complex power is not a number here
+            value = _NUMPY_BIN[op](float(a[1]), float(b[1]))
+            value = float(value) if isinstance(value, float) else float("nan")
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
             value = float("nan")
         if math.isfinite(value):
             return ("const", value)

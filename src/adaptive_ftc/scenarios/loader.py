@@ -18,6 +18,7 @@ from typing import Any
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
+from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
 from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.hardware import Actuators, Sensors
@@ -39,6 +40,7 @@ _TOP = {
     "figures",
     "description",
     "extends",
+    "unset",
     "duration",
     "notes",
     "plant",
@@ -79,6 +81,13 @@ _TOP_SCHEMA: dict[str, dict[str, Any]] = {
         "type": "string",
         "maxLength": 1000,
         "description": "scenario name or path whose tables this file overrides",
+    },
+    "unset": {
+        "type": "array",
+        "items": {"type": "string", "maxLength": 1000},
+        "maxItems": 1000,
+        "description": "keys inherited through `extends` to remove, as dotted paths "
+        "(e.g. 'actuators', 'controller.regressor', 'solver.filter_tau')",
     },
     "duration": {
         "type": "number",
@@ -351,7 +360,13 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], str]
             f"{path}: not a usable TOML file ({type(exc).__name__}: {str(exc)[:200]})."
         ) from None
     base = data.pop("extends", None)
+    unset = data.pop("unset", None)
     if base is None:
+        if unset is not None:
+            raise ScenarioError(
+                f"{path}: `unset` removes keys inherited through `extends`, and this file "
+                "extends nothing; remove `unset`."
+            )
         return data, text
     if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: `extends` must be a scenario name or path (a string).")
@@ -363,7 +378,36 @@ def _read(path: Path, seen: tuple[Path, ...] = ()) -> tuple[dict[str, Any], str]
     merged, base_text = _read(base_path, seen + (path.resolve(),))
     for key in ("name", "title", "figures", "description", "notes", "claims", "figure"):
         merged.pop(key, None)  # metadata is never inherited
+    if unset is not None:
+        merged = _unset(merged, unset, path, base)
     return _merge(merged, data), f"# extends {base_path.name}:\n{base_text}\n# {path.name}:\n{text}"
+
+
+def _unset(base: dict[str, Any], unset: Any, path: Path, name: str) -> dict[str, Any]:
+    """``base`` without the keys named in ``unset`` (dotted paths such as ``"actuators"`` or
+    ``"controller.regressor"``); a path the base does not have is an error (a typo)."""
+    why = _check_value(unset, _TOP_SCHEMA["unset"])
+    if why:
+        raise ScenarioError(f"{path}: `unset`: {why}. {_fix(_TOP_SCHEMA['unset'])}")
+    out = _copy_tables(base)
+    for dotted in unset:
+        keys = dotted.split(".")
+        table = out
+        for key in keys[:-1]:
+            table = table.get(key) if isinstance(table, dict) else None
+        if not isinstance(table, dict) or keys[-1] not in table:
+            raise ScenarioError(
+                f"{path}: `unset` names '{dotted}', which '{name}' does not define (or which "
+                "is never inherited: name, title, figures, description, notes, claims, "
+                "figure). Remove it from `unset`."
+            )
+        del table[keys[-1]]
+    return out
+
+
+def _copy_tables(data: dict[str, Any]) -> dict[str, Any]:
+    """A copy of ``data`` whose nested tables are copies too (values are shared)."""
+    return {k: _copy_tables(v) if isinstance(v, dict) else v for k, v in data.items()}
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -518,6 +562,21 @@ def _build(cls: type, kwargs: dict[str, Any], ctx: _Ctx, where: str):
     raise _Problems
 
 
+def _partial(cls: type, table: dict[str, Any]):
+    """``cls`` built from the keys of ``table`` that are valid on their own (``None`` if even
+    that fails): lets later stages check what they can of a table with problems."""
+    props = _class_schema(cls)["properties"]
+    good = {
+        k: v
+        for k, v in table.items()
+        if k in props and _check_value(v, props[k], allow_inf=k == "max_step") is None
+    }
+    try:
+        return cls(**{k: _tupled(v) for k, v in good.items()})
+    except _BUILD_ERRORS:
+        return None
+
+
 def _has_regressor(cls: type) -> bool:
     """Whether design ``cls`` takes a ``regressor`` (the non-adaptive baselines do not)."""
     return any(f.name == "regressor" for f in dataclasses.fields(cls))
@@ -534,6 +593,42 @@ def _component(cls: type, table: dict[str, Any], ctx: _Ctx, where: str, skip=fro
     if not ok or missing:
         raise _Problems
     return _build(cls, table, ctx, where)
+
+
+def _constraint_aware(table: Any, ctrl, plant, hardware: dict[str, Any], ctx: _Ctx):
+    """``[controller.constraint_aware]``: the designer's model of the hardware, given field
+    by field or ``from_hardware = true`` (the declared [actuators], [sensors] and
+    [digital] tables; other keys then override)."""
+    where = "controller.constraint_aware"
+    table = ctx.table(table, where)
+    if table is None:
+        return None
+    table = dict(table)
+    schema = _class_schema(ConstraintAware)
+    if not ctx.keys(table, set(schema["properties"]) | {"from_hardware"}, where):
+        return None
+    derive = table.pop("from_hardware", False)
+    if not isinstance(derive, bool):
+        ctx.add(where, f"`from_hardware`: expected true or false, got {_show(derive)}.")
+        return None
+    if not ctx.typed(table, schema["properties"], where):
+        return None
+    try:
+        if derive:
+            ca = ConstraintAware.from_hardware(
+                actuators=hardware.get("actuators"),
+                sensors=hardware.get("sensors"),
+                sample_time=hardware.get("sample_time", 0.0),
+                plant=plant,
+                lam=ctrl.lam,
+                **table,
+            )
+        else:
+            ca = ConstraintAware(**table)
+    except (ConfigurationError, ValueError, TypeError) as exc:
+        ctx.add(where, str(exc))
+        return None
+    return dataclasses.replace(ctrl, constraint_aware=ca)
 
 
 def _regressor(table: Any, ctx: _Ctx, where: str):
@@ -592,9 +687,9 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 
 def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
-    ctx.keys(data, _TOP - {"extends"}, "")
+    ctx.keys(data, _TOP - {"extends", "unset"}, "")
     for key, sch in _TOP_SCHEMA.items():
-        if key in data and key != "extends":
+        if key in data and key not in ("extends", "unset"):
             why = _check_value(data[key], sch)
             if why:
                 ctx.add("", f"`{key}`: {why}. {_fix(sch)}")
@@ -633,12 +728,16 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 if why:
                     ctx.add("reference", f"`outputs`: {why}. {_fix(_OUTPUTS)}")
                     outputs = None
+                else:
+                    outputs = _reference_checked(outputs, plant, ctx)
     elif plant is not None:
         outputs = ["0"] * plant.n_outputs
     # ---------------------------------------------------------------- controller
     ctrl = None
+    ca_tab = None  # [controller.constraint_aware], built once the hardware is read
     adapt = True
     allocation = None
+    built_regressors: tuple = ()
     if "controller" not in data:
         ctx.add("", "missing table [controller] (design = 'direct', 'estimation', ...).")
     ctab = ctx.table(data["controller"], "controller") if "controller" in data else None
@@ -663,6 +762,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             elif _choice(ctx, "controller", "design", design, list(DESIGNS) + ["none"]):
                 dcls = DESIGNS[design]
                 adapt = ctab.pop("adapt", True)
+                ca_tab = ctab.pop("constraint_aware", None)
                 if not isinstance(adapt, bool):
                     ctx.add("controller", f"`adapt`: expected true or false, got {_show(adapt)}.")
                     adapt = True
@@ -702,6 +802,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 else:
                     reg = _regressor(regs, ctx, "controller.regressor")
                 if regs is not None:
+                    built_regressors = reg if isinstance(reg, tuple) else (reg,)
                     ctrl = _component(
                         dcls, {**ctab, "regressor": reg}, ctx, "controller", {"regressor"}
                     )
@@ -713,6 +814,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 )
         except _Problems:
             ctrl = None
+    if ctrl is None and plant is not None:  # the loop's check of the inputs will not run
+        _check_regressor_inputs(built_regressors, plant, ctx)
     # ---------------------------------------------------------------- failures
     failures = []
     failures_ok = True
@@ -760,12 +863,13 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                 hardware["sample_time"] = float(ts)
     # ---------------------------------------------------------------- solver
     solver = None
+    checks = None  # the solver the later stages check with (its good keys when it is bad)
     stab = ctx.table(data.get("solver", {}), "solver")
     if stab is not None:
         try:
-            solver = _component(SolverOptions, stab, ctx, "solver")
+            solver = checks = _component(SolverOptions, stab, ctx, "solver")
         except _Problems:
-            solver = None
+            solver, checks = None, _partial(SolverOptions, stab)
     if "duration" not in data:
         ctx.add("", "missing key 'duration' (seconds, e.g. duration = 10.0).")
     duration = data.get("duration")
@@ -773,9 +877,22 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     figs = data.get("figure", [])
     if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
         ctx.add("claims", "write claims as [[claims]] tables.")
+    else:
+        _check_claims(claims, ctx)
     if not isinstance(figs, list) or not all(isinstance(f, dict) for f in figs):
         ctx.add("figure", "write figures as [[figure]] tables.")
-    if ctx.problems or plant is None or ctrl is None or not failures_ok or outputs is None:
+    else:
+        _check_figures(figs, plant, ctx)
+    if ca_tab is not None and ctrl is not None and plant is not None:
+        ctrl = _constraint_aware(ca_tab, ctrl, plant, hardware, ctx)
+    # ---------------------------------------------------------------- the loop
+    # the later stages run on whatever parts were built, so every problem shows at once
+    if plant is None or not _plant_parts_ok(plant, x0, outputs, failures, ctx):
+        raise _Problems
+    duration_ok = _check_value(duration, _TOP_SCHEMA["duration"]) is None
+    if ctrl is None or not failures_ok or outputs is None or not duration_ok:
+        if checks is not None and _check_value(x0, _INITIAL_STATE) is None:
+            _check_bound(list(zip(plant.state_names, map(float, x0), strict=False)), checks, ctx)
         raise _Problems
     loop = _build(
         ClosedLoop,
@@ -794,32 +911,34 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         ctx,
         "",
     )
-    if solver is None:
-        raise _Problems
-    # the run must fit in memory and finish: steps, samples and recorded bytes
-    try:
-        check_run_size(loop, solver)
-    except ConfigurationError as exc:
-        ctx.add("solver", str(exc))
-        raise _Problems from None
+    if checks is not None:
+        _check_solver(loop, checks, ctx)
+        # the run must fit in memory and finish: steps, samples and recorded bytes
+        try:
+            check_run_size(loop, checks)
+        except ConfigurationError as exc:
+            ctx.add("solver", str(exc))
     # resolve every expression and regressor input now, so nothing half-runs
+    sdot = (checks or SolverOptions()).sdot_for(loop)
     try:
         from adaptive_ftc.sim.compose import generate
 
-        _, _, gen, layout = generate(loop, sdot=solver.sdot_for(loop))  # checks every part
-        if isinstance(solver.atol, tuple):  # one atol per state: as many as the loop has
+        _, _, gen, layout = generate(loop, sdot=sdot)  # checks every part
+        if solver is not None and isinstance(solver.atol, tuple):  # one atol per state
             names = [*loop.plant.state_names, *gen.adaptive_names, *layout["extra_names"]]
             try:
                 solver.atol_for(int(layout["ny_all"]), names)
             except ConfigurationError as exc:
                 ctx.add("solver", str(exc))
-                raise _Problems from None
     except (ConfigurationError, ExpressionError) as exc:
         ctx.add("", str(exc))
-        raise _Problems from None
     except _BUILD_ERRORS as exc:
         ctx.add("", f"the loop cannot be assembled ({type(exc).__name__}: {exc}).")
-        raise _Problems from None
+    if ctx.problems:
+        _add_compensability(loop, ctx)  # listed with the other problems, not a round later
+        raise _Problems
+    if solver is None:  # pragma: no cover - a failed [solver] table records a problem
+        raise _Problems
     return Scenario(
         name=name,
         title=str(data.get("title", name)),
@@ -835,6 +954,203 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         source=path,
         text=text,
     )
+
+
+def _reference_checked(outputs: list[Any], plant: Any, ctx: _Ctx) -> list[Any] | None:
+    """Parse every reference expression now (``None`` when one is bad, each recorded)."""
+    from adaptive_ftc.scenarios.expressions import Expression
+
+    ok = True
+    for i, text in enumerate(outputs):
+        names = getattr(plant, "output_names", ())
+        name = names[i] if i < len(names) else f"{i + 1}"
+        try:
+            Expression(text, ("t",), context=f"reference of output '{name}'")
+        except ExpressionError as exc:
+            ctx.add("reference", str(exc))
+            ok = False
+    return outputs if ok else None
+
+
+def _plant_parts_ok(plant: Any, x0: Any, outputs: Any, failures: list[Any], ctx: _Ctx) -> bool:
+    """Checks of the parts against the plant that need no controller: the initial state
+    (its length, inside the plant's envelope), one reference per output, failures of
+    existing actuators that do not overlap. Each problem is recorded; ``False`` when the
+    loop cannot be built (an initial state outside the envelope does not stop that)."""
+    ok = True
+    n, p, m = plant.n_states, plant.n_outputs, plant.n_actuators
+    if isinstance(x0, list) and _check_value(x0, _INITIAL_STATE) is None:
+        if len(x0) > n:
+            ok = False
+            ctx.add(
+                "plant",
+                f"`initial_state` has {len(x0)} values but plant '{plant.name}' has {n} states "
+                f"({', '.join(plant.state_names)}).",
+            )
+        env = tuple(getattr(plant, "envelope", ()) or ())
+        for i, (x, bound) in enumerate(zip(x0, env, strict=False)):
+            if abs(x) > bound:
+                name = plant.state_names[i]
+                ctx.add(
+                    "plant",
+                    f"`initial_state`: {name} = {x:g} is outside the plant's envelope "
+                    f"|{name}| <= {bound:.4g} (the run would stop at its first sample). Give a "
+                    "value inside it.",
+                )
+    if outputs is not None and len(outputs) != p:
+        ok = False
+        ctx.add(
+            "reference",
+            f"`outputs` needs one expression per output of plant '{plant.name}' "
+            f"({', '.join(plant.output_names)}); got {len(outputs)}.",
+        )
+    if failures:
+        from adaptive_ftc.faults import FailureSchedule
+
+        try:
+            FailureSchedule(tuple(failures), m)
+        except ConfigurationError as exc:
+            ok = False
+            ctx.add("failures", str(exc))
+    return ok
+
+
+def _check_regressor_inputs(regressors: tuple, plant: Any, ctx: _Ctx) -> None:
+    """Each regressor input must name a signal of the plant's loop (checked here when the
+    controller could not be built, so the loop's own check cannot run)."""
+    from adaptive_ftc.sim.system import signal_names
+
+    names = signal_names(plant)
+    for i, reg in enumerate(regressors):
+        where = "controller.regressor" + (f".{i + 1}" if len(regressors) > 1 else "")
+        for name in getattr(reg, "inputs", ()):
+            if name not in names:
+                ctx.add(
+                    where,
+                    f"unknown regressor input '{name}'.{did_you_mean(str(name), names)} "
+                    f"Available signals: {', '.join(names)}.",
+                )
+
+
+def _check_claims(claims: list[dict[str, Any]], ctx: _Ctx) -> None:
+    """Keys and values of each [[claims]] table (what ``aftc reproduce`` will check)."""
+    from adaptive_ftc.claims import ClaimError, _params
+
+    for i, claim in enumerate(claims):
+        try:
+            _params(claim)
+        except ClaimError as exc:
+            ctx.add(f"claims.{i + 1}", str(exc))
+        except _BUILD_ERRORS as exc:  # e.g. an integer too large for a float
+            ctx.add(f"claims.{i + 1}", f"invalid value ({type(exc).__name__}: {str(exc)[:200]}).")
+
+
+#: Keys of a [[figure]] table and the kinds ``adaptive_ftc.plots.plot`` draws.
+_FIGURE_KEYS = {"number", "kind", "caption", "outputs", "zoom"}
+_FIGURE_KINDS = ("tracking", "control", "parameters", "control_parameters", "modal", "direction")
+
+
+def _check_figures(figs: list[dict[str, Any]], plant: Any, ctx: _Ctx) -> None:
+    """Keys and values of each [[figure]] table, before anything is simulated."""
+    for i, fig in enumerate(figs):
+        where = f"figure.{i + 1}"
+        ctx.keys(fig, _FIGURE_KEYS, where)
+        kind = fig.get("kind")
+        if "kind" not in fig:
+            ctx.add(where, f"missing key 'kind' (one of {', '.join(_FIGURE_KINDS)}).")
+        else:
+            _choice(ctx, where, "figure kind", kind, _FIGURE_KINDS)
+        for key in ("number", "caption"):
+            value = fig.get(key, "")
+            if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+                ctx.add(where, f"`{key}`: expected a text or a number, got {_show(value)}.")
+        if "outputs" in fig:
+            outs = fig["outputs"]
+            p = plant.n_outputs if plant is not None else None
+            names = f" ({', '.join(plant.output_names)})" if plant is not None else ""
+            good = (
+                isinstance(outs, list)
+                and outs
+                and all(
+                    isinstance(o, int)
+                    and not isinstance(o, bool)
+                    and 1 <= o <= (p if p is not None else o)
+                    for o in outs
+                )
+            )
+            if not good:
+                ctx.add(
+                    where,
+                    f"`outputs`: expected a list of output numbers from 1 to {p or 'p'}{names}, "
+                    f"got {_show(outs) if isinstance(outs, dict) else repr(outs)[:60]}.",
+                )
+        if "zoom" in fig:
+            zoom = fig["zoom"]
+            if not (
+                isinstance(zoom, list)
+                and len(zoom) == 2
+                and all(_check_value(v, {"type": "number"}) is None for v in zoom)
+                and zoom[0] < zoom[1]
+            ):
+                ctx.add(where, "`zoom`: expected [start, end] in s with start < end.")
+        if kind == "modal" and plant is not None:
+            if not any(n.startswith("eta") for n in plant.state_names):
+                ctx.add(
+                    where,
+                    f"a 'modal' figure needs flexible-mode (eta) states; plant '{plant.name}' "
+                    "has none. Use another kind.",
+                )
+
+
+def _add_compensability(loop: ClosedLoop, ctx: _Ctx) -> None:
+    """Record the conditions `aftc validate` checks (rank (3.6), sign (2.16)/(4.6)) that the
+    loop breaks, as problems of the file."""
+    try:
+        report = loop.compensability(design=True)
+    except _BUILD_ERRORS:  # e.g. a failure expression that cannot be evaluated
+        return
+    if report.ok:
+        return
+    for line in report.describe(loop.plant.output_names).splitlines():
+        if "NOT compensable" in line:
+            ctx.add("failures", f"not compensable: {line}.")
+
+
+def _check_bound(start: list[tuple[str, float]], solver: SolverOptions, ctx: _Ctx) -> None:
+    """The initial values (name, value) must lie below the solver's divergence bound."""
+    if not start:
+        return
+    bound = float(solver.divergence_bound)
+    name, x = max(start, key=lambda item: abs(item[1]))
+    if not abs(x) < bound:
+        ctx.add(
+            "solver",
+            f"`divergence_bound` = {bound:g}: the initial value {name} = {x:g} is already not "
+            f"below it (the run would stop at its first sample). Give a bound above "
+            f"{abs(x):g}, e.g. the default 1e8.",
+        )
+
+
+def _check_solver(loop: ClosedLoop, solver: SolverOptions, ctx: _Ctx) -> None:
+    """Solver settings that cannot work on this loop: a divergence bound the initial state
+    already exceeds, an unstable sampled ``s'`` filter."""
+    start = [(n, x) for n, x in zip(loop.plant.state_names, loop.initial_state, strict=False)]
+    start.append(("theta0", float(loop.controller.theta0)))
+    start += [(f"adaptive_initial[{i + 1}]", v) for i, v in enumerate(loop.adaptive_initial)]
+    if loop.actuators is not None:
+        start += [(f"actuator {i + 1}", v) for i, v in enumerate(loop.actuators.initial)]
+    _check_bound(start, solver, ctx)
+    ts = loop.sample_time
+    if ts > 0 and solver.sdot_for(loop) == "filtered":
+        tau = solver.filter_tau_for(loop)
+        if not ts < 2.0 * tau:
+            ctx.add(
+                "solver",
+                f"`filter_tau` = {tau:g} s: the sampled s' filter is unstable with the "
+                f"[digital] sample_time = {ts:g} s (it needs sample_time < 2 filter_tau). "
+                f"Stable range: filter_tau > {ts / 2:g} s; leave it out for the default "
+                f"max(0.01, 2 sample_time) = {max(0.01, 2 * ts):g} s.",
+            )
 
 
 _INITIAL_STATE = {"type": "array", "items": {"type": "number"}, "maxItems": 1000}

@@ -124,7 +124,16 @@ def template(name: str) -> str:
 
 # ----------------------------------------------------------------------------- cache
 def cache_dir() -> Path | None:
-    """The writable cache directory for generated loops, or ``None`` (compile in memory)."""
+    """The writable, private cache directory for generated loops, or ``None`` (compile in
+    memory).
+
+    Generated modules and numba's cache pickles are imported from it, so a folder is used only
+    when it is the user's own: created with mode 0700, and an existing folder (the candidate
+    and its ``loops``) must be owned by the current user and not writable by group or others.
+    A folder that fails the check is skipped with a :class:`UserWarning` (another local user
+    could have created ``/tmp/adaptive-ftc-<uid>`` first); when none is usable, loops are
+    compiled in memory.
+    """
     candidates = []
     if os.environ.get("ADAPTIVE_FTC_CACHE_DIR"):
         candidates.append(Path(os.environ["ADAPTIVE_FTC_CACHE_DIR"]))
@@ -136,7 +145,12 @@ def cache_dir() -> Path | None:
     for c in candidates:
         try:
             d = c / "loops"
-            d.mkdir(parents=True, exist_ok=True)
+            c.mkdir(mode=0o700, parents=True, exist_ok=True)
+            d.mkdir(mode=0o700, exist_ok=True)
+            why = _not_private(c) or _not_private(d)
+            if why:
+                _warn_unsafe(c, why)
+                continue
             probe = d / f".probe-{os.getpid()}-{threading.get_ident()}"
             probe.write_text("")
             probe.unlink()
@@ -144,6 +158,40 @@ def cache_dir() -> Path | None:
         except OSError:
             continue
     return None
+
+
+def _not_private(folder: Path) -> str:
+    """Why ``folder`` is not safe to import code from ("" when it is)."""
+    if not hasattr(os, "getuid"):  # pragma: no cover - Windows: per-user profile folders
+        return ""
+    st = os.lstat(folder)
+    import stat
+
+    if stat.S_ISLNK(st.st_mode):
+        return "it is a symbolic link"
+    if st.st_uid != os.getuid():
+        return f"it is owned by user id {st.st_uid}, not by you ({os.getuid()})"
+    if st.st_mode & 0o022:
+        return f"it is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})"
+    return ""
+
+
+_warned: set[str] = set()
+
+
+def _warn_unsafe(folder: Path, why: str) -> None:
+    import warnings
+
+    if str(folder) in _warned:
+        return
+    _warned.add(str(folder))
+    warnings.warn(
+        f"Not using the compile cache '{folder}': {why}. Generated code is imported from "
+        "there, so it must be yours and private (chmod 700, or set ADAPTIVE_FTC_CACHE_DIR to "
+        "a private folder); compiling elsewhere or in memory instead.",
+        UserWarning,
+        stacklevel=3,
+    )
 
 
 def _user() -> str:

@@ -127,6 +127,9 @@ class Generator:
     #: lines that depend on t alone, run once per distinct t (with the reference): a
     #: Rosenbrock step evaluates its Jacobian's columns at one t
     per_time: list[str] = field(default_factory=list)
+    #: the last controller states that keep running while adaptation is frozen (filters of
+    #: the constraint-aware option)
+    free_running: int = 0
 
     # sizes fixed by the plant
     @property
@@ -545,7 +548,7 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
     fphase = -np.ones((nph, m), dtype=np.int64)
     kinds: list[int] = []
     offsets: list[int] = []
-    patterns: list[tuple[str, str] | None] = []
+    patterns: list[tuple[str, str, str] | None] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
     # every failure of the schedule, active in this window or not: a shortened run (quick
@@ -569,8 +572,11 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
             text = codegen.emit(e.node, names, local)
             dlocal: list[float] = []
             dtext = codegen.emit(e.derivative("u").node, names, dlocal)
+            # the pattern at u = uh (the same numbers as the pattern's: the same tree): the
+            # slope's central difference where the derivative is undefined
+            htext = codegen.emit(e.node, {**names, "u": "uh"}, [])
             # the slope's numbers follow the pattern's
-            pattern, numbers = (text, _shift(dtext, len(local))), local + dlocal
+            pattern, numbers = (text, _shift(dtext, len(local)), htext), local + dlocal
             kind = 3 if re.search(r"\b(u|x)\b", text) else 2
         seen[id(f)] = len(kinds)
         kinds.append(kind)
@@ -646,8 +652,9 @@ def instance(ph, j, D):
 _PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
 
 
-def _pattern_source(text: str, dtext: str) -> str:
-    """The module of one failure pattern (not affine): its value and its slope in ``u``."""
+def _pattern_source(text: str, dtext: str, htext: str) -> str:
+    """The module of one failure pattern (not affine): its value and its slope in ``u``
+    (``htext``: the pattern at ``u = uh``, for the slope where its derivative is undefined)."""
     guarded = _guarded()
     return "\n".join(
         [
@@ -678,14 +685,24 @@ def _pattern_source(text: str, dtext: str) -> str:
             "",
             "@hot",
             "def slope(t, x, u, c, o):",
-            '    """d(failed output)/du."""',
-            f"    return {dtext}",
+            '    """d(failed output)/du; where it is undefined (a kink: sqrt(u**2), abs(u)**0.5',
+            "    at u = 0) the central difference over 2e-6 max(1, |u|), so that the recorded",
+            '    control gain stays finite."""',
+            f"    d = {dtext}",
+            "    if math.isfinite(d):",
+            "        return d",
+            "    h = 1e-6 * max(1.0, abs(u))",
+            "    uh = u + h",
+            f"    above = {htext}",
+            "    uh = u - h",
+            f"    below = {htext}",
+            "    return (above - below) / (2.0 * h)",
             "",
         ]
     )
 
 
-def _pattern_addresses(pattern: tuple[str, str]) -> tuple[int, int]:
+def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
     """Addresses of the compiled ``value`` and ``slope`` of ``pattern`` (its module compiled
     or loaded from the cache on first use; remembered on the module)."""
     from adaptive_ftc.sim import fptr
@@ -937,6 +954,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    ca_measure = []
+    if ctrl.constraint_aware is not None:  # its states after the design's own
+        ca_control, ca_pre, ca_post, ca_measure = ctrl.emit_constraint_aware(
+            g, blocks, extra_at + len(g.y0_extra)
+        )
+        control_src = control_src + ca_control
+        adapt_src = ca_pre + adapt_src + ca_post
     # ``gains(D).x`` at each use: building them once per call (``gs = gains(D)``) ran 1.5 %
     # slower (the NamedTuple then lives across the whole right-hand side)
     control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
@@ -968,10 +992,15 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         f"    x = Y[0:{nx}]",
         "    c = D.c",
         *[_view(name) for name in _WORK],
-        f"    for i in range({nx}):",
-        "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
-        if has_meas
-        else "        sig[i] = x[i]",
+        *(
+            ca_measure
+            or [
+                f"    for i in range({nx}):",
+                "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
+                if has_meas
+                else "        sig[i] = x[i]",
+            ]
+        ),
         "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
         "        reference(t, c, ref)",
         *[f"        {line}" for line in g.per_time],
@@ -1083,7 +1112,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             body.append("    misc[2] = sd")
     body += [
         "    if c[ADAPT] == 0.0:  # adaptation frozen",
-        f"        for i in range({nx}, {filt}):",
+        f"        for i in range({nx}, {filt - g.free_running}):",
         "            dY[i] = 0.0",
         *["    " + ln for ln in held],
         "        return",
@@ -1189,12 +1218,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
+    lam_law, k_law, k0_law, eps0_law = ctrl.robust_settings()  # the thesis's or constraint-aware
     settings = {
-        "lam": _per_output(ctrl.lam, p, "lam"),
-        "k": _per_output(ctrl.k, p, "k"),
-        "k0": _per_output(ctrl.k0, p, "k0"),
+        "lam": _per_output(lam_law, p, "lam"),
+        "k": _per_output(k_law, p, "k"),
+        "k0": _per_output(k0_law, p, "k0"),
         "R": tuple(np.ravel(loop.R)),
-        "eps0": (float(ctrl.eps0),),
+        "eps0": (float(eps0_law),),
         "filter_tau": (0.01,),
         "adapt": (1.0 if loop.adapt else 0.0,),
         "centers": tuple(g.centers),
@@ -1436,6 +1466,9 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     if loop.actuators is not None and loop.actuators.initial:
         at = layout["at_act"]
         y0[at : at + g.m] = loop.actuators.initial
+    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
+        at = nx + g.adaptive_names.index("measurement_filter1")
+        y0[at : at + nx] = y0[:nx]
     if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
         raise ConfigurationError(
             f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.status import RunStatus, StatusReason
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -50,12 +52,21 @@ class SimResult:
     control_gain
         True control gain of output 1 along the allocation, ``sum_j g_j R_1j d u^f_j / d u_j``:
         its sign is the true control direction (4.6).
-    status, message
-        ``"completed"`` or ``"diverged"`` and the divergence message.
+    status, reason, message
+        How the run ended (a :class:`~adaptive_ftc.RunStatus`: ``"completed"``,
+        ``"diverged"``, ``"nonfinite"``, ``"step_underflow"``, ``"singular"``, ...), why (a
+        :class:`~adaptive_ftc.StatusReason`, ``None`` when completed) and the message built
+        from both.
     state_units, output_units, actuator_units
         UDUNITS strings declared by the plant class (``state_units``, ``output_units``,
         ``actuator_units`` class attributes); empty when the plant declares none, and the
         exported file then says ``"1"`` with a comment.
+    actuator_position
+        Actuator positions (time, actuator) when the actuators have states (declared
+        :class:`~adaptive_ftc.hardware.Actuators` or a dynamics failure): the position state
+        of an actuator with dynamics, else its command clipped to its travel; ``None`` for
+        ideal actuators. The limits are in ``meta["actuator_limits"]``
+        (:mod:`adaptive_ftc.sim.activity`).
     """
 
     time: np.ndarray
@@ -81,12 +92,17 @@ class SimResult:
     theta_slices: tuple[slice, ...]
     failure_times: tuple[float, ...]
     failures: tuple[str, ...]
-    status: str = "completed"
+    status: RunStatus = RunStatus.COMPLETED
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
     state_units: tuple[str, ...] = ()
     output_units: tuple[str, ...] = ()
     actuator_units: tuple[str, ...] = ()
+    actuator_position: np.ndarray | None = None
+    reason: StatusReason | None = None
+
+    def __post_init__(self) -> None:
+        self.status = RunStatus(self.status)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -102,9 +118,12 @@ class SimResult:
         solver: SolverOptions,
         message: str,
         wall_time: float,
+        status: RunStatus | str = RunStatus.COMPLETED,
+        reason: StatusReason | None = None,
     ) -> SimResult:
         """Build a result from recorded closed-loop states; ``signals``: their block from
-        ``asm.signals`` (:func:`signal_block`), else recomputed here."""
+        ``asm.signals`` (:func:`signal_block`), else recomputed here. ``status`` and
+        ``reason`` say how the run ended; ``message`` is the text built from them."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
         out = signals
         if out is None:
@@ -140,6 +159,11 @@ class SimResult:
             "sample_time": loop.sample_time,
         }
         plant = loop.plant
+        from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
+
+        u_cmd = out[:, c : c + m]
+        if loop.has_actuator_dynamics:
+            meta["actuator_limits"] = actuator_limits_meta(loop, asm)
         return cls(
             # views of the recorded block, like the signals below: copying them cost ~1 ms
             # of a 60 ms run
@@ -154,7 +178,7 @@ class SimResult:
             s=cols[5],
             sdot=cols[6],
             u0=cols[8],
-            u_cmd=out[:, c : c + m],
+            u_cmd=u_cmd,
             u_applied=out[:, c + m : c + 2 * m],
             u_f=out[:, c + 2 * m],
             gain=out[:, c + 2 * m + 1],
@@ -166,13 +190,15 @@ class SimResult:
             theta_slices=asm.theta_slices,
             failure_times=tuple(times),
             failures=tuple(loop.describe_failures()),
-            status="diverged" if message else "completed",
+            status=RunStatus(status),
+            reason=reason,
             message=message,
             meta=meta,
             state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
             output_units=_declared_units(plant, ("output_units",), p)
             or _output_units(loop.plant.state_names, loop.plant.output_names, su),
             actuator_units=_declared_units(plant, ("actuator_units",), m),
+            actuator_position=actuator_positions(loop, asm, Y, phases, u_cmd),
         )
 
     def __repr__(self) -> str:
@@ -272,6 +298,38 @@ class SimResult:
             "t_end": t_end,
             "status": self.status,
         }
+        out.update(self._activity_metrics(t_end - fw, t_end))
+        return out
+
+    def activity(
+        self, start: float | None = None, end: float | None = None, f_c: float = 1.0
+    ) -> dict[str, Any]:
+        """Control activity per actuator over ``[start, end]`` (default: the whole run):
+        fast command content above ``f_c`` Hz, total variation per second, peak rate,
+        fractions of time at a rate or travel limit, peak command against the declared travel,
+        peak to peak. Actuator name -> :class:`~adaptive_ftc.sim.activity.ActuatorActivity`
+        (see :mod:`adaptive_ftc.sim.activity` for the definitions and the aliasing rule)."""
+        from adaptive_ftc.sim.activity import activity
+
+        return activity(self, start, end, f_c=f_c)
+
+    def _activity_metrics(self, start: float, end: float) -> dict[str, Any]:
+        """The final window's activity for :meth:`metrics`: per actuator
+        ``<metric>_<actuator>``, the worst actuator's ``<metric>_max`` and the record check."""
+        from adaptive_ftc.sim.activity import ACTIVITY_FIELDS, DEFAULT_F_C
+
+        acts = self.activity(start, end, f_c=DEFAULT_F_C)
+        out: dict[str, Any] = {}
+        for name, a in acts.items():
+            for key in ACTIVITY_FIELDS:
+                out[f"{key}_{name}"] = getattr(a, key)
+        for key in ACTIVITY_FIELDS:
+            vals = [getattr(a, key) for a in acts.values() if not math.isnan(getattr(a, key))]
+            out[f"{key}_max"] = max(vals) if vals else math.nan
+        first = next(iter(acts.values()), None)
+        out["activity_f_c"] = DEFAULT_F_C
+        out["activity_record_dt"] = first.record_dt if first else math.nan
+        out["activity_record_ok"] = bool(first.record_ok) if first else False
         return out
 
     # ------------------------------------------------------------------ export
@@ -341,6 +399,12 @@ class SimResult:
             self.u_applied[idx],
             _attrs("actuator output after failures u^f", act_units, declared=declared_u),
         )
+        if self.actuator_position is not None:
+            data["u_position"] = (
+                ("time", "actuator"),
+                self.actuator_position[idx],
+                _attrs("actuator position (declared actuators)", act_units, declared=declared_u),
+            )
         data["u_f"] = (
             ("time",),
             self.u_f[idx],
@@ -422,7 +486,7 @@ class SimResult:
             else:
                 attrs[k] = str(v)
         attrs.update(
-            status=self.status,
+            status=str(self.status),
             message=self.message,
             failure_times=np.asarray(self.failure_times, dtype=float),
             failures="; ".join(self.failures),
@@ -436,6 +500,9 @@ class SimResult:
                     "state_units": list(self.state_units),
                     "output_units": list(self.output_units),
                     "actuator_units": list(self.actuator_units),
+                    "reason": _jsonable(dataclasses.asdict(self.reason))
+                    if self.reason is not None
+                    else None,
                 },
                 sort_keys=True,
             ),
@@ -502,12 +569,14 @@ class SimResult:
             theta_slices=tuple(slice(a, b) for a, b in info["theta_slices"]),
             failure_times=tuple(float(t) for t in np.atleast_1d(ds.attrs.get("failure_times", []))),
             failures=tuple(info["failures"]),
-            status=str(ds.attrs.get("status", "completed")),
+            status=RunStatus(str(ds.attrs.get("status", "completed"))),
+            reason=_reason_from_json(info.get("reason")),
             message=str(ds.attrs.get("message", "")),
             meta=dict(info["meta"]),
             state_units=tuple(info.get("state_units", ())),
             output_units=tuple(info.get("output_units", ())),
             actuator_units=tuple(info.get("actuator_units", ())),
+            actuator_position=arr("u_position") if "u_position" in ds else None,
         )
 
     def to_pandas(self) -> pd.DataFrame:
@@ -613,7 +682,6 @@ def _solver_settings(solver: Any) -> str:
 
 @functools.lru_cache(maxsize=64)
 def _settings_text(solver: Any) -> str:
-    import dataclasses
 
     try:
         fields = dataclasses.asdict(solver)
@@ -634,6 +702,22 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+def _reason_from_json(data: dict[str, Any] | None) -> StatusReason | None:
+    """The :class:`StatusReason` written by :meth:`SimResult.to_netcdf` (non-finite numbers are
+    stored as their text)."""
+    if not data:
+        return None
+    known = {f.name: f for f in dataclasses.fields(StatusReason)}
+    values: dict[str, Any] = {}
+    for k, v in data.items():
+        if k not in known:
+            continue
+        if k in ("time", "value", "bound") and v is not None:
+            v = float(v)
+        values[k] = v
+    return StatusReason(**values)
 
 
 def _declared_units(plant: Any, attrs: tuple[str, ...], size: int) -> tuple[str, ...]:

@@ -18,7 +18,45 @@ from adaptive_ftc.faults.schedule import (
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.plants.base import Plant
 
-__all__ = ["ClosedLoop"]
+__all__ = ["KNOWN_SIGN_DESIGNS", "ClosedLoop", "signal_names"]
+
+#: Designs that assume a known control direction (sign conditions (2.16)/(4.6) apply).
+KNOWN_SIGN_DESIGNS = ("direct", "estimation", "mimo")
+
+
+def signal_names(plant: Plant) -> dict[str, int]:
+    """Controller signals a regressor may use on ``plant``'s loop (states and their aliases,
+    ``e``, ``edot``, ``s`` per output), with their index in the signal vector."""
+    n, p = plant.n_states, plant.n_outputs
+    names = dict(plant.aliases())
+    for i in range(p):
+        for j, stem in enumerate(("e", "edot", "s")):
+            names[f"{stem}{i + 1}"] = n + j * p + i
+            if p == 1:
+                names[stem] = n + j * p + i
+    return names
+
+
+def _input_gains(plant: Plant) -> np.ndarray | None:
+    """The plant's ``(outputs, actuators)`` input gains at the zero state, measured from its
+    own equations (any plant, user plants included); else its declared per-actuator gains
+    (``actuator_gains`` or ``b``); else ``None`` (all 1)."""
+    shape = (plant.n_outputs, plant.n_actuators)
+    try:
+        G = np.asarray(plant.input_gains(), dtype=float)
+        if G.shape == shape and np.all(np.isfinite(G)):
+            return G
+    except Exception:  # noqa: BLE001 - a plant whose equations cannot run in Python
+        pass
+    for attr in ("actuator_gains", "b"):
+        value = getattr(plant, attr, None)
+        try:
+            gains = np.asarray([float(v) for v in value], dtype=float)  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            continue
+        if gains.shape == (plant.n_actuators,) and np.all(np.isfinite(gains)):
+            return gains
+    return None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -103,7 +141,7 @@ class ClosedLoop:
             raise ConfigurationError(
                 f"`allocation` must be a {p}x{m} matrix R for plant '{plant.name}' "
                 f"({p} output(s), {m} actuators)"
-                + (" or a list of {m} proportional gains" if p == 1 else "")
+                + (f" or a list of {m} proportional gains" if p == 1 else "")
                 + f"; got shape {R.shape}."
             )
         if not np.all(np.isfinite(R)):
@@ -212,10 +250,26 @@ class ClosedLoop:
         """The actuation matrix as an array."""
         return np.asarray(self.allocation, dtype=float)
 
-    def compensability(self) -> CompensabilityReport:
-        """Rank condition (3.6) on every interval of fixed failure pattern."""
+    @property
+    def known_sign(self) -> bool:
+        """Whether the design assumes a known control direction (``direct``, ``estimation``,
+        ``mimo`` while adapting): the sign conditions (2.16)/(4.6) then apply."""
+        return self.adapt and self.controller.design in KNOWN_SIGN_DESIGNS
+
+    def compensability(self, *, design: bool = False) -> CompensabilityReport:
+        """Rank condition (3.6) on every interval of fixed failure pattern; ``design=True``
+        adds the design's own conditions: for a known-sign design the sign conditions
+        (2.16)/(4.6), for the healthy plant and on every interval, weighted by the plant's
+        input gains (:meth:`~adaptive_ftc.plants.base.Plant.input_gains`)."""
+        known_sign = design and self.known_sign
         return check_compensability(
-            self.failures, self.R, self.t_final, state_names=tuple(self.plant.aliases()), t0=self.t0
+            self.failures,
+            self.R,
+            self.t_final,
+            state_names=tuple(self.plant.aliases()),
+            t0=self.t0,
+            known_sign=known_sign,
+            gains=_input_gains(self.plant) if known_sign else None,
         )
 
     def without_failures(self) -> ClosedLoop:
@@ -237,14 +291,7 @@ class ClosedLoop:
 
     def signal_names(self) -> dict[str, int]:
         """Controller signals a regressor may use, with their index in the signal vector."""
-        n, p = self.plant.n_states, self.plant.n_outputs
-        names = dict(self.plant.aliases())
-        for i in range(p):
-            for j, stem in enumerate(("e", "edot", "s")):
-                names[f"{stem}{i + 1}"] = n + j * p + i
-                if p == 1:
-                    names[stem] = n + j * p + i
-        return names
+        return signal_names(self.plant)
 
     def describe_failures(self) -> list[str]:
         """One line per failure, in time order, for reports."""

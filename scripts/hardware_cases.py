@@ -1,0 +1,244 @@
+"""Thesis law vs constraint-aware law on the hardware cases of issue 25 (docs/hardware.md).
+
+Runs a scenario's design under each hardware case twice (the thesis law, and the same design
+with ``constraint_aware=ConstraintAware.from_loop(case)``: one configuration per case, derived
+from the declared hardware by the rules of :mod:`adaptive_ftc.controllers.constraints`) and
+prints, per run, over the final window: RMS tracking error, fast command content (RMS of the
+command minus its zero-phase 1 Hz low-pass, the whole record filtered then the window cut,
+recorded at 1 ms; largest over the actuators), peak |command|, the fraction of the window an
+actuator spends at its rate limit, and the verdict against the targets of issue 25.
+
+    PYTHONPATH=src python scripts/hardware_cases.py hypersonic-direct-s1 [--duration 120]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+
+from adaptive_ftc.controllers.constraints import ConstraintAware
+from adaptive_ftc.errors import DivergenceWarning
+from adaptive_ftc.hardware import Actuators, Sensors
+from adaptive_ftc.scenarios.loader import load_scenario
+from adaptive_ftc.sim.engine import simulate
+
+REC_DT = 1e-3  # record fast enough not to alias the chatter being judged
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    lag: float = 0.0
+    rate: float = math.inf
+    travel: float = math.inf
+    hz: float = math.inf
+    noise: float = 0.0  # on the position state; 10x on the velocity state
+
+
+#: the cases of issue 25 item (a) (hypersonic §2.3 and §4.4)
+HYPERSONIC_CASES = (
+    Case("rate 10 rad/s", rate=10.0),
+    Case("rate 2 rad/s", rate=2.0),
+    Case("rate 0.5 rad/s", rate=0.5),
+    Case("digital 200 Hz", hz=200.0),
+    Case("digital 100 Hz", hz=100.0),
+    Case("digital 50 Hz", hz=50.0),
+    Case("digital 20 Hz", hz=20.0),
+    Case("lag 20 ms", lag=0.02),
+    Case("lag 50 ms", lag=0.05),
+    Case("lag 100 ms", lag=0.1),
+    Case("noise 1e-3", noise=1e-3),
+    Case("lag 20 ms + 200 Hz + noise 1e-3", lag=0.02, hz=200.0, noise=1e-3),
+    Case(
+        "lag 50 ms + rate 2 + travel 0.5 + 50 Hz + noise 1e-4",
+        lag=0.05,
+        rate=2.0,
+        travel=0.5,
+        hz=50.0,
+        noise=1e-4,
+    ),
+)
+
+
+def cases_from_ideal(sc, ideal_result) -> tuple[Case, ...]:
+    """Issue 25 item (c): lag 50 ms, 50 Hz, a rate limit at half the ideal run's peak command
+    rate, noise at 1 % of the reference amplitude (on the output positions; 10x on their
+    rates)."""
+    r = ideal_result
+    rate = float(np.max(np.abs(np.diff(r.u_cmd, axis=0)) / np.diff(r.time)[:, None]))
+    amp = float(np.max(np.ptp(r.yd, axis=0)) / 2.0)
+    return (
+        Case("lag 50 ms", lag=0.05),
+        Case("digital 50 Hz", hz=50.0),
+        Case(f"rate {rate / 2:.3g} (half the ideal peak)", rate=rate / 2),
+        Case(f"noise {0.01 * amp:.2g} (1 % of the reference)", noise=0.01 * amp),
+    )
+
+
+def case_loop(sc, case: Case, duration: float | None = None):
+    """The scenario's loop and solver under ``case``'s hardware (thesis law)."""
+    loop, solver = sc.loop, replace(sc.solver, record_dt=REC_DT)
+    if duration is not None:
+        loop = replace(loop, t_final=loop.t0 + duration)
+    if case.lag > 0 or math.isfinite(case.rate) or math.isfinite(case.travel):
+        loop = replace(
+            loop,
+            actuators=Actuators(
+                tau=case.lag, rate=case.rate, lower=-case.travel, upper=case.travel
+            ),
+        )
+    fixed = False
+    if case.noise > 0:
+        plant = loop.plant
+        noise = [0.0] * plant.n_states
+        for i in plant.position_index:
+            noise[i] = case.noise
+        for i in plant.velocity_index:
+            noise[i] = 10.0 * case.noise
+        loop = replace(loop, sensors=Sensors(noise=tuple(noise), rate=1000.0, seed=0))
+        fixed = True
+    dt = 1e-3
+    if math.isfinite(case.hz):
+        ts = 1.0 / case.hz
+        dt = ts / math.ceil(ts / 1e-3 - 1e-9)
+        loop = replace(loop, sample_time=ts)
+        solver = replace(solver, filter_tau=max(solver.filter_tau, ts))
+        fixed = True
+    if fixed:
+        solver = replace(solver, method="rk4", dt=dt)
+    return loop, solver
+
+
+def constraint_aware(loop):
+    """The same design with the constraint-aware option derived from the loop's hardware."""
+    ca = ConstraintAware.from_loop(loop)
+    return replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+
+
+def metrics(r, loop, window=(100.0, 120.0)):
+    """Final-window metrics of one run (see the module docstring)."""
+    t0, t1 = window
+    done = r.status == "completed" and r.time[-1] >= loop.t_final - 1e-9
+    out = {"status": r.status, "t_end": float(r.time[-1]) if r.time.size else 0.0}
+    u = np.asarray(r.u_cmd, dtype=float)
+    out["peak_u"] = float(np.nanmax(np.abs(u))) if u.size else math.nan
+    if not done:
+        out.update(err=math.nan, fast=math.nan, at_rate=math.nan, pp=math.nan)
+        return out
+    sel = (r.time >= t0) & (r.time <= t1)
+    out["err"] = float(np.max(r.rms_error(t0, t1)))
+    fs = 1.0 / float(np.median(np.diff(r.time)))
+    sos = butter(2, 1.0, fs=fs, output="sos")
+    fast, pp = 0.0, 0.0
+    for j in range(u.shape[1]):
+        hi = u[:, j] - sosfiltfilt(sos, u[:, j])
+        fast = max(fast, float(np.sqrt(np.mean(hi[sel] ** 2))))
+        pp = max(pp, float(np.ptp(u[sel, j])))
+    out["fast"], out["pp"] = fast, pp
+    at_rate = 0.0
+    acts = loop.actuators
+    if acts is not None and acts.rate is not None:
+        rates = np.broadcast_to(np.asarray(acts.rate, dtype=float), (u.shape[1],))
+        names = [f"position of {a}" for a in loop.plant.actuator_names]
+        for j, name in enumerate(names):
+            if not math.isfinite(rates[j]) or name not in r.adaptive_names:
+                continue
+            a = r.adaptive_state(name)
+            da = np.gradient(a, r.time)
+            at_rate = max(at_rate, float(np.mean(np.abs(da[sel]) >= 0.98 * rates[j])))
+    out["at_rate"] = at_rate
+    return out
+
+
+def verdict(m, thr, fast_max, travel, peak_max):
+    """'ok' or the list of failed targets."""
+    if m["status"] != "completed" or not math.isfinite(m["err"]):
+        return f"DIVERGED at {m['t_end']:.2f} s"
+    bad = []
+    if not m["err"] <= thr:
+        bad.append("error")
+    if not m["fast"] <= fast_max:
+        bad.append("fast")
+    lim = travel if math.isfinite(travel) else peak_max
+    if not m["peak_u"] <= lim * (1 + 1e-9):
+        bad.append("peak")
+    if not m["at_rate"] <= 0.05:
+        bad.append("rate")
+    return "ok" if not bad else "FAIL " + ",".join(bad)
+
+
+def run_cases(scenario: str, cases=HYPERSONIC_CASES, duration=None, laws=("thesis", "aware")):
+    """Rows of the table (dicts), the ideal run first."""
+    sc = load_scenario(scenario)
+    thr = next(float(c["threshold"]) for c in sc.claims if c.get("kind") == "tracking")
+    span = duration or (sc.loop.t_final - sc.loop.t0)
+    window = (sc.loop.t0 + span - 20.0, sc.loop.t0 + span)
+    loop, solver = case_loop(sc, Case("ideal"), duration)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        ideal_run = simulate(loop, solver)
+    ideal = metrics(ideal_run, loop, window)
+    if cases is None:
+        cases = cases_from_ideal(sc, ideal_run)
+    fast_max = 0.03 * ideal["pp"]
+    peak_max = 10.0 * ideal["peak_u"]
+    rows = [{"case": "ideal", "law": "thesis", **ideal, "verdict": "-"}]
+    for case in cases:
+        for law in laws:
+            loop, solver = case_loop(sc, case, duration)
+            if law == "aware":
+                loop = constraint_aware(loop)
+            t = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DivergenceWarning)
+                r = simulate(loop, solver)
+            m = metrics(r, loop, window)
+            m["cpu"] = time.perf_counter() - t
+            v = verdict(m, thr, fast_max, case.travel, peak_max)
+            rows.append({"case": case.name, "law": law, **m, "verdict": v})
+            print(_line(rows[-1]), flush=True)
+    return rows, {"threshold": thr, "fast_max": fast_max, "peak_max": peak_max, **ideal}
+
+
+def _line(row) -> str:
+    return (
+        f"| {row['case']} | {row['law']} | {row['err']:.2e} | {row['fast']:.2e} | "
+        f"{row['peak_u']:.3g} | {row.get('at_rate', math.nan):.3f} | {row['verdict']} |"
+    )
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenario", nargs="?", default="hypersonic-direct-s1")
+    ap.add_argument("--duration", type=float, default=None)
+    ap.add_argument("--only", default=None, help="substring of the case names to run")
+    ap.add_argument("--laws", default="thesis,aware")
+    ap.add_argument(
+        "--ideal-cases",
+        action="store_true",
+        help="the cases of issue 25 (c), sized from the ideal run, instead of the hypersonic set",
+    )
+    args = ap.parse_args(argv)
+    cases = [c for c in HYPERSONIC_CASES if args.only is None or args.only in c.name]
+    if args.ideal_cases:
+        cases = None
+    print("| case | law | error (rad) | fast (rad) | peak |u| | at rate | verdict |")
+    print("|---|---|---|---|---|---|---|")
+    _, ideal = run_cases(args.scenario, cases, args.duration, tuple(args.laws.split(",")))
+    print(
+        f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, "
+        f"peak {ideal['peak_u']:.3g}; "
+        f"targets: error <= {ideal['threshold']:.2e}, fast <= {ideal['fast_max']:.2e}, "
+        f"peak <= travel or {ideal['peak_max']:.3g}, at rate <= 5 %"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

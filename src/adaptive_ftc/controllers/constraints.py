@@ -1,0 +1,510 @@
+"""Constraint-aware versions of the thesis's adaptive laws (issue 25, item 2).
+
+The thesis's laws (``u0 = Pi(z)^T theta``, ``theta' = gamma Pi q - gamma sigma theta`` with
+``q = s' + k s + k0 tanh(s/eps0)``, §2.3, §4.4, ...) assume ideal actuators, exact
+measurements and continuous time. Seen from the plant they are a very fast loop: ``theta``
+integrates ``gamma Pi s'``, so ``u0`` moves by ``gamma |Pi|^2`` per unit of ``s`` (a
+proportional path), and ``k0 tanh(s/eps0)`` adds an integral path of rate ``k + k0/eps0``
+(200 1/s with the hypersonic gains). Rate limits, lag, slow sampling and noise break that loop
+(measured in docs/hardware.md). :class:`ConstraintAware` is the *designer's model* of the
+hardware; given to a design (``constraint_aware=ConstraintAware(...)``, an option of the
+design, not another design) it derives, by the rules below, one configuration
+(:class:`Configuration`) that changes the law in these established ways:
+
+1. **Bandwidth scaling and smoothing of the robust term.** The loop rate of the law's linear
+   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware
+   admits ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
+   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`); with ``r = w_max / w0`` the law
+   runs with ``gamma -> r gamma`` (every adaptation gain), ``k -> r k`` and
+   ``eps0 -> eps0 / r``. In the linear band ``u0 ~ gamma |Pi|^2 (s + (k + k0/eps0) int s)``,
+   so this moves every closed-loop frequency of the law down by ``r`` at the same damping:
+   the smoothing of the discontinuous term is tied to the actuator bandwidth and the sample
+   rate (Slotine & Li 1991, §7.2: boundary layer no thinner than the unmodelled dynamics
+   allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
+   The boundary layer is also widened ``WIDEN`` times at the same slope (``k0 -> W k0``,
+   ``eps0 -> W eps0 / r``): the saturating integral path limit-cycles behind a lag.
+   Where the loop is slowed, ``lam -> min(max(lam, C_LAM w_max), lam / r, F lam)`` with
+   ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's
+   low-frequency gain (what rejects a failure's disturbance) falls as ``r^2 lam``; this
+   gives part of it back.
+2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
+   Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007), with rate or
+   travel limits: the law's command ``u0c`` passes through
+   ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the allocation, with ``U`` and
+   ``R`` the designer's travel and rate times ``C_MARGIN`` divided by ``max |b_j|`` (so no
+   actuator is commanded past its limits) and ``w_f = C_FILTER w_max``.
+3. **Anti-windup by back-calculation on the estimates** (Åström & Rundqwist, ACC 1989):
+   ``theta' += -k_aw Pi (u0c - u0_reachable) / |Pi|^2`` pulls the law's command back to what
+   the filter can deliver, so the estimates do not learn the saturation (no wind-up to
+   hundreds of radians behind a rate limit). With a declared ``input_gain`` the laws also
+   see the **compensated error** ``s - xi``, ``xi' = -w_h xi + input_gain (u0c - u0)``
+   (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson & Calise, JGCD 26(6),
+   2003).
+4. **Noise**: the law sees its measurements (regressor inputs, errors, ``s``) through a
+   first-order prefilter at ``C_MEASURE w_max``, and its adaptation signal ``q`` through
+   ``qf' = w_q (q - qf)`` at ``C_PREFILTER w_max``.
+5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
+   Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
+   sigma-modification: where the estimate is on the boundary and the law points outward,
+   the outward component is removed. Off by default (``theta_max = inf``).
+
+A digital controller integrates every state of the law by forward Euler at its sample time
+``T`` (:mod:`adaptive_ftc.hardware`); the rules keep every filter of the law at most
+``C_EULER / T`` (stable Euler filters) and ``w_max T <= C_SAMPLE`` (the discrete-time-aware
+bound on the adaptive loop). The measurement and command filters keep running while the
+adaptation is frozen (``ClosedLoop(adapt=False)``).
+
+The constants below were chosen once, on the hypersonic §2.3 cases of issue 25, and are the
+same for every case, design and plant (no tuning per case). They do not transfer to the
+wing-rock and manipulator loops as they are (docs/hardware.md).
+
+Guarantees (which holds for which combination):
+
+- *ideal model* (no lag, no limits, continuous, no noise): :meth:`ConstraintAware.configure`
+  returns the identity, the generated law is the thesis law (same code, same numbers) and
+  the trajectories are the thesis's; the thesis's theorems hold.
+- *lag / sampling*: the law is the thesis law with other gains (a valid choice of the
+  thesis's gains, so Theorem 2.1's boundedness holds for the continuous idealisation), run
+  slower than the unmodelled actuator and sampling dynamics: the usual robustness argument
+  of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
+  bounded signals for small enough unmodelled dynamics), not a proof for each case.
+- *rate / travel limits*: the command filter makes every commanded actuator respect the
+  designer's limits (a hard guarantee on the command); the back-calculation keeps the
+  estimates bounded while the filter limits; stability of the limited loop is not
+  guaranteed (measured: the hypersonic loop still diverges at 2 and 0.5 rad/s).
+- *noise*: the prefilters and the lower bandwidth bound the noise in the command (linear
+  filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
+- *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
+
+All of this is measured, case by case, in docs/hardware.md ("Designs under real hardware")
+and by ``scripts/hardware_cases.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError
+
+__all__ = ["ConstraintAware", "Configuration"]
+
+#: ``w_max <= C_LAG / lag``: the law's loop rate below the actuator's bandwidth.
+C_LAG = 1.0
+#: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
+C_SAMPLE = 0.75
+#: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
+C_NOISE = 0.15
+#: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
+#: rate stays within the rate limit (the describing function of a rate limiter: no phase
+#: loss below it).
+A_RATE = 0.06
+#: ``w_max <= C_CAP w0`` whenever any constraint is declared: the thesis's loop rate is
+#: set for ideal hardware; measured, the hypersonic law limit-cycles above a tenth of it
+#: under any lag or sampling.
+C_CAP = 0.1
+#: ``lam -> min(max(lam, C_LAM w_max), lam / r)`` where lag, sampling or rate bind (not
+#: noise): the error filter's corner moved up to a fraction of the loop rate, which the
+#: scaled loop gives back in low-frequency gain (error ~ 1/(r^2 lam)).
+C_LAM = 0.8
+#: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
+WIDEN = 3.0
+#: ``lam`` is raised at most this many times ...
+LAM_FACTOR_MAX = 4.0
+#: ... and this many where noise binds (``lam`` multiplies the position noise in ``s``).
+LAM_FACTOR_NOISE = 2.0
+#: the command filter's bandwidth, in multiples of the law's loop rate ``w_max``.
+C_FILTER = 4.0
+#: the prefilter of the measurements the law sees, in multiples of ``w_max``.
+C_MEASURE = 4.0
+#: the prefilter of the adaptation signal, in multiples of ``w_max``.
+C_PREFILTER = 2.0
+#: a digital filter's bandwidth is at most ``C_EULER / T``.
+C_EULER = 0.5
+#: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
+C_AW = 1.0
+#: decay rate of the compensated error, in multiples of ``w_max``.
+C_HEDGE = 1.0
+#: the command filter keeps this fraction of the declared rate and travel (margin).
+C_MARGIN = 0.9
+
+
+class Configuration(NamedTuple):
+    """What :meth:`ConstraintAware.configure` derives (the numbers of the compiled law)."""
+
+    #: bandwidth scale of the law (1 = the thesis's gains)
+    scale: float
+    #: factor on ``lam`` (1 = the thesis's)
+    lam_factor: float
+    #: widening of the robust term's boundary layer at the same linear-band slope:
+    #: ``k0 -> W k0``, ``eps0 -> W eps0 / r`` (1 = none)
+    widen: float
+    #: command filter bandwidth (rad/s; inf = no filter)
+    omega_f: float
+    #: magnitude limit of the common command u0 (inf = none)
+    u_max: float
+    #: rate limit of u0 (per second; inf = none)
+    u_rate: float
+    #: prefilter bandwidth of the adaptation signal q (rad/s; inf = none)
+    omega_q: float
+    #: prefilter bandwidth of the measurements the law sees (rad/s; inf = none)
+    omega_m: float
+    #: back-calculation rate of the anti-windup (1/s; 0 = none)
+    k_aw: float
+    #: gain of the compensated-error (hedging) filter, the nominal input gain (0 = none)
+    hedge: float
+    #: decay rate of the compensated-error filter (1/s)
+    omega_h: float
+    #: radius of the projection ball of theta (inf = none)
+    theta_max: float
+
+    @property
+    def filtered(self) -> bool:
+        return math.isfinite(self.omega_f)
+
+    @property
+    def prefiltered(self) -> bool:
+        return math.isfinite(self.omega_q)
+
+    @property
+    def measured_through_filter(self) -> bool:
+        return math.isfinite(self.omega_m)
+
+    @property
+    def projected(self) -> bool:
+        return math.isfinite(self.theta_max)
+
+
+IDENTITY = Configuration(
+    1.0, 1.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, 0.0, 0.0, 0.0, math.inf
+)
+
+
+def _number(owner: str, key: str, v, *, allow_inf: bool, positive: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+        raise ConfigurationError(f"`{key}` of {owner} must be a number; got {v!r}.")
+    if not allow_inf and math.isinf(v):
+        raise ConfigurationError(f"`{key}` of {owner} must be finite; got {v!r}.")
+    if positive and not v > 0:
+        raise ConfigurationError(f"`{key}` of {owner} must be > 0; got {v!r}.")
+    if v < 0:
+        raise ConfigurationError(f"`{key}` of {owner} must be >= 0; got {v!r}.")
+    return float(v)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConstraintAware:
+    """The designer's model of the hardware, from which a design derives its constraint-aware
+    configuration (see the module docstring for the rules and the references).
+
+    Declared apart from the loop's true hardware (``ClosedLoop.actuators``, ``.sensors``,
+    ``.sample_time``), so a design can be studied under a mismatched model;
+    :meth:`from_loop` derives it from the loop's own declared hardware.
+
+    Parameters
+    ----------
+    lag
+        Actuator time constant (s) the designer assumes; 0 = none.
+    rate
+        Actuator rate limit (actuator units per second); ``inf`` = none.
+    travel
+        Actuator travel: ``|u_j| <= travel``; ``inf`` = none.
+    sample_time
+        Controller sample time (s); 0 = continuous.
+    noise
+        Standard deviation of the measured filtered error ``s = e' + lam e`` (from the
+        sensors: ``sqrt(noise(velocity)^2 + lam^2 noise(position)^2)``); 0 = none.
+    bandwidth
+        The law's loop rate (1/s) to use instead of the rule's ``w_max`` (``None``: the
+        rule). For studies of the rule; not needed otherwise.
+    theta_max
+        Radius of the projection ball of each output's ``theta``; ``inf`` = no projection.
+    input_gain
+        The designer's nominal ``|d s'/d u0|`` of the healthy plant (``sum_j b_j dy''/du_j``;
+        ``plant.input_gains()``): with rate or travel limits, the gain of the compensated-
+        error filter that hedges the limited command out of the adaptation; 0 (default) = no
+        hedging. Measured on the hypersonic rate-limit cases it did not prevent the
+        divergence (docs/hardware.md), so :meth:`from_loop` leaves it at 0. Not a
+        constraint: a model with only ``input_gain`` is ideal.
+
+    Examples
+    --------
+    >>> ConstraintAware().is_ideal
+    True
+    >>> ConstraintAware(lag=0.05).configure(w0=205.0, b_max=2.0).scale  # 1/0.05 = 20 1/s
+    0.0975609756097561
+    """
+
+    lag: float = 0.0
+    rate: float = math.inf
+    travel: float = math.inf
+    sample_time: float = 0.0
+    noise: float = 0.0
+    bandwidth: float | None = None
+    theta_max: float = math.inf
+    input_gain: float = 0.0
+
+    def __post_init__(self) -> None:
+        owner = "ConstraintAware"
+        _number(owner, "lag", self.lag, allow_inf=False)
+        _number(owner, "rate", self.rate, allow_inf=True, positive=True)
+        _number(owner, "travel", self.travel, allow_inf=True, positive=True)
+        _number(owner, "sample_time", self.sample_time, allow_inf=False)
+        _number(owner, "noise", self.noise, allow_inf=False)
+        _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
+        _number(owner, "input_gain", self.input_gain, allow_inf=False)
+        if self.bandwidth is not None:
+            _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
+
+    @property
+    def is_ideal(self) -> bool:
+        """No lag, no limits, continuous, no noise (and no override): the thesis law."""
+        return (
+            self.lag == 0
+            and math.isinf(self.rate)
+            and math.isinf(self.travel)
+            and self.sample_time == 0
+            and self.noise == 0
+            and self.bandwidth is None
+            and math.isinf(self.theta_max)
+        )
+
+    @classmethod
+    def from_hardware(
+        cls,
+        *,
+        actuators=None,
+        sensors=None,
+        sample_time: float = 0.0,
+        plant=None,
+        lam: float = 1.0,
+        **overrides,
+    ) -> ConstraintAware:
+        """The model that believes the declared hardware: the largest lag (or ``1/omega`` of
+        a second-order actuator), the smallest rate limit and travel over the actuators, the
+        loop's sample time and the noise of ``s`` from the sensors' standard deviations on
+        the first output's position and velocity states (``plant`` names them)."""
+        lag, rate, travel, noise = 0.0, math.inf, math.inf, 0.0
+        if actuators is not None and plant is not None:
+            tab = actuators.table(plant.n_actuators)
+            lag = float(np.max(tab[:, 0]))  # a rate limiter's own linear band included
+            om = tab[:, 4]
+            if np.any(om > 0):
+                lag = max(lag, float(np.max(1.0 / om[om > 0])))
+            rate = float(np.min(tab[:, 1]))
+            travel = float(np.min(np.minimum(np.abs(tab[:, 2]), np.abs(tab[:, 3]))))
+        if sensors is not None and plant is not None:
+            std, _ = sensors.per_state(plant.aliases(), plant.n_states)
+            lam1 = float(lam if isinstance(lam, (int, float)) else lam[0])
+            sp = float(std[plant.position_index[0]])
+            sv = float(std[plant.velocity_index[0]])
+            noise = math.hypot(sv, lam1 * sp)
+        return cls(
+            **{
+                "lag": lag,
+                "rate": rate,
+                "travel": travel,
+                "sample_time": float(sample_time),
+                "noise": noise,
+                **overrides,
+            }
+        )
+
+    @classmethod
+    def from_loop(cls, loop, **overrides) -> ConstraintAware:
+        """:meth:`from_hardware` of ``loop``'s declared actuators, sensors and sample time."""
+        return cls.from_hardware(
+            actuators=loop.actuators,
+            sensors=loop.sensors,
+            sample_time=loop.sample_time,
+            plant=loop.plant,
+            lam=loop.controller.lam,
+            **overrides,
+        )
+
+    def omega_max(self, w0: float, b_max: float = 1.0) -> tuple[float, bool]:
+        """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``), and
+        whether the noise bound is the one that binds."""
+        if self.bandwidth is not None:
+            return min(w0, float(self.bandwidth)), False
+        w = C_CAP * w0
+        if self.lag > 0:
+            w = min(w, C_LAG / self.lag)
+        if self.sample_time > 0:
+            w = min(w, C_SAMPLE / self.sample_time)
+        if math.isfinite(self.rate):
+            w = min(w, C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE)
+        if self.noise > 0 and C_NOISE / self.noise < w:
+            return C_NOISE / self.noise, True
+        return w, False
+
+    def configure(self, *, w0: float, b_max: float, lam: float = 1.0) -> Configuration:
+        """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
+        under this model, for an allocation whose largest gain is ``b_max`` and a filtered
+        error ``s = e' + lam e``."""
+        if self.is_ideal:
+            return IDENTITY
+        w, noisy = self.omega_max(w0, b_max)
+        scale = w / w0
+        lam_factor = 1.0
+        if scale < 1.0:
+            top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
+            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, top)
+        limited = math.isfinite(self.rate) or math.isfinite(self.travel)
+        omega_f = math.inf
+        if limited:
+            omega_f = C_FILTER * w
+            if self.lag > 0:
+                omega_f = min(omega_f, 1.0 / self.lag)
+            if self.sample_time > 0:
+                omega_f = min(omega_f, C_EULER / self.sample_time)
+        omega_q = omega_m = math.inf
+        if self.noise > 0:
+            omega_q = C_PREFILTER * w
+            omega_m = C_MEASURE * w
+            if self.sample_time > 0:
+                omega_q = min(omega_q, C_EULER / self.sample_time)
+                omega_m = min(omega_m, C_EULER / self.sample_time)
+        b = max(abs(b_max), 1e-300)
+        u_max = C_MARGIN * self.travel / b
+        u_rate = C_MARGIN * self.rate / b
+        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
+        return Configuration(
+            scale,
+            lam_factor,
+            WIDEN if scale < 1.0 else 1.0,
+            omega_f,
+            u_max,
+            u_rate,
+            omega_q,
+            omega_m,
+            k_aw,
+            self.input_gain if limited else 0.0,
+            C_HEDGE * w,
+            self.theta_max,
+        )
+
+
+# ---------------------------------------------------------------- compiled pieces of the law
+def command_filter(uc, uf, omega_f, u_max, u_rate):
+    """Derivative of the command filter: ``clip(w_f (clip(uc, -U, U) - uf), -R, R)``
+    (Farrell et al. 2009, first order)."""
+    target = min(max(uc, -u_max), u_max)
+    return min(max(omega_f * (target - uf), -u_rate), u_rate)
+
+
+def back_calculation(dY, phi, excess, k_aw, off, at, size):
+    """Anti-windup: ``theta' -= k_aw Pi excess / |Pi|^2``, so ``Pi^T theta`` moves back
+    towards the command the filter can deliver at ``k_aw`` (Åström & Rundqwist 1989)."""
+    nrm = 1e-12
+    for l in range(size):
+        nrm += phi[off + l] * phi[off + l]
+    d = k_aw * excess / nrm
+    for l in range(size):
+        dY[at + l] -= d * phi[off + l]
+
+
+def hedged_q(q, s, xi, dxi, k, k0, eps0):
+    """``q`` of the compensated error ``s - xi``: ``q - xi' - k xi + k0 (tanh((s - xi)/eps0)
+    - tanh(s/eps0))``, where ``xi' = -w xi + b (u0c - u0)`` is the part of ``s`` that the
+    limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
+    2003)."""
+    return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
+
+
+def project_ball(dY, Y, theta_max, at, size):
+    """Projection on ``|theta| <= theta_max`` (Lavretsky & Wise 2013, §11.4): on or outside
+    the boundary, the outward component of ``theta'`` is removed."""
+    th2 = 0.0
+    dot = 0.0
+    for l in range(size):
+        th2 += Y[at + l] * Y[at + l]
+        dot += Y[at + l] * dY[at + l]
+    if th2 >= theta_max * theta_max and dot > 0.0:
+        f = dot / th2
+        for l in range(size):
+            dY[at + l] -= f * Y[at + l]
+
+
+def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
+    """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
+    after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
+    (``g.consts``): configurations of the same shape share one compiled loop.
+
+    States from ``at`` on: the compensated errors (one per output, with limits and an
+    ``input_gain``) and the prefilters of ``q`` (one per output, with noise), which stop with
+    the adaptation; then the measurement filters (one per plant state, with noise) and the
+    command filters (one per output, with limits), which run even while adaptation is frozen
+    (``g.free_running`` counts them)."""
+    p, nx = g.p, g.nx
+    c0 = len(g.consts)
+    g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
+    g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
+    wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
+    hedged = cfg.filtered and cfg.hedge > 0
+    # places of the states
+    at_h = at
+    at_q = at_h + (p if hedged else 0)
+    at_m = at_q + (p if cfg.prefiltered else 0)
+    at_f = at_m + (nx if cfg.measured_through_filter else 0)
+    end = at_f + (p if cfg.filtered else 0)
+    if hedged:
+        g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
+    if cfg.prefiltered:
+        g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
+    if cfg.measured_through_filter:
+        g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
+    if cfg.filtered:
+        g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
+    g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
+    g.free_running = end - at_m
+    control, pre, post, measure = [], [], [], []
+    if cfg.measured_through_filter:  # the law sees x + noise through a first-order filter
+        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        measure = [
+            f"    for i in range({nx}):  # constraint-aware: the law sees filtered measurements",
+            f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
+            f"        sig[i] = Y[{at_m} + i]",
+        ]
+    if cfg.filtered:
+        g.use("command_filter", command_filter)
+        control.append("    # constraint-aware: the law's command u0c through the command filter")
+        for i in range(p):
+            f = at_f + i
+            control += [
+                f"    uc{i} = u0[{i}]",
+                f"    u0[{i}] = Y[{f}]",
+                f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
+            ]
+    if hedged:  # compensated error (Farrell et al. 2009)
+        g.use("hedged_q", hedged_q)
+        pre.append("    # constraint-aware: the laws see the compensated error s - xi")
+        for i in range(p):
+            h = at_h + i
+            pre += [
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at_f + i}])",
+                f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
+                f" c[K + {i}], c[K0 + {i}], c[EPS0])",
+            ]
+    if cfg.prefiltered:
+        pre.append("    # constraint-aware: the laws see the prefiltered q")
+        for i in range(p):
+            pre += [
+                f"    dY[{at_q + i}] = {wq} * (q[{i}] - Y[{at_q + i}])",
+                f"    q[{i}] = Y[{at_q + i}]",
+            ]
+    if cfg.filtered and cfg.k_aw > 0:
+        g.use("back_calculation", back_calculation)
+        post.append("    # anti-windup: the estimates do not learn the limits")
+        for r, (o, a, size) in enumerate(blocks):
+            i = 0 if single_output else r
+            excess = f"uc{i} - (Y[{at_f + i}] + dY[{at_f + i}] / {wf})"
+            post.append(f"    back_calculation(dY, phi, {excess}, {kaw}, {o}, {a}, {size})")
+    if cfg.projected:
+        g.use("project_ball", project_ball)
+        for _, a, size in blocks:
+            post.append(f"    project_ball(dY, Y, {tmax}, {a}, {size})")
+    return control, pre, post, measure
