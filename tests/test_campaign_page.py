@@ -54,13 +54,21 @@ def spec_for(designs=DESIGNS, runs=10):
 
 def frame(outcomes: dict[str, str], *, severity=None, models=None) -> pd.DataFrame:
     """A results table: ``outcomes[design]`` is one letter per member: ``s`` success, ``e``
-    completed with too large an error, ``d`` diverged, ``i`` invalid draw."""
+    completed with too large an error, ``d`` diverged, ``n`` stopped on a non-finite signal,
+    ``u`` stopped on a step-size underflow, ``i`` invalid draw."""
     rows = []
     for d, letters in outcomes.items():
         n = len(letters)
         sev = severity if severity is not None else np.linspace(0.05, 0.95, n)
         for i, c in enumerate(letters):
-            status = {"s": "completed", "e": "completed", "d": "diverged", "i": "invalid"}[c]
+            status = {
+                "s": "completed",
+                "e": "completed",
+                "d": "diverged",
+                "n": "nonfinite",
+                "u": "step_underflow",
+                "i": "invalid",
+            }[c]
             rows.append(
                 {
                     "index": i,
@@ -71,9 +79,9 @@ def frame(outcomes: dict[str, str], *, severity=None, models=None) -> pd.DataFra
                     "status": status,
                     "success": c == "s",
                     # a completed bad run can have a huge error: still better than diverging
-                    "rms_error_final": {"s": 1e-4, "e": 1e8, "d": 0.3, "i": math.nan}[c],
-                    "divergence_time": 1.0 + 0.1 * i if c == "d" else math.nan,
-                    "divergence_signal": "theta" if c == "d" else "",
+                    "rms_error_final": {"s": 1e-4, "e": 1e8, "i": math.nan}.get(c, 0.3),
+                    "divergence_time": 1.0 + 0.1 * i if c in "dnu" else math.nan,
+                    "divergence_signal": "theta" if c in "dnu" else "",
                 }
             )
     return pd.DataFrame(rows).sort_values(["index"], kind="stable", ignore_index=True)
@@ -246,6 +254,19 @@ def test_diverged_runs_rank_and_draw_as_worse_than_any_completed_run():
     others = [p for p in top.patches if p not in red and p.get_height() > 0]
     assert len(red) == 1 and red[0].get_height() == 2
     assert red[0].get_x() > max(p.get_x() + p.get_width() for p in others)
+
+
+def test_every_run_that_stopped_early_is_shown_as_diverged():
+    """nonfinite / step_underflow / singular runs stopped before the end: failures shown with
+    the diverged runs (as main's summary counts them), worse than any completed run."""
+    df = frame({"adaptive": "senui", "frozen": "eeeee"})
+    info = success_tables(df, THRESHOLD)
+    assert info["diverged"]["adaptive"] == 2 and info["outcomes"]["adaptive"]["invalid draw"] == 1
+    worst = summary._worst(df, "adaptive", 5)
+    assert list(worst["index"]) == [2, 3, 1, 0]  # stopped first, then by error; invalid: no run
+    assert summary._outcome_text(worst.iloc[1]) == (
+        "stopped: step size underflow at t = 1.3 s (theta)"
+    )
 
 
 def test_an_empty_severity_bin_breaks_the_line_and_counts_are_whole_runs():

@@ -6,7 +6,8 @@ Exit status (also in ``aftc --help`` and the README):
 0     success
 1     internal error (a bug: please report it with the command line)
 2     invalid input: scenario file, command-line argument, output folder
-3     the run diverged (``aftc run``)
+3     the run stopped early: diverged, nonfinite, step_underflow or singular (``aftc run``;
+      the message says why, see docs/statuses.md)
 4     claims failed (``aftc run``: the scenario's ``[[claims]]``; ``aftc reproduce``: the
       thesis claims), or some runs raised errors (``aftc reproduce``); a claim marked as an
       expected ``finding`` that the data show is reported as FINDING, not as a failure
@@ -62,7 +63,7 @@ _EPILOG = """exit status:
   0    success
   1    internal error (a bug: please report it with the command line)
   2    invalid input (scenario file, argument, output folder)
-  3    the run diverged (run)
+  3    the run stopped early: diverged, nonfinite, step_underflow, singular (run)
   4    claims failed (run, reproduce) or runs raised errors (reproduce); FINDING is not a
        failure
   5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
@@ -113,6 +114,12 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
     r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
     r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
+    r.add_argument(
+        "--t-final",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="end the run at this time instead of the scenario's t_final (e.g. a quick check)",
+    )
     r.add_argument(
         "--no-baselines",
         action="store_true",
@@ -234,6 +241,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from adaptive_ftc.sim.engine import simulate
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
+    if args.t_final is not None:  # ClosedLoop checks it (after t0)
+        if args.t_final < sc.loop.t_final and sc.claims:
+            # the claims hold for the whole run (final windows, recovery after each failure)
+            print(
+                f"note: --t-final {args.t_final:g} s shortens the run ({sc.name} lasts "
+                f"{sc.loop.t_final:g} s): its {len(sc.claims)} claim(s) are not judged.",
+                file=sys.stderr,
+            )
+            sc = replace(sc, claims=())
+        sc = replace(sc, loop=replace(sc.loop, t_final=args.t_final))
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)
@@ -272,11 +289,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for key, loop in tqdm(
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
+                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
                 results[key] = sc.stamp(simulate(loop, solver))
-                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
-                    raise KeyboardInterrupt
-        if results["adaptive"].message:
-            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        main = results["adaptive"]
+        if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
+            discard_staged(stage)
+            print(
+                f"aftc run: {sc.name}: {main.status} before the first sample: {main.message} "
+                f"Nothing was written to {out}.",
+                file=sys.stderr,
+            )
+            return EXIT_DIVERGED
+        if main.message:
+            print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         for key, res in results.items():
@@ -290,9 +315,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
-        main = results["adaptive"]
         baselines = {
-            k.replace("_", " "): v for k, v in results.items() if k in ("frozen", "failure_free")
+            k.replace("_", " "): v
+            for k, v in results.items()
+            if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []

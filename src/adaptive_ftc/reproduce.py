@@ -490,6 +490,13 @@ def _staged(fn):
 DATA_MAX_SAMPLES = 6000
 
 
+def _short_status(result) -> str:
+    """The status of a run with where and what stopped it (report tables)."""
+    from adaptive_ftc.sim.status import short
+
+    return short(result.status, result.reason)
+
+
 @_staged
 def run_reproduction(
     out_dir: str | Path,
@@ -691,7 +698,7 @@ def run_reproduction(
                 entry.error = err
         statuses = {
             v: (
-                results[(sc.name, v)]["result"].status
+                _short_status(results[(sc.name, v)]["result"])
                 if results[(sc.name, v)]["result"] is not None
                 else ("not run: " if results[(sc.name, v)].get("skipped") else "error: ")
                 + results[(sc.name, v)]["error"].strip().splitlines()[-1]

@@ -56,7 +56,10 @@ FLOOR = "frozen"
 #: Knows the true failure: a bound, shown but never compared with.
 _ORACLE = "oracle"
 
-#: Outcome classes of a run, in the order of the outcome figure.
+#: Statuses of rows that are not runs of the design: a draw the closed loop refused, Ctrl-C.
+NOT_RUN = ("invalid", "interrupted")
+#: Outcome classes of a run, in the order of the outcome figure. ``diverged`` is every run that
+#: stopped early (``diverged``, ``nonfinite``, ``step_underflow``, ``singular``).
 OUTCOMES = ("success", "error too large", "failed another criterion", "diverged", "invalid draw")
 _OUTCOME_COLOURS = {
     "success": "#2e7d32",
@@ -86,6 +89,13 @@ def member_success(df) -> Any:
     return ok & (df["status"] == "completed")
 
 
+def stopped_early(df) -> Any:
+    """Boolean Series: runs that stopped before the end (diverged, a non-finite signal, a step
+    size underflow, a singular plant equation), all shown as ``diverged``."""
+    status = df["status"].astype(str)
+    return ~status.isin(("completed", *NOT_RUN))
+
+
 def outcome_classes(df, threshold: float | None = None) -> Any:
     """String Series, one of :data:`OUTCOMES` per row.
 
@@ -102,8 +112,8 @@ def outcome_classes(df, threshold: float | None = None) -> Any:
     if threshold is not None:
         within = df["rms_error_final"].astype(float) <= threshold
         out[(status == "completed") & within] = "failed another criterion"
-    out[status == "diverged"] = "diverged"
-    out[~status.isin(["completed", "diverged"])] = "invalid draw"
+    out[stopped_early(df)] = "diverged"
+    out[status.isin(NOT_RUN)] = "invalid draw"
     out[ok] = "success"
     return out
 
@@ -499,7 +509,7 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
     for ax, d in zip(axes, designs, strict=True):
         sel = df["design"] == d
         ax.hist(err[sel & done], bins=edges, color=colours[d], label="completed runs")
-        n_div = int(((df["status"] == "diverged") & sel).sum())
+        n_div = int((stopped_early(df) & sel).sum())
         if n_div:
             bw = 2.5 * (edges[1] - edges[0])
             ax.bar([div], [n_div], width=bw, color=_OUTCOME_COLOURS["diverged"], label="diverged")
@@ -550,7 +560,7 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
     keys = ["diverged", "error too large", "success"]
     fig.legend(
         [Patch(color=_OUTCOME_COLOURS[k]) for k in keys],
-        ["diverged (worst)", "error above the success limit", "success"],
+        ["diverged or stopped (worst)", "error above the success limit", "success"],
         loc="outside upper center",
         ncols=3,
     )
@@ -582,8 +592,8 @@ def _figures(
 def _worst(df, design: str, n: int):
     """The ``n`` worst runs of ``design``: diverged runs first (earliest divergence first),
     then completed runs by final-window error, largest first; invalid draws are not runs."""
-    sel = df[(df["design"] == design) & df["status"].isin(["completed", "diverged"])].copy()
-    diverged = sel["status"] == "diverged"
+    sel = df[(df["design"] == design) & ~df["status"].isin(NOT_RUN)].copy()
+    diverged = sel["status"] != "completed"
     sel["_rank"] = np.where(diverged, 0, 1)
     t = sel["divergence_time"].astype(float) if "divergence_time" in sel else np.nan
     sel["_key"] = np.where(diverged, np.nan_to_num(t, nan=np.inf), -sel["rms_error_final"])
@@ -740,13 +750,22 @@ def _comparison_html(info: dict[str, Any], unit: str) -> str:
     return "".join(parts) + f'<p class="meta">{note}</p>'
 
 
+_STOP_WORDS = {
+    "diverged": "diverged",
+    "nonfinite": "stopped: a signal became non-finite",
+    "step_underflow": "stopped: step size underflow",
+    "singular": "stopped: singular plant equation",
+}
+
+
 def _outcome_text(r) -> str:
-    if r["status"] == "diverged":
-        t = float(r.get("divergence_time", math.nan))
-        sig = r.get("divergence_signal", "")
-        where = f" at t = {t:.3g} s" if not math.isnan(t) else ""
-        return f"diverged{where}" + (f" (signal {sig})" if sig else "")
-    return "completed"
+    status = str(r["status"])
+    if status == "completed":
+        return "completed"
+    t = float(r.get("divergence_time", math.nan))
+    sig = r.get("divergence_signal", "")
+    where = f" at t = {t:.3g} s" if not math.isnan(t) else ""
+    return _STOP_WORDS.get(status, status) + where + (f" ({sig})" if sig else "")
 
 
 def _worst_table(df, design: str, out: Path, unit: str) -> tuple[str, list[dict[str, Any]]]:

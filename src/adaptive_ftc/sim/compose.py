@@ -548,7 +548,7 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
     fphase = -np.ones((nph, m), dtype=np.int64)
     kinds: list[int] = []
     offsets: list[int] = []
-    patterns: list[tuple[str, str] | None] = []
+    patterns: list[tuple[str, str, str] | None] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
     # every failure of the schedule, active in this window or not: a shortened run (quick
@@ -572,8 +572,11 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
             text = codegen.emit(e.node, names, local)
             dlocal: list[float] = []
             dtext = codegen.emit(e.derivative("u").node, names, dlocal)
+            # the pattern at u = uh (the same numbers as the pattern's: the same tree): the
+            # slope's central difference where the derivative is undefined
+            htext = codegen.emit(e.node, {**names, "u": "uh"}, [])
             # the slope's numbers follow the pattern's
-            pattern, numbers = (text, _shift(dtext, len(local))), local + dlocal
+            pattern, numbers = (text, _shift(dtext, len(local)), htext), local + dlocal
             kind = 3 if re.search(r"\b(u|x)\b", text) else 2
         seen[id(f)] = len(kinds)
         kinds.append(kind)
@@ -649,8 +652,9 @@ def instance(ph, j, D):
 _PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
 
 
-def _pattern_source(text: str, dtext: str) -> str:
-    """The module of one failure pattern (not affine): its value and its slope in ``u``."""
+def _pattern_source(text: str, dtext: str, htext: str) -> str:
+    """The module of one failure pattern (not affine): its value and its slope in ``u``
+    (``htext``: the pattern at ``u = uh``, for the slope where its derivative is undefined)."""
     guarded = _guarded()
     return "\n".join(
         [
@@ -681,14 +685,24 @@ def _pattern_source(text: str, dtext: str) -> str:
             "",
             "@hot",
             "def slope(t, x, u, c, o):",
-            '    """d(failed output)/du."""',
-            f"    return {dtext}",
+            '    """d(failed output)/du; where it is undefined (a kink: sqrt(u**2), abs(u)**0.5',
+            "    at u = 0) the central difference over 2e-6 max(1, |u|), so that the recorded",
+            '    control gain stays finite."""',
+            f"    d = {dtext}",
+            "    if math.isfinite(d):",
+            "        return d",
+            "    h = 1e-6 * max(1.0, abs(u))",
+            "    uh = u + h",
+            f"    above = {htext}",
+            "    uh = u - h",
+            f"    below = {htext}",
+            "    return (above - below) / (2.0 * h)",
             "",
         ]
     )
 
 
-def _pattern_addresses(pattern: tuple[str, str]) -> tuple[int, int]:
+def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
     """Addresses of the compiled ``value`` and ``slope`` of ``pattern`` (its module compiled
     or loaded from the cache on first use; remembered on the module)."""
     from adaptive_ftc.sim import fptr

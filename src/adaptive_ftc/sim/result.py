@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.status import RunStatus, StatusReason
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -50,8 +52,11 @@ class SimResult:
     control_gain
         True control gain of output 1 along the allocation, ``sum_j g_j R_1j d u^f_j / d u_j``:
         its sign is the true control direction (4.6).
-    status, message
-        ``"completed"`` or ``"diverged"`` and the divergence message.
+    status, reason, message
+        How the run ended (a :class:`~adaptive_ftc.RunStatus`: ``"completed"``,
+        ``"diverged"``, ``"nonfinite"``, ``"step_underflow"``, ``"singular"``, ...), why (a
+        :class:`~adaptive_ftc.StatusReason`, ``None`` when completed) and the message built
+        from both.
     state_units, output_units, actuator_units
         UDUNITS strings declared by the plant class (``state_units``, ``output_units``,
         ``actuator_units`` class attributes); empty when the plant declares none, and the
@@ -87,13 +92,17 @@ class SimResult:
     theta_slices: tuple[slice, ...]
     failure_times: tuple[float, ...]
     failures: tuple[str, ...]
-    status: str = "completed"
+    status: RunStatus = RunStatus.COMPLETED
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
     state_units: tuple[str, ...] = ()
     output_units: tuple[str, ...] = ()
     actuator_units: tuple[str, ...] = ()
     actuator_position: np.ndarray | None = None
+    reason: StatusReason | None = None
+
+    def __post_init__(self) -> None:
+        self.status = RunStatus(self.status)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -109,9 +118,12 @@ class SimResult:
         solver: SolverOptions,
         message: str,
         wall_time: float,
+        status: RunStatus | str = RunStatus.COMPLETED,
+        reason: StatusReason | None = None,
     ) -> SimResult:
         """Build a result from recorded closed-loop states; ``signals``: their block from
-        ``asm.signals`` (:func:`signal_block`), else recomputed here."""
+        ``asm.signals`` (:func:`signal_block`), else recomputed here. ``status`` and
+        ``reason`` say how the run ended; ``message`` is the text built from them."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
         out = signals
         if out is None:
@@ -178,7 +190,8 @@ class SimResult:
             theta_slices=asm.theta_slices,
             failure_times=tuple(times),
             failures=tuple(loop.describe_failures()),
-            status="diverged" if message else "completed",
+            status=RunStatus(status),
+            reason=reason,
             message=message,
             meta=meta,
             state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
@@ -473,7 +486,7 @@ class SimResult:
             else:
                 attrs[k] = str(v)
         attrs.update(
-            status=self.status,
+            status=str(self.status),
             message=self.message,
             failure_times=np.asarray(self.failure_times, dtype=float),
             failures="; ".join(self.failures),
@@ -487,6 +500,9 @@ class SimResult:
                     "state_units": list(self.state_units),
                     "output_units": list(self.output_units),
                     "actuator_units": list(self.actuator_units),
+                    "reason": _jsonable(dataclasses.asdict(self.reason))
+                    if self.reason is not None
+                    else None,
                 },
                 sort_keys=True,
             ),
@@ -553,7 +569,8 @@ class SimResult:
             theta_slices=tuple(slice(a, b) for a, b in info["theta_slices"]),
             failure_times=tuple(float(t) for t in np.atleast_1d(ds.attrs.get("failure_times", []))),
             failures=tuple(info["failures"]),
-            status=str(ds.attrs.get("status", "completed")),
+            status=RunStatus(str(ds.attrs.get("status", "completed"))),
+            reason=_reason_from_json(info.get("reason")),
             message=str(ds.attrs.get("message", "")),
             meta=dict(info["meta"]),
             state_units=tuple(info.get("state_units", ())),
@@ -665,7 +682,6 @@ def _solver_settings(solver: Any) -> str:
 
 @functools.lru_cache(maxsize=64)
 def _settings_text(solver: Any) -> str:
-    import dataclasses
 
     try:
         fields = dataclasses.asdict(solver)
@@ -686,6 +702,22 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+def _reason_from_json(data: dict[str, Any] | None) -> StatusReason | None:
+    """The :class:`StatusReason` written by :meth:`SimResult.to_netcdf` (non-finite numbers are
+    stored as their text)."""
+    if not data:
+        return None
+    known = {f.name: f for f in dataclasses.fields(StatusReason)}
+    values: dict[str, Any] = {}
+    for k, v in data.items():
+        if k not in known:
+            continue
+        if k in ("time", "value", "bound") and v is not None:
+            v = float(v)
+        values[k] = v
+    return StatusReason(**values)
 
 
 def _declared_units(plant: Any, attrs: tuple[str, ...], size: int) -> tuple[str, ...]:
