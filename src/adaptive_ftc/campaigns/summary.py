@@ -40,6 +40,7 @@ __all__ = [
     "pct",
     "role",
     "severity_label",
+    "stopped_early",
     "success_tables",
     "wilson_interval",
     "write_summary",
