@@ -177,3 +177,19 @@ def test_a_digital_delay_must_be_whole_samples():
     with pytest.raises(ConfigurationError, match=r"not a whole number.*0\.1 or 0\.15 s"):
         _pd(sample_time=0.05, actuators=Actuators(delay=0.12))
     _pd(sample_time=0.05, actuators=Actuators(delay=0.15))  # 3 samples: fine
+
+
+def test_scenario_files_declare_the_delay(tmp_path):
+    from adaptive_ftc.errors import ScenarioError
+    from adaptive_ftc.scenarios import load_scenario
+
+    text = 'extends = "hypersonic-direct-s1"\nname = "d"\n[actuators]\ndelay = [0.01, 0.02]\n'
+    path = tmp_path / "d.toml"
+    path.write_text(text)
+    assert load_scenario(path).loop.actuators.delays(2) == (0.01, 0.02)
+    path.write_text(text.replace("0.02]", "-0.02]"))
+    with pytest.raises(ScenarioError, match=r"delay.*actuator 2.*>= 0"):
+        load_scenario(path)
+    path.write_text(text + "[digital]\nsample_time = 0.004\n")
+    with pytest.raises(ScenarioError, match="not a whole number"):
+        load_scenario(path)
