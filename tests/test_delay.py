@@ -193,3 +193,44 @@ def test_scenario_files_declare_the_delay(tmp_path):
     path.write_text(text + "[digital]\nsample_time = 0.004\n")
     with pytest.raises(ScenarioError, match="not a whole number"):
         load_scenario(path)
+
+
+def test_delay_margin_brackets_the_analytic_margin_from_below():
+    """Acceptable = |x| within 0.1 of 0 over the last 10 s of 150 s from x(0) = 1: a delay
+    above DM grows, so the margin found is below DM; one a few percent below DM decays
+    enough, so it is close to it (0.95 DM)."""
+    from adaptive_ftc.studies import delay_margin
+
+    dm = delay_margin(
+        _pd(t_final=150.0),
+        threshold=0.1,
+        window=10.0,
+        resolution=0.02,
+        activity_fraction=None,
+        start=0.1,
+        solver=SOLVER,
+    )
+    assert 0.95 * DM < dm.margin == dm.lower < DM
+    assert dm.upper - dm.lower <= 0.02 * dm.upper
+    assert dm.runs[0].delay == 0.0 and dm.runs[0].acceptable
+    assert len(dm.runs) <= 20
+    assert {r.delay for r in dm.runs if not r.acceptable} >= {dm.upper}
+    assert all(r.acceptable for r in dm.runs if r.delay <= dm.lower)
+
+
+def test_delay_margin_of_a_digital_loop_is_in_whole_samples():
+    from adaptive_ftc.studies import delay_margin
+
+    loop = _pd(sample_time=0.05, t_final=80.0)
+    dm = delay_margin(loop, threshold=0.1, window=10.0, activity_fraction=None, solver=DIGITAL)
+    k = dm.lower / 0.05
+    assert k == round(k) and dm.upper - dm.lower == pytest.approx(0.05)
+    # the continuous margin less about half a sample of zero-order hold (0.71 - 0.025 s)
+    assert 0.55 < dm.lower < 0.71 < dm.upper + 0.05
+
+
+def test_delay_margin_refuses_a_loop_without_threshold_and_window():
+    from adaptive_ftc.studies import delay_margin
+
+    with pytest.raises(ConfigurationError, match="threshold"):
+        delay_margin(_pd())

@@ -639,7 +639,7 @@ def _judge(
     if allowance is None:  # the undelayed run: its own allowance
         allowance = ACTIVITY_FRACTION * np.array([a.peak_to_peak for a in acts])
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = float(np.nanmax(np.where(allowance > 0, fast / allowance, 0.0)))
+        ratio = float(np.nanmax(np.where(allowance > 0, fast / allowance, 0.0), initial=0.0))
     if not rms <= threshold:
         return DelayRun(delay, False, "error > threshold", rms, ratio)
     if not ratio <= 1.0:
@@ -662,6 +662,7 @@ def delay_margin(
     max_runs: int = 20,
     order: int | None = None,
     f_c: float = 1.0,
+    activity_fraction: float | None = ACTIVITY_FRACTION,
 ) -> DelayMargin:
     """Time-delay margin of a loop: the largest injected input delay for which it stays
     acceptable, by bisection (issue 25, item 4; the robustness figure of adaptive control).
@@ -677,8 +678,9 @@ def delay_margin(
       the scenario's ``tracking`` claim: its threshold and window), and
     - every actuator's fast command content (RMS above ``f_c`` Hz over that window,
       :meth:`~adaptive_ftc.sim.result.SimResult.activity`) is at most
-      :data:`ACTIVITY_FRACTION` (3 %) of the undelayed run's command peak to peak there
-      (the activity threshold of issue 25).
+      ``activity_fraction`` (default :data:`ACTIVITY_FRACTION`, 3 %) of the undelayed run's
+      command peak to peak there (the activity threshold of issue 25); ``None`` leaves the
+      activity out (a regulation loop whose ideal command is constant in the window).
 
     Runs are recorded at ``min(record_dt, 1 ms)`` (the activity's aliasing rule). The search
     starts at ``start`` s, doubles (or halves) until the verdict changes, then bisects the
@@ -790,7 +792,8 @@ def delay_margin(
     ideal, _ = run(0.0)
     first = _judge(ideal, 0.0, t1, window, threshold, None, f_c)
     acts0 = list(ideal.activity(t1 - window, t1, f_c=f_c).values()) if first.acceptable else []
-    allowance = ACTIVITY_FRACTION * np.array([a.peak_to_peak for a in acts0])
+    frac = math.inf if activity_fraction is None else float(activity_fraction)
+    allowance = frac * np.array([a.peak_to_peak for a in acts0])
     runs = [first]
     res = max(resolution, 0.0)
 
