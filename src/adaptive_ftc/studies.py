@@ -477,9 +477,18 @@ def add_parser(subparsers):
         help="robustness studies beyond the thesis (sensor noise, digital control, actuators)",
         description="aftc study robustness --out DIR: sweep sensor noise, controller rate, "
         "actuator lag and rate limit on the §2.3 and §4.4 hypersonic designs; write "
-        "robustness.csv, break_points.csv and robustness.png/.pdf.",
+        "robustness.csv, break_points.csv and robustness.png/.pdf. "
+        "aftc study delay-margin --out DIR [SCENARIO ...]: the time-delay margin of each "
+        "scenario under the thesis law and the constraint-aware law (bisection on an injected "
+        "input delay); write delay_margin.csv and delay_margin.png/.pdf.",
     )
-    st.add_argument("study", choices=["robustness"], help="which study")
+    st.add_argument("study", choices=["robustness", "delay-margin"], help="which study")
+    st.add_argument(
+        "scenarios",
+        nargs="*",
+        metavar="SCENARIO",
+        help="scenarios (as --scenario; delay-margin default: " + ", ".join(DELAY_SCENARIOS) + ")",
+    )
     st.add_argument("--out", default="study", help="output folder (default: ./study)")
     st.add_argument("--quick", action="store_true", help="3 values per knob, one noise seed")
     st.add_argument(
@@ -502,8 +511,22 @@ def cli_main(args) -> int:
         raise ConfigurationError(f"--jobs must be >= 1; got {args.jobs}.")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    chosen = [*(getattr(args, "scenarios", None) or []), *(args.scenario or [])]
+    if args.study == "delay-margin":
+        from adaptive_ftc.study_plots import save_delay_margin_figure
+
+        table = delay_margin_study(
+            tuple(chosen or DELAY_SCENARIOS), quick=args.quick, progress=not args.quiet
+        )
+        table.to_csv(out / "delay_margin.csv", index=False)
+        files = save_delay_margin_figure(table, out / "delay_margin.png", formats=("png", "pdf"))
+        show = table[["scenario", "law", "margin", "upper", "how", "runs"]]
+        with pd.option_context("display.width", 200, "display.max_columns", 10):
+            print(show.to_string(index=False))
+        print(f"wrote {out / 'delay_margin.csv'}, " + ", ".join(map(str, files)))
+        return 0
     table = robustness_study(
-        tuple(args.scenario or STUDY_SCENARIOS),
+        tuple(chosen or STUDY_SCENARIOS),
         quick=args.quick,
         jobs=args.jobs,
         progress=not args.quiet,
