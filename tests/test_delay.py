@@ -305,3 +305,18 @@ def test_delay_margin_study_at_reduced_size_on_the_hypersonic_loop():
     row = t.iloc[0]
     assert 1e-3 < row["margin"] < 1e-2 and row["upper"] <= 1.2 * row["margin"] + 1e-12
     assert row["runs"] <= 20 and row["duration"] == 40.0
+
+
+def test_the_activity_verdict_judges_the_undelayed_run_unless_left_out():
+    """Sensor noise puts about a sixth of the command's peak to peak above 1 Hz, more than
+    the 3 % allowance: the undelayed run fails the activity verdict unless it is left out."""
+    from adaptive_ftc.hardware import Sensors
+    from adaptive_ftc.studies import delay_margin
+
+    loop = _pd(t_final=20.0, sensors=Sensors(noise=(1e-3, 1e-2), rate=1000.0))
+    rk4 = SolverOptions(method="rk4", dt=1e-3, record_dt=1e-3, sdot="filtered")
+    kw = dict(threshold=0.1, window=5.0, solver=rk4, max_runs=3, start=0.1)
+    strict = delay_margin(loop, **kw)
+    assert math.isnan(strict.margin) and strict.how == "undelayed run: fast command content"
+    free = delay_margin(loop, activity_fraction=None, **kw)
+    assert free.runs[0].acceptable and free.margin >= 0.1

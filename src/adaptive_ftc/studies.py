@@ -659,6 +659,7 @@ def _judge(
     threshold: float,
     allowance: np.ndarray | None,
     f_c: float,
+    fraction: float = ACTIVITY_FRACTION,
 ) -> DelayRun:
     done = r.status == "completed" and r.time.size and r.time[-1] >= t_final - 1e-9
     if not done:
@@ -667,7 +668,7 @@ def _judge(
     acts = list(r.activity(t_final - window, t_final, f_c=f_c).values())
     fast = np.array([a.fast_rms for a in acts])
     if allowance is None:  # the undelayed run: its own allowance
-        allowance = ACTIVITY_FRACTION * np.array([a.peak_to_peak for a in acts])
+        allowance = fraction * np.array([a.peak_to_peak for a in acts])
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = float(np.nanmax(np.where(allowance > 0, fast / allowance, 0.0), initial=0.0))
     if not rms <= threshold:
@@ -819,10 +820,10 @@ def delay_margin(
             return simulate(replace(loop, actuators=acts), solver), d
 
     t1 = loop.t_final
-    ideal, _ = run(0.0)
-    first = _judge(ideal, 0.0, t1, window, threshold, None, f_c)
-    acts0 = list(ideal.activity(t1 - window, t1, f_c=f_c).values()) if first.acceptable else []
     frac = math.inf if activity_fraction is None else float(activity_fraction)
+    ideal, _ = run(0.0)
+    first = _judge(ideal, 0.0, t1, window, threshold, None, f_c, frac)
+    acts0 = list(ideal.activity(t1 - window, t1, f_c=f_c).values()) if first.acceptable else []
     allowance = frac * np.array([a.peak_to_peak for a in acts0])
     runs = [first]
     res = max(resolution, 0.0)
