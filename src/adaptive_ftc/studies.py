@@ -687,7 +687,7 @@ def delay_margin(
     window: float | None = None,
     duration: float | None = None,
     resolution: float = 0.05,
-    min_delay: float = 1e-4,
+    min_delay: float = 1e-6,
     max_delay: float = 2.0,
     start: float = 1e-3,
     max_runs: int = 20,
