@@ -98,9 +98,7 @@ def udunits(unit: str) -> str:
         return _ALIASES[unit]
     if "/" in unit and "(" not in unit:
         num, _, den = unit.partition("/")
-        parts = _split(num.replace("·", " ")) + [
-            (b, -p) for b, p in _split(den.replace("·", " "))
-        ]
+        parts = _split(num.replace("·", " ")) + [(b, -p) for b, p in _split(den.replace("·", " "))]
         return _join([(b, p) for b, p in parts if b != "1"])
     return unit.replace("·", " ")
 

@@ -581,7 +581,8 @@ class SimResult:
                 "attribute); open it with xarray.open_dataset instead."
             )
         info = json.loads(ds.attrs["aftc_result_json"])
-        # files before 0.x: string dimension coordinates "state", "output", ...
+
+        # older files have string dimension coordinates "state", "output", ... instead
         def labels(dim: str) -> list[str]:
             var = ds[f"{dim}_name"] if f"{dim}_name" in ds.variables else ds[dim]
             return [str(v) for v in var.values]
