@@ -251,6 +251,7 @@ def test_units_module_speaks_one_style():
     assert udunits("rad/s") == "rad s-1" == per_second("rad")
     assert udunits("rad s-1 s-1") == per_second("rad s-1") == "rad s-2"
     assert per_second("N m s") == "N m" and per_second("1") == "s-1"
+    assert udunits("m/s^2") == "m s-2" == udunits("m/s**2") and udunits("kg·m2/s") == "kg m2 s-1"
     assert display("rad s-2") == "rad/s²" and display("N m s") == "N·m·s"
     from adaptive_ftc import plants
 

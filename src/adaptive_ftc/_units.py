@@ -96,6 +96,9 @@ def udunits(unit: str) -> str:
     unit = unit.strip()
     if unit in _ALIASES:
         return _ALIASES[unit]
+    unit = unit.replace("**", "").replace("^", "")  # "m/s^2" -> "m/s2"
+    if unit in _ALIASES:
+        return _ALIASES[unit]
     if "/" in unit and "(" not in unit:
         num, _, den = unit.partition("/")
         parts = _split(num.replace("·", " ")) + [(b, -p) for b, p in _split(den.replace("·", " "))]
