@@ -158,6 +158,18 @@ def _parser() -> argparse.ArgumentParser:
         help="figure formats, comma-separated (png, pdf, svg; default png,pdf)",
     )
     rep.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
+    rep.add_argument(
+        "--float32",
+        action="store_true",
+        help="store the data files in single precision (default: double, so that metrics "
+        "recomputed from them equal metrics.csv; the choice is recorded in the files and report)",
+    )
+    rep.add_argument(
+        "--decimate",
+        type=_count(1, 1_000_000),
+        default=1,
+        help="keep every K-th recorded sample in the data files (default 1: all)",
+    )
     s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     s.add_argument("--out", help="write it to this file instead of printing it")
     try:
@@ -486,6 +498,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         fair_baselines=False if args.no_fair_baselines else None,
         formats=formats,
         dpi=args.dpi,
+        float32=args.float32,
+        decimate=args.decimate,
     )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
