@@ -108,7 +108,7 @@ def case_loop(sc, case: Case, duration: float | None = None):
         ts = 1.0 / case.hz
         dt = ts / math.ceil(ts / 1e-3 - 1e-9)
         loop = replace(loop, sample_time=ts)
-        solver = replace(solver, filter_tau=max(solver.filter_tau, ts))
+        solver = replace(solver, filter_tau=max(solver.filter_tau or 0.0, ts))
         fixed = True
     if fixed:
         solver = replace(solver, method="rk4", dt=dt)

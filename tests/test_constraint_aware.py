@@ -130,8 +130,9 @@ def test_the_option_must_be_a_constraint_aware_model(direct):
         ({"actuators": Actuators(rate=10.0)}, {}),
         ({"sample_time": 0.05}, {"method": "rk4", "dt": 1e-3, "filter_tau": 0.05}),
         ({"actuators": Actuators(tau=0.1)}, {}),
+        ({"actuators": Actuators(rate=2.0)}, {}),
     ],
-    ids=["digital-50Hz", "lag-50ms", "rate-10", "digital-20Hz", "lag-100ms"],
+    ids=["digital-50Hz", "lag-50ms", "rate-10", "digital-20Hz", "lag-100ms", "rate-2"],
 )
 def test_constraint_aware_law_meets_the_targets_where_the_thesis_law_fails(
     direct, hardware, solver_change
@@ -198,15 +199,19 @@ def test_with_noise_the_law_sees_filtered_measurements_and_its_command_is_quiet(
     assert _acceptable(quiet), quiet  # full size: error 6.8e-4, fast content 1.3e-2
 
 
-def test_hedging_is_generated_only_with_an_input_gain_and_limits(direct):
+def test_hedging_is_generated_with_limits_and_its_gain_is_the_loops_input_gain(direct):
     loop, _ = direct
     limited = replace(loop, actuators=Actuators(rate=2.0))
     ca = ConstraintAware.from_loop(limited)
-    assert ca.input_gain == 0.0 and "hedged_q" not in source_of(_aware(limited))
-    hedged = replace(ca, input_gain=10.0)
-    text = source_of(replace(limited, controller=replace(loop.controller, constraint_aware=hedged)))
-    assert "hedged_q" in text
-    lag_only = replace(hedged, rate=math.inf)
+    assert ca.input_gain is None and "hedged_q" in source_of(_aware(limited))
+    # |d s'/d u0| = c k_e (b1 + b2) = 113.5891 * 0.0292 * 3 for the hypersonic loop
+    assert loop.controller.nominal_input_gain(loop) == pytest.approx(113.5891 * 0.0292 * 3)
+    cfg = replace(loop.controller, constraint_aware=ca).configuration(2.0, 9.95)
+    assert cfg.hedge == 9.95 and cfg.k_aw == 0.0  # the compensated error replaces back-calc.
+    off = replace(ca, input_gain=0.0)  # 0: no hedging, back-calculation instead
+    text = source_of(replace(limited, controller=replace(loop.controller, constraint_aware=off)))
+    assert "hedged_q" not in text and "back_calculation" in text
+    lag_only = replace(ca, rate=math.inf)
     text = source_of(replace(loop, controller=replace(loop.controller, constraint_aware=lag_only)))
     assert "hedged_q" not in text
 

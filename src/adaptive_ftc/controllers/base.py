@@ -121,12 +121,27 @@ class AdaptiveController(ABC):
         k0 = k0 * len(k) if len(k0) == 1 else k0
         return max(float(a) + float(b) / float(self.eps0) for a, b in zip(k, k0, strict=True))
 
-    def configuration(self, b_max: float = 1.0) -> constraints.Configuration:
-        """The constraint-aware configuration (the identity without ``constraint_aware``)."""
+    def configuration(
+        self, b_max: float = 1.0, input_gain: float = 0.0
+    ) -> constraints.Configuration:
+        """The constraint-aware configuration (the identity without ``constraint_aware``);
+        ``input_gain``: the loop's nominal ``|d s'/d u0|`` (:meth:`nominal_input_gain`)."""
         if self.constraint_aware is None:
             return constraints.IDENTITY
         lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
-        return self.constraint_aware.configure(w0=self.loop_rate(), b_max=b_max, lam=float(lam))
+        return self.constraint_aware.configure(
+            w0=self.loop_rate(), b_max=b_max, lam=float(lam), input_gain=input_gain
+        )
+
+    @staticmethod
+    def nominal_input_gain(loop) -> float:
+        """The healthy loop's ``|d s_i'/d u0_i| = |sum_j R_ij dy_i''/du_j|`` at the initial
+        state (the largest over the outputs): the gain of the compensated-error filter."""
+        G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, dtype=float)))
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        if G.shape != R.shape:
+            return 0.0
+        return float(np.max(np.abs(np.sum(R * G, axis=1))))
 
     @property
     def adaptation_scale(self) -> float:
@@ -151,7 +166,11 @@ class AdaptiveController(ABC):
         """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for
         the thesis law or an ideal designer's model."""
         b_max = float(abs(np.asarray(g.loop.R)).max()) if np.size(g.loop.R) else 1.0
-        cfg = self.configuration(b_max)
+        gain = 0.0
+        ca = self.constraint_aware
+        if ca is not None and ca.input_gain is None and not ca.is_ideal:
+            gain = self.nominal_input_gain(g.loop)
+        cfg = self.configuration(b_max, gain)
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         return constraints.emit(cfg, g, blocks, at, self.single_output)

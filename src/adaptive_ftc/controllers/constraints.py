@@ -101,7 +101,7 @@ C_NOISE = 0.15
 #: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
 #: rate stays within the rate limit (the describing function of a rate limiter: no phase
 #: loss below it).
-A_RATE = 0.06
+A_RATE = 0.04
 #: ``w_max <= C_CAP w0`` whenever any constraint is declared: the thesis's loop rate is
 #: set for ideal hardware; measured, the hypersonic law limit-cycles above a tenth of it
 #: under any lag or sampling.
@@ -110,6 +110,12 @@ C_CAP = 0.1
 #: noise): the error filter's corner moved up to a fraction of the loop rate, which the
 #: scaled loop gives back in low-frequency gain (error ~ 1/(r^2 lam)).
 C_LAM = 0.8
+#: ... and ``C_LAM_LIMITED`` where rate or travel limits are declared: there the loop must
+#: also survive a failure that removes most of the input gain (hypersonic: 3/4) with the
+#: hedged loop, whose small-signal proportional gain after the failure falls to a quarter of
+#: ``w_max``; ``lam`` above it makes the filtered-error loop unstable (measured: the rate
+#: 2 rad/s case oscillates after the 40 s failure with ``lam = 0.4 w_max``).
+C_LAM_LIMITED = 0.125
 #: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
 WIDEN = 3.0
 #: ``lam`` is raised at most this many times ...
@@ -126,8 +132,10 @@ C_PREFILTER = 2.0
 C_EULER = 0.5
 #: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
 C_AW = 1.0
-#: decay rate of the compensated error, in multiples of ``w_max``.
-C_HEDGE = 1.0
+#: decay rate of the compensated error, in multiples of ``w_max``: slow, so the part of the
+#: error the limited command caused comes back to the law at a rate the actuator can follow
+#: (at ``w_max`` it came back at once and the rate-limiter oscillation went on).
+C_HEDGE = 0.1
 #: the command filter keeps this fraction of the declared rate and travel (margin).
 C_MARGIN = 0.9
 
@@ -225,10 +233,10 @@ class ConstraintAware:
     input_gain
         The designer's nominal ``|d s'/d u0|`` of the healthy plant (``sum_j b_j dy''/du_j``;
         ``plant.input_gains()``): with rate or travel limits, the gain of the compensated-
-        error filter that hedges the limited command out of the adaptation; 0 (default) = no
-        hedging. Measured on the hypersonic rate-limit cases it did not prevent the
-        divergence (docs/hardware.md), so :meth:`from_loop` leaves it at 0. Not a
-        constraint: a model with only ``input_gain`` is ideal.
+        error filter that hedges the undelivered command out of the adaptation. ``None``
+        (default): derived from the loop's plant at its initial state and its allocation
+        (:meth:`AdaptiveController.nominal_input_gain`); 0 = no hedging. Not a constraint: a
+        model with only ``input_gain`` is ideal.
 
     Examples
     --------
@@ -245,7 +253,7 @@ class ConstraintAware:
     noise: float = 0.0
     bandwidth: float | None = None
     theta_max: float = math.inf
-    input_gain: float = 0.0
+    input_gain: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -255,7 +263,8 @@ class ConstraintAware:
         _number(owner, "sample_time", self.sample_time, allow_inf=False)
         _number(owner, "noise", self.noise, allow_inf=False)
         _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
-        _number(owner, "input_gain", self.input_gain, allow_inf=False)
+        if self.input_gain is not None:
+            _number(owner, "input_gain", self.input_gain, allow_inf=False)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
 
@@ -341,19 +350,23 @@ class ConstraintAware:
             return C_NOISE / self.noise, True
         return w, False
 
-    def configure(self, *, w0: float, b_max: float, lam: float = 1.0) -> Configuration:
+    def configure(
+        self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
+    ) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
         under this model, for an allocation whose largest gain is ``b_max`` and a filtered
-        error ``s = e' + lam e``."""
+        error ``s = e' + lam e``; ``input_gain`` is the loop's nominal ``|d s'/d u0|``, used
+        when the model's own ``input_gain`` is ``None``."""
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
         scale = w / w0
         lam_factor = 1.0
+        limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         if scale < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
-            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, top)
-        limited = math.isfinite(self.rate) or math.isfinite(self.travel)
+            c_lam = C_LAM_LIMITED if limited else C_LAM
+            lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / scale, top)
         omega_f = math.inf
         if limited:
             omega_f = C_FILTER * w
@@ -371,7 +384,11 @@ class ConstraintAware:
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
-        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
+        hedge = self.input_gain if self.input_gain is not None else float(input_gain)
+        hedge = hedge if limited else 0.0
+        # anti-windup: the compensated error where the loop's input gain is known (it keeps
+        # the undelivered command out of the adaptation); back-calculation otherwise
+        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
         return Configuration(
             scale,
             lam_factor,
@@ -382,7 +399,7 @@ class ConstraintAware:
             omega_q,
             omega_m,
             k_aw,
-            self.input_gain if limited else 0.0,
+            hedge,
             C_HEDGE * w,
             self.theta_max,
         )
@@ -485,7 +502,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
         for i in range(p):
             h = at_h + i
             pre += [
-                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at_f + i}])",
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - (Y[{at_f + i}]"
+                f" + dY[{at_f + i}] / {wf}))",
                 f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
                 f" c[K + {i}], c[K0 + {i}], c[EPS0])",
             ]
