@@ -275,3 +275,24 @@ def test_nussbaum_constraint_aware_law_survives_where_the_thesis_law_diverges(
     # peak to peak (0.405 rad); 10x the ideal peak (0.584 rad)
     done, err, fast, peak = aware
     assert done and err <= THRESHOLD and fast <= 0.03 * 0.405 and peak <= 5.84, aware
+
+
+def test_the_oracle_runs_on_the_same_hardware_with_the_same_command_filter(direct):
+    """Issue 25 item 3: the oracle of a loop with hardware keeps its actuators and, when the
+    design has the constraint-aware option, the same designer's model (command filter,
+    smoothing); without the option it is the thesis-gain oracle, as before."""
+    from adaptive_ftc.baselines import oracle
+
+    loop, solver = direct
+    hw = replace(loop, actuators=Actuators(tau=0.05, rate=2.0, lower=-0.5, upper=0.5))
+    aware = _aware(hw)
+    o = oracle(aware)
+    assert o.actuators == hw.actuators
+    assert o.controller.constraint_aware == aware.controller.constraint_aware
+    assert o.controller.robust_settings() == aware.controller.robust_settings()
+    assert "command_filter" in source_of(o)
+    r = _run(o, solver)
+    assert np.nanmax(np.abs(r.u_cmd)) <= 0.5  # the command filter keeps it within travel
+    plain = oracle(hw)
+    assert plain.controller.constraint_aware is None and "command_filter" not in source_of(plain)
+    assert oracle(aware, constraint_aware=None).controller == plain.controller
