@@ -288,11 +288,51 @@ def test_the_oracle_runs_on_the_same_hardware_with_the_same_command_filter(direc
     aware = _aware(hw)
     o = oracle(aware)
     assert o.actuators == hw.actuators
-    assert o.controller.constraint_aware == aware.controller.constraint_aware
-    assert o.controller.robust_settings() == aware.controller.robust_settings()
+    bound = aware.controller.bound(aware)  # the model completed from the loop
+    assert o.controller.constraint_aware == bound.constraint_aware
+    assert o.controller.robust_settings() == bound.robust_settings()
     assert "command_filter" in source_of(o)
     r = _run(o, solver)
     assert np.nanmax(np.abs(r.u_cmd)) <= 0.5  # the command filter keeps it within travel
     plain = oracle(hw)
     assert plain.controller.constraint_aware is None and "command_filter" not in source_of(plain)
     assert oracle(aware, constraint_aware=None).controller == plain.controller
+
+
+def test_the_loop_rate_is_measured_from_the_loop_gain(direct):
+    """Issue 25 item 2: the rule slows the law's actual loop, ``max(g, sqrt(g K))`` with
+    ``g = |d s'/d u0| gamma |Pi(z0)|^2`` and ``K = k + k0/eps0``, not the proxy ``K``."""
+    loop, _ = direct
+    ctrl = loop.controller
+    pi = ctrl.regressor(np.array(loop.initial_state))  # z = (alpha, q) at t0
+    g = 113.5891 * 0.0292 * 3.0 * ctrl.gamma * float(np.sum(pi**2))
+    big_k = ctrl.k + ctrl.k0 / ctrl.eps0
+    rate, gain, least = ctrl.measured_loop_rate(loop)
+    assert gain == pytest.approx(g, rel=1e-6) and least == gain
+    assert rate == pytest.approx(max(g, math.sqrt(g * big_k)), rel=1e-6)
+    lagged = replace(ctrl, constraint_aware=ConstraintAware(lag=0.05))
+    bound = lagged.bound(loop).constraint_aware
+    assert (bound.loop_rate, bound.loop_gain, bound.b_max) == (rate, gain, 2.0)
+    assert lagged.bound(loop).adaptation_scale < 1.0 and ctrl.bound(loop) is ctrl
+
+
+def test_a_slow_adaptive_loop_keeps_its_adaptation_gain_and_smooths_its_robust_term():
+    """The manipulator's law (g = 1.8 and 10.7 1/s, K = k + k0/eps0 = 501 1/s): behind a
+    50 ms lag the thesis law chatters; the rule keeps eta near the thesis's (the arm is lost
+    below 0.3) and widens the robust term's boundary layer instead, and keeps lam (a corner
+    above the first joint's loop gain loses the arm)."""
+    sc = load_scenario("manipulator-mimo-s1")
+    loop = replace(sc.loop, actuators=Actuators(tau=0.05))
+    solver = replace(sc.solver, record_dt=1e-3)
+    aware = _aware(loop)
+    ctrl = aware.controller.bound(aware)
+    cfg = ctrl.configuration()
+    assert cfg.scale > 0.3 and cfg.slope_scale < 0.1 * cfg.scale
+    lam = ctrl.robust_settings()[0]  # at most 0.8 x the first joint's scaled loop gain
+    assert lam <= max(1.0, 0.8 * cfg.scale * ctrl.constraint_aware.min_loop_gain) < 1.1
+    target = 0.03 * 12.1  # 3 % of the ideal command's peak to peak (scripts/hardware_cases.py)
+    thesis = _judge(_run(loop, solver), loop, window=5.0)
+    quiet = _judge(_run(aware, solver), aware, window=5.0)
+    assert thesis[0] and thesis[2] > target, thesis  # 13.7 N m of fast content
+    done, err, fast, peak = quiet
+    assert done and err <= 0.05 and fast <= target and peak <= 132, quiet

@@ -171,7 +171,8 @@ def _inverse(
         # the same designer's model: the same command filter, smoothing and measurement
         # filters (derived from the same loop rate k + k0/eps0), so the oracle answers
         # "how good could any controller be on this hardware"
-        settings["constraint_aware"] = c.constraint_aware
+        # (the adaptive design's model completed from the loop: its loop rate)
+        settings["constraint_aware"] = c.bound(loop).constraint_aware
     ctrl = cls(lam=c.lam, k=c.k, k0=c.k0, eps0=c.eps0, **settings)
     name = f"{loop.name} ({ctrl.design})" if loop.name else ctrl.design
     return replace(loop, controller=ctrl, adaptive_initial=(), adapt=False, name=name)

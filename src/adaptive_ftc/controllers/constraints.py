@@ -116,6 +116,14 @@ C_LAM = 0.8
 #: ``w_max``; ``lam`` above it makes the filtered-error loop unstable (measured: the rate
 #: 2 rad/s case oscillates after the 40 s failure with ``lam = 0.4 w_max``).
 C_LAM_LIMITED = 0.125
+#: a rate limit is "tight" (``C_LAM_LIMITED`` applies) where its bound on the loop rate is
+#: below ``C_TIGHT w_max`` (hypersonic §2.3 at 2 rad/s: 22.5 against 20; §4.3 at half the
+#: ideal peak rate, 30.5 rad/s: 343 against 15, where raising ``lam`` is what meets the
+#: target, 3.8e-4 against 1.15e-3 without).
+C_TIGHT = 2.0
+#: ... and at most ``C_LAM_GAIN`` times the smallest scaled proportional loop gain
+#: (:attr:`ConstraintAware.min_loop_gain`), never below the thesis's ``lam``.
+C_LAM_GAIN = 0.8
 #: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
 WIDEN = 3.0
 #: ``lam`` is raised at most this many times ...
@@ -168,6 +176,9 @@ class Configuration(NamedTuple):
     omega_h: float
     #: radius of the projection ball of theta (inf = none)
     theta_max: float
+    #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
+    #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
+    slope_scale: float = 1.0
 
     @property
     def filtered(self) -> bool:
@@ -237,6 +248,26 @@ class ConstraintAware:
         (default): derived from the loop's plant at its initial state and its allocation
         (:meth:`AdaptiveController.nominal_input_gain`); 0 = no hedging. Not a constraint: a
         model with only ``input_gain`` is ideal.
+    loop_rate
+        The law's loop rate ``w0`` (1/s) on the loop it runs, which the rule slows down to
+        ``w_max``. ``None`` (default): measured from the loop's nominal loop gain when the
+        loop is compiled (:meth:`AdaptiveController.measured_loop_rate`: per output
+        ``max(g, sqrt(g (k + k0/eps0)))`` with ``g = |d s'/d u0| x`` adaptation gain
+        ``x |Pi(z0)|^2``, the poles of the law's linear band); without a loop, the proxy
+        ``k + k0/eps0``. Not a constraint.
+    loop_gain
+        The law's proportional loop gain ``g = |d s'/d u0| x |Pi(z0)|^2`` x adaptation gain
+        of the output whose ``loop_rate`` is the largest; ``None``: measured with
+        ``loop_rate`` (without it, the adaptation gains and the robust term's slope are
+        scaled alike). Not a constraint.
+    min_loop_gain
+        The smallest ``g`` over the outputs: ``lam`` is raised to at most ``C_LAM_GAIN`` times
+        it after scaling (a filtered-error corner above the loop gain loses the loop: the
+        manipulator's first joint, ``g = 1.8``, spins away with ``lam = 4``). ``None``:
+        measured with ``loop_rate``. Not a constraint.
+    b_max
+        The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
+        actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
 
     Examples
     --------
@@ -254,6 +285,10 @@ class ConstraintAware:
     bandwidth: float | None = None
     theta_max: float = math.inf
     input_gain: float | None = None
+    loop_rate: float | None = None
+    loop_gain: float | None = None
+    min_loop_gain: float | None = None
+    b_max: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -265,6 +300,14 @@ class ConstraintAware:
         _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
         if self.input_gain is not None:
             _number(owner, "input_gain", self.input_gain, allow_inf=False)
+        if self.loop_rate is not None:
+            _number(owner, "loop_rate", self.loop_rate, allow_inf=False, positive=True)
+        if self.loop_gain is not None:
+            _number(owner, "loop_gain", self.loop_gain, allow_inf=False)
+        if self.min_loop_gain is not None:
+            _number(owner, "min_loop_gain", self.min_loop_gain, allow_inf=False)
+        if self.b_max is not None:
+            _number(owner, "b_max", self.b_max, allow_inf=False, positive=True)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
 
@@ -360,13 +403,30 @@ class ConstraintAware:
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
-        scale = w / w0
+        scale = slope_scale = w / w0
+        g = self.loop_gain
+        if g is not None and g > 0 and scale < 1.0:
+            # the law's linear band has the poles of l^2 + g l + g K = 0 (g: proportional
+            # loop gain, K = k + k0/eps0, w0 = max(g, sqrt(g K))): the proportional gain is
+            # scaled only where it is itself above w, the integral path so that
+            # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
+            # manipulator loses the arm with eta scaled below 0.3)
+            big_k = w0 * w0 / g if w0 > g else g
+            scale = min(1.0, w / g)
+            slope_scale = min(1.0, w * w / (scale * g) / big_k)
         lam_factor = 1.0
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
-        if scale < 1.0:
+        rmin = min(scale, slope_scale)
+        if rmin < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
-            c_lam = C_LAM_LIMITED if limited else C_LAM
-            lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / scale, top)
+            # a rate limit close to binding at the loop rate, or a travel limit
+            rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
+            tight = math.isfinite(self.travel) or rate_bound < C_TIGHT * w
+            c_lam = C_LAM_LIMITED if tight else C_LAM
+            lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / rmin, top)
+            if self.min_loop_gain is not None and self.min_loop_gain > 0:
+                cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
+                lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
         if limited:
             omega_f = C_FILTER * w
@@ -392,7 +452,7 @@ class ConstraintAware:
         return Configuration(
             scale,
             lam_factor,
-            WIDEN if scale < 1.0 else 1.0,
+            WIDEN if slope_scale < 1.0 else 1.0,
             omega_f,
             u_max,
             u_rate,
@@ -402,6 +462,7 @@ class ConstraintAware:
             hedge,
             C_HEDGE * w,
             self.theta_max,
+            slope_scale,
         )
 
 
