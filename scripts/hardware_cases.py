@@ -33,7 +33,7 @@ from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import load_scenario
-from adaptive_ftc.sim.engine import simulate
+from adaptive_ftc.sim.engine import DEFAULT_FILTER_TAU, simulate
 
 REC_DT = 1e-3  # record fast enough not to alias the chatter being judged
 
@@ -115,7 +115,8 @@ def case_loop(sc, case: Case, duration: float | None = None):
         ts = 1.0 / case.hz
         dt = ts / math.ceil(ts / 1e-3 - 1e-9)
         loop = replace(loop, sample_time=ts)
-        solver = replace(solver, filter_tau=max(solver.filter_tau or 0.0, ts))
+        tau = solver.filter_tau if solver.filter_tau is not None else DEFAULT_FILTER_TAU
+        solver = replace(solver, filter_tau=max(tau, ts))
         fixed = True
     if fixed:
         solver = replace(solver, method="rk4", dt=dt)

@@ -11,13 +11,22 @@ hardware; given to a design (``constraint_aware=ConstraintAware(...)``, an optio
 design, not another design) it derives, by the rules below, one configuration
 (:class:`Configuration`) that changes the law in these established ways:
 
-1. **Bandwidth scaling and smoothing of the robust term.** The loop rate of the law's linear
-   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware
-   admits ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
-   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`); with ``r = w_max / w0`` the law
-   runs with ``gamma -> r gamma`` (every adaptation gain), ``k -> r k`` and
-   ``eps0 -> eps0 / r``. In the linear band ``u0 ~ gamma |Pi|^2 (s + (k + k0/eps0) int s)``,
-   so this moves every closed-loop frequency of the law down by ``r`` at the same damping:
+1. **Bandwidth scaling and smoothing of the robust term.** In the linear band
+   ``u0 ~ gamma |Pi|^2 (s + K int s)`` with ``K = k + k0/eps0``, and ``s' = -b u0 + ...``
+   with ``b = |d s'/d u0|`` (the plant's input gains along the allocation), so the law's
+   poles solve ``l^2 + g l + g K = 0`` with the *loop gain* ``g = b gamma |Pi(z0)|^2``: its
+   loop rate is ``w0 = max(g, sqrt(g K))``, measured on the loop when it is compiled
+   (:meth:`AdaptiveController.bound`, :meth:`AdaptiveController.measured_loop_rate`; 202
+   1/s on hypersonic-direct-s1, 73 on the manipulator, 48 on the spacecraft, 12700 on the
+   wing rock; without a loop the proxy ``K``). The hardware admits
+   ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
+   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`). The adaptation gains are scaled by
+   ``r = min(1, w_max/g)`` (every gain of ``theta``; ``k -> r k``) and the robust term's
+   slope ``k0/eps0`` by ``r_K`` so that ``sqrt(r g r_K K) <= w_max`` (``eps0 -> eps0/r_K``):
+   a loop whose adaptation is already slow keeps its gain and only its robust term is
+   smoothed (the manipulator loses the arm with ``eta`` scaled below 0.3; its 50 ms chatter
+   is the robust term's). On the hypersonic loop (``g ~ K``) both are ``w_max/w0``, which
+   moves every closed-loop frequency of the law down at the same damping:
    the smoothing of the discontinuous term is tied to the actuator bandwidth and the sample
    rate (Slotine & Li 1991, §7.2: boundary layer no thinner than the unmodelled dynamics
    allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
@@ -26,20 +35,29 @@ design, not another design) it derives, by the rules below, one configuration
    Where the loop is slowed, ``lam -> min(max(lam, C_LAM w_max), lam / r, F lam)`` with
    ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's
    low-frequency gain (what rejects a failure's disturbance) falls as ``r^2 lam``; this
-   gives part of it back.
+   gives part of it back. ``lam`` stays below ``C_LAM_GAIN`` times the smallest scaled loop
+   gain over the outputs (a filtered-error corner above the loop gain loses the loop), and
+   with a travel limit or a tight rate limit (its bound below ``C_TIGHT w_max``)
+   ``C_LAM_LIMITED`` replaces ``C_LAM``: a failure that removes most of the input gain
+   leaves the hedged loop a quarter of its gain.
 2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
    Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007), with rate or
    travel limits: the law's command ``u0c`` passes through
    ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the allocation, with ``U`` and
    ``R`` the designer's travel and rate times ``C_MARGIN`` divided by ``max |b_j|`` (so no
    actuator is commanded past its limits) and ``w_f = C_FILTER w_max``.
-3. **Anti-windup by back-calculation on the estimates** (Åström & Rundqwist, ACC 1989):
-   ``theta' += -k_aw Pi (u0c - u0_reachable) / |Pi|^2`` pulls the law's command back to what
-   the filter can deliver, so the estimates do not learn the saturation (no wind-up to
-   hundreds of radians behind a rate limit). With a declared ``input_gain`` the laws also
-   see the **compensated error** ``s - xi``, ``xi' = -w_h xi + input_gain (u0c - u0)``
-   (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson & Calise, JGCD 26(6),
-   2003).
+3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
+   Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
+   ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
+   ``|d s'/d u0|`` (``input_gain``, by default measured on the loop) and ``u0_reachable =
+   u0 + u0'/w_f`` what the filter delivers: only the part of the command the limits did not
+   deliver (not the filter's linear lag, which left a steady error) drives ``xi``, so the
+   adaptation does not learn the saturation; ``xi`` returns slowly (``w_h = C_HEDGE
+   w_max``), at a rate the actuator can follow. Measured: this is what ends the
+   rate-limiter oscillation of the hypersonic loop at 2 rad/s (it diverged at 43 s with the
+   back-calculation below). With ``input_gain = 0``: **anti-windup by back-calculation on
+   the estimates** (Åström & Rundqwist, ACC 1989): ``theta' += -k_aw Pi (u0c -
+   u0_reachable) / |Pi|^2`` pulls the law's command back to what the filter can deliver.
 4. **Noise**: the law sees its measurements (regressor inputs, errors, ``s``) through a
    first-order prefilter at ``C_MEASURE w_max``, and its adaptation signal ``q`` through
    ``qf' = w_q (q - qf)`` at ``C_PREFILTER w_max``.
@@ -54,9 +72,9 @@ A digital controller integrates every state of the law by forward Euler at its s
 bound on the adaptive loop). The measurement and command filters keep running while the
 adaptation is frozen (``ClosedLoop(adapt=False)``).
 
-The constants below were chosen once, on the hypersonic §2.3 cases of issue 25, and are the
-same for every case, design and plant (no tuning per case). They do not transfer to the
-wing-rock and manipulator loops as they are (docs/hardware.md).
+The constants below were chosen once, on the hypersonic §2.3 cases of issue 25 (and the
+manipulator and §4.3 cases where said), and are the same for every case, design and plant
+(no tuning per case). Where they fail is measured in docs/hardware.md.
 
 Guarantees (which holds for which combination):
 
@@ -69,9 +87,11 @@ Guarantees (which holds for which combination):
   of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
   bounded signals for small enough unmodelled dynamics), not a proof for each case.
 - *rate / travel limits*: the command filter makes every commanded actuator respect the
-  designer's limits (a hard guarantee on the command); the back-calculation keeps the
-  estimates bounded while the filter limits; stability of the limited loop is not
-  guaranteed (measured: the hypersonic loop still diverges at 2 and 0.5 rad/s).
+  designer's limits (a hard guarantee on the command); with the compensated error the
+  adaptation sees only the error the delivered command is responsible for (Farrell et al.
+  2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
+  bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
+  loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure).
 - *noise*: the prefilters and the lower bandwidth bound the noise in the command (linear
   filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
 - *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
