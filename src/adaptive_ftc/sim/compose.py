@@ -924,7 +924,7 @@ def _immutable(parts) -> bool:
 
 def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     """The failure-independent part of :func:`generate`."""
-    plant, ctrl = loop.plant, loop.controller
+    plant, ctrl = loop.plant, loop.controller.bound(loop)  # constraint-aware: from the loop
     g = Generator(loop=loop, sdot=sdot)
     nx, p, m = g.nx, g.p, g.m
     # expression variables: t, u and the plant states by every alias
