@@ -110,13 +110,9 @@ def generate(pkg: griffe.Module | None = None) -> str:
         if entry is None:
             top_only.append(name)
             continue
-        rows.append(
-            f'| <span id="{PACKAGE}.{name}"></span>[`{name}`](#{entry}) | `{entry}` |'
-        )
+        rows.append(f'| <span id="{PACKAGE}.{name}"></span>[`{name}`](#{entry}) | `{entry}` |')
     parts.append(f"## `{PACKAGE}`\n")
-    parts.append(
-        f"`from {PACKAGE} import NAME` works for these names; each links to its entry.\n"
-    )
+    parts.append(f"`from {PACKAGE} import NAME` works for these names; each links to its entry.\n")
     parts.append("| Name | Documented as |\n| --- | --- |\n" + "\n".join(rows) + "\n")
     if top_only:
         parts.append(f"::: {PACKAGE}\n" + OPTIONS.format(members=", ".join(top_only)))
