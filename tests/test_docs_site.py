@@ -18,9 +18,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-sys.path.insert(0, str(DOCS / "hooks"))
-
-import griffe_rst  # noqa: E402
+sys.path.insert(0, str(DOCS / "hooks"))  # griffe_rst: the extension mkdocs.yml names
 
 ROLE_RE = re.compile(r":(?:py:)?(?:class|func|meth|attr|data|mod|exc|obj|const|math|any):")
 
@@ -96,12 +94,18 @@ def test_no_raw_rst_directives_or_table_rules_in_the_api_page(site):
 # --------------------------------------------------------------------- the griffe extension
 @pytest.fixture(scope="module")
 def hardware_module():
-    griffe = pytest.importorskip("griffe")
+    griffe = pytest.importorskip("griffe", reason="install the docs extra")
     pkg = griffe.load("adaptive_ftc", search_paths=[str(ROOT / "src")])
     return pkg["hardware"]
 
 
-def test_roles_become_optional_cross_references_resolved_in_scope(hardware_module):
+@pytest.fixture(scope="module")
+def griffe_rst():
+    pytest.importorskip("griffe", reason="install the docs extra")
+    return importlib.import_module("griffe_rst")
+
+
+def test_roles_become_optional_cross_references_resolved_in_scope(griffe_rst, hardware_module):
     out = griffe_rst.rst_to_markdown(
         hardware_module,
         "See :class:`Actuators`, :func:`~adaptive_ftc.hardware.pade_realization` and "
@@ -120,7 +124,7 @@ def test_roles_become_optional_cross_references_resolved_in_scope(hardware_modul
     assert 'identifier="adaptive_ftc.claims"' in out
 
 
-def test_math_directive_tables_and_headings_become_markdown(hardware_module):
+def test_math_directive_tables_and_headings_become_markdown(griffe_rst, hardware_module):
     text = (
         "Intro::\n\n    code\n\nA rule\n------\n\n.. math:: a = b\n          + c\n\nafter\n\n"
         "=== ===\nx   y\n=== ===\n1   2\n3   4\n=== ===\n"
@@ -132,7 +136,7 @@ def test_math_directive_tables_and_headings_become_markdown(hardware_module):
     assert "| x | y |\n| --- | --- |\n| 1 | 2 |\n| 3 | 4 |" in out
 
 
-def test_numpy_section_names_keep_their_underlines(hardware_module):
+def test_numpy_section_names_keep_their_underlines(griffe_rst, hardware_module):
     text = "Parameters\n----------\nx\n    A number.\n\nA closing remark.\n"
     out = griffe_rst.rst_to_markdown(hardware_module, text)
     assert "Parameters\n----------\nx\n" in out

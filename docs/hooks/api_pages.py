@@ -112,10 +112,18 @@ def generate(pkg: griffe.Module | None = None) -> str:
             continue
         rows.append(f'| <span id="{PACKAGE}.{name}"></span>[`{name}`](#{entry}) | `{entry}` |')
     parts.append(f"## `{PACKAGE}`\n")
-    parts.append(f"`from {PACKAGE} import NAME` works for these names; each links to its entry.\n")
+    parts.append(f"::: {PACKAGE}\n" + OPTIONS.format(members=""))  # the package docstring
+    parts.append(
+        f"`from {PACKAGE} import NAME` works for every name of this table (each links to "
+        "its entry) and for those documented after it.\n"
+    )
     parts.append("| Name | Documented as |\n| --- | --- |\n" + "\n".join(rows) + "\n")
     if top_only:
-        parts.append(f"::: {PACKAGE}\n" + OPTIONS.format(members=", ".join(top_only)))
+        parts.append(
+            f"::: {PACKAGE}\n"
+            + OPTIONS.format(members=", ".join(top_only))
+            + "      show_docstring_description: false\n"
+        )
     for mod in modules:
         own, elsewhere = [], []
         for name in _exports(mod):
