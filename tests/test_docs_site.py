@@ -136,6 +136,13 @@ def test_math_directive_tables_and_headings_become_markdown(griffe_rst, hardware
     assert "| x | y |\n| --- | --- |\n| 1 | 2 |\n| 3 | 4 |" in out
 
 
+def test_bullet_bodies_are_indented_for_markdown(griffe_rst, hardware_module):
+    text = "Parts:\n\n- one, with\n  a formula:\n\n  .. math:: x\n\n  more.\n- two\n\nAfter.\n"
+    out = griffe_rst.rst_to_markdown(hardware_module, text)
+    # the item's later blocks stay in the item (4 spaces), the next item starts a new one
+    assert "- one, with\n    a formula:\n\n    `x`\n\n    more.\n\n- two\n\nAfter." in out
+
+
 def test_numpy_section_names_keep_their_underlines(griffe_rst, hardware_module):
     text = "Parameters\n----------\nx\n    A number.\n\nA closing remark.\n"
     out = griffe_rst.rst_to_markdown(hardware_module, text)

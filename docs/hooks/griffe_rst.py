@@ -9,6 +9,8 @@ build time, so the site shows no raw Sphinx roles (the source docstrings stay as
 - RST simple tables (``=== ===`` rules): Markdown tables.
 - Section underlines (``Title`` / ``-----``) that numpydoc does not know: a bold line.
 - A paragraph ending in ``::`` before a literal block: a single ``:``.
+- A bullet's continuation blocks, indented under its text as RST wants (2 spaces), indented
+  4 spaces as Markdown wants (else a blank line ends the list item).
 - A prose paragraph after the entries of a ``Parameters`` section (numpydoc would read its
   first word as a parameter): put under a ``Notes`` heading.
 
@@ -145,9 +147,29 @@ def _prose_after_parameters(lines: list[str]) -> list[str]:
     return out
 
 
+def _indent_bullet_bodies(lines: list[str]) -> list[str]:
+    """``lines`` with the body of each ``- `` bullet indented 4 spaces under the bullet, and
+    a blank line between sibling bullets."""
+    out: list[str] = []
+    bullet = None  # indent of the open bullet
+    for line in lines:
+        indent = len(line) - len(line.lstrip())
+        if line.strip():
+            if line.lstrip().startswith(("- ", "* ")) and (bullet is None or indent <= bullet):
+                if bullet is not None and out and out[-1].strip():
+                    out.append("")  # a sibling item: without it Markdown continues the last
+                bullet = indent
+            elif bullet is not None and indent >= bullet + 2:
+                line = "  " + line
+            elif bullet is not None:
+                bullet = None
+        out.append(line)
+    return out
+
+
 def rst_to_markdown(obj: Object, text: str) -> str:
     """The docstring ``text`` of ``obj`` with its RST constructs turned into Markdown."""
-    lines = _prose_after_parameters(text.splitlines())
+    lines = _indent_bullet_bodies(_prose_after_parameters(text.splitlines()))
     out: list[str] = []
     i = 0
     while i < len(lines):
