@@ -156,9 +156,7 @@ def write_summary(spec: CampaignSpec, out: str | Path) -> dict[str, Any]:
     info = success_tables(df)
     info["name"] = spec.name
     info["runs_per_design"] = spec.runs
-    info["success_criterion"] = (
-        f"completed and final-window ({spec.final_window:g} s) RMS error <= {spec.success_rms:g}"
-    )
+    info["success_criterion"] = spec.success_text()
     paths = _figures(df, out / "figures")
     worst = _worst(df, spec.designs[0], 10)
     info["worst"] = [
