@@ -127,3 +127,19 @@ def test_the_spec_refuses_a_malformed_activity_criterion():
         load_campaign(spec_with(activity=False, max_rate_limited_fraction=0.1))
     with pytest.raises(CampaignError, match="unknown key 'max_fast_rms_relativ'"):
         load_campaign(spec_with(max_fast_rms_relativ=0.03))
+
+
+def test_a_fixed_gain_baseline_of_a_noisy_loop_freezes_only_the_adaptive_states():
+    """With sensor noise ``sdot = "auto"`` resolves to the s' filter, whose states are not
+    adaptive parameters: the tuned parameters leave them out (a campaign drawing noise ran
+    no fixed-gain member before)."""
+    from adaptive_ftc.baselines import fixed_gain
+    from adaptive_ftc.sim.engine import SolverOptions
+
+    sc = load_scenario("hypersonic-direct-s1-noise")
+    loop = dataclasses.replace(sc.loop, t_final=1.0)
+    solver = SolverOptions(method="rk4", dt=1e-3, sdot="auto")
+    base = fixed_gain(loop, solver)
+    r = simulate(base, solver)
+    assert r.status == "completed"
+    assert len(base.adaptive_initial) == r.adaptive.shape[1] - loop.plant.n_outputs

@@ -112,7 +112,8 @@ def healthy_parameters(loop: ClosedLoop, solver: SolverOptions | None = None) ->
             "Fix the loop's gains or initial state, or pass a stiffer solver "
             "(SolverOptions(method='auto'))."
         )
-    n_filter = loop.plant.n_outputs if solver.sdot == "filtered" else 0
+    # the s' filter's states (also where "auto" resolves to it: a loop with sensor noise)
+    n_filter = loop.plant.n_outputs if solver.sdot_for(healthy) == "filtered" else 0
     final = result.adaptive[-1, : result.adaptive.shape[1] - n_filter]
     if not np.all(np.isfinite(final)):  # pragma: no cover - a completed run is finite
         raise ConfigurationError("The failure-free tuning run ended with non-finite parameters.")
