@@ -133,8 +133,10 @@ def ideal_reference(spec: CampaignSpec) -> tuple[float, float]:
         t_end = float(r.time[-1])
         w = r.window(t_end - spec.final_window)
         u = r.u_cmd[w]
+        from adaptive_ftc.campaigns.spec import CampaignError
+
         if r.status != "completed" or u.size == 0:
-            raise ValueError(
+            raise CampaignError(
                 f"Campaign '{spec.name}': the base scenario's ideal run ({r.status}: "
                 f"{r.message}) gives no reference for the activity criterion; state "
                 "`reference_peak_to_peak` and `reference_peak_command` in [success] or set "
@@ -142,6 +144,14 @@ def ideal_reference(spec: CampaignSpec) -> tuple[float, float]:
             )
         p2p = float(np.max(np.ptp(u, axis=0)))
         peak = float(np.max(np.abs(u)))
+        if not p2p > 0 or not peak > 0:
+            raise CampaignError(
+                f"Campaign '{spec.name}': the base scenario's ideal command is flat over the "
+                f"final window (peak to peak {p2p:.3g}, peak {peak:.3g}; e.g. a regulation to "
+                "0): no reference for the activity criterion. State `reference_peak_to_peak` "
+                "and `reference_peak_command` in [success] (e.g. the ideal run's peak |command| "
+                "over the whole run) or set `activity = false`."
+            )
         _CACHE[key] = (p2p, peak)
         return p2p, peak
 

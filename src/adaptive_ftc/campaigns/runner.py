@@ -197,6 +197,8 @@ def run_campaign(
 
     if not isinstance(spec, CampaignSpec):
         spec = load_campaign(spec)
+    if spec.activity is not None:  # the ideal run's references, before any chunk runs
+        spec.activity.thresholds(spec)
     out = store.prepare_folder(spec, out)
     done = store.finished_chunks(spec, out)
     pending = (c for c in range(spec.n_chunks) if c not in done)  # lazy: n_chunks may be large
