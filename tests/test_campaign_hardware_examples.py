@@ -27,6 +27,8 @@ def reduced(name: str, duration: float) -> dict:
     data.update(runs=2, chunk_size=2, duration=duration)
     data["success"]["final_window"] = duration / 4
     data["failures"]["onset"] = {"uniform": [duration / 4, duration / 2]}
+    if name == "wingrock-hardware":  # its ideal command settles within 1.5 s (test below)
+        data["success"].update(reference_peak_to_peak=6.17, reference_peak_command=6.17)
     return data
 
 
@@ -52,9 +54,14 @@ def test_a_shipped_hardware_campaign_runs_at_reduced_size(name, tmp_path):
 
 
 def test_a_flat_ideal_command_asks_for_stated_references(tmp_path):
-    data = reduced("wingrock-hardware", 2.0)
-    for key in ("reference_peak_to_peak", "reference_peak_command"):
-        del data["success"][key]
+    """Wing rock regulates roll to 0: over its last second the ideal command has settled to
+    3e-6 rad peak to peak (of a 6.2 rad peak), no reference for the fast content."""
+    data = tomllib.loads((EXAMPLES / "wingrock-hardware.toml").read_text(encoding="utf-8"))
+    data.update(runs=2, chunk_size=2)
+    data["success"]["final_window"] = 1.0
     with pytest.raises(CampaignError, match="ideal command is flat.*reference_peak_to_peak"):
         run_campaign(load_campaign(data), tmp_path / "c", jobs=1, progress=False)
     assert not (tmp_path / "c" / "parts").exists() or not any((tmp_path / "c" / "parts").iterdir())
+    data["success"].update(reference_peak_to_peak=6.17, reference_peak_command=6.17)
+    stated = load_campaign(data)
+    assert stated.activity.thresholds(stated) == pytest.approx((0.03 * 6.17, 61.7))

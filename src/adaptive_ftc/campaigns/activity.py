@@ -11,7 +11,9 @@ and its command is acceptable there (:mod:`adaptive_ftc.sim.activity`, worst act
 The references default to the base scenario's ideal run: the thesis law (any
 ``constraint_aware`` option removed) on ideal hardware (no actuator model, no sensor noise,
 continuous control), the base failures kept, over the campaign's duration; its largest
-command peak to peak and peak ``|u|`` over the final window, over the actuators. It is run
+command peak to peak and peak ``|u|`` over the final window, over the actuators. A command
+that is flat there (peak to peak below 1e-3 of the run's peak ``|u|``, e.g. a settled
+regulation) gives no reference: the spec must state both numbers. It is run
 once per process and campaign (about one run's time) unless the spec states both numbers.
 ``[success] activity = false`` judges tracking only (as before issue 25).
 
@@ -144,7 +146,8 @@ def ideal_reference(spec: CampaignSpec) -> tuple[float, float]:
             )
         p2p = float(np.max(np.ptp(u, axis=0)))
         peak = float(np.max(np.abs(u)))
-        if not p2p > 0 or not peak > 0:
+        # flat: below 1e-3 of the run's own peak |command| (a regulation that has settled)
+        if not p2p > 1e-3 * float(np.max(np.abs(r.u_cmd))) or not peak > 0:
             raise CampaignError(
                 f"Campaign '{spec.name}': the base scenario's ideal command is flat over the "
                 f"final window (peak to peak {p2p:.3g}, peak {peak:.3g}; e.g. a regulation to "
