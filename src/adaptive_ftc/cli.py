@@ -116,7 +116,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--no-baselines",
         action="store_true",
-        help="skip the frozen-adaptation and failure-free comparison runs",
+        help="skip the frozen-adaptation, failure-free and baseline comparison runs (a "
+        "constraint-aware scenario still runs the thesis law beside it: its claims name what "
+        "it fails)",
     )
     r.add_argument("--csv", action="store_true", help="also write CSV tables")
     r.add_argument("--float32", action="store_true", help="store the data in single precision")
