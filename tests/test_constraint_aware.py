@@ -130,8 +130,9 @@ def test_the_option_must_be_a_constraint_aware_model(direct):
         ({"actuators": Actuators(rate=10.0)}, {}),
         ({"sample_time": 0.05}, {"method": "rk4", "dt": 1e-3, "filter_tau": 0.05}),
         ({"actuators": Actuators(tau=0.1)}, {}),
+        ({"actuators": Actuators(rate=2.0)}, {}),
     ],
-    ids=["digital-50Hz", "lag-50ms", "rate-10", "digital-20Hz", "lag-100ms"],
+    ids=["digital-50Hz", "lag-50ms", "rate-10", "digital-20Hz", "lag-100ms", "rate-2"],
 )
 def test_constraint_aware_law_meets_the_targets_where_the_thesis_law_fails(
     direct, hardware, solver_change
@@ -198,15 +199,19 @@ def test_with_noise_the_law_sees_filtered_measurements_and_its_command_is_quiet(
     assert _acceptable(quiet), quiet  # full size: error 6.8e-4, fast content 1.3e-2
 
 
-def test_hedging_is_generated_only_with_an_input_gain_and_limits(direct):
+def test_hedging_is_generated_with_limits_and_its_gain_is_the_loops_input_gain(direct):
     loop, _ = direct
     limited = replace(loop, actuators=Actuators(rate=2.0))
     ca = ConstraintAware.from_loop(limited)
-    assert ca.input_gain == 0.0 and "hedged_q" not in source_of(_aware(limited))
-    hedged = replace(ca, input_gain=10.0)
-    text = source_of(replace(limited, controller=replace(loop.controller, constraint_aware=hedged)))
-    assert "hedged_q" in text
-    lag_only = replace(hedged, rate=math.inf)
+    assert ca.input_gain is None and "hedged_q" in source_of(_aware(limited))
+    # |d s'/d u0| = c k_e (b1 + b2) = 113.5891 * 0.0292 * 3 for the hypersonic loop
+    assert loop.controller.nominal_input_gain(loop) == pytest.approx(113.5891 * 0.0292 * 3)
+    cfg = replace(loop.controller, constraint_aware=ca).configuration(2.0, 9.95)
+    assert cfg.hedge == 9.95 and cfg.k_aw == 0.0  # the compensated error replaces back-calc.
+    off = replace(ca, input_gain=0.0)  # 0: no hedging, back-calculation instead
+    text = source_of(replace(limited, controller=replace(loop.controller, constraint_aware=off)))
+    assert "hedged_q" not in text and "back_calculation" in text
+    lag_only = replace(ca, rate=math.inf)
     text = source_of(replace(loop, controller=replace(loop.controller, constraint_aware=lag_only)))
     assert "hedged_q" not in text
 
@@ -270,3 +275,64 @@ def test_nussbaum_constraint_aware_law_survives_where_the_thesis_law_diverges(
     # peak to peak (0.405 rad); 10x the ideal peak (0.584 rad)
     done, err, fast, peak = aware
     assert done and err <= THRESHOLD and fast <= 0.03 * 0.405 and peak <= 5.84, aware
+
+
+def test_the_oracle_runs_on_the_same_hardware_with_the_same_command_filter(direct):
+    """Issue 25 item 3: the oracle of a loop with hardware keeps its actuators and, when the
+    design has the constraint-aware option, the same designer's model (command filter,
+    smoothing); without the option it is the thesis-gain oracle, as before."""
+    from adaptive_ftc.baselines import oracle
+
+    loop, solver = direct
+    hw = replace(loop, actuators=Actuators(tau=0.05, rate=2.0, lower=-0.5, upper=0.5))
+    aware = _aware(hw)
+    o = oracle(aware)
+    assert o.actuators == hw.actuators
+    bound = aware.controller.bound(aware)  # the model completed from the loop
+    assert o.controller.constraint_aware == bound.constraint_aware
+    assert o.controller.robust_settings() == bound.robust_settings()
+    assert "command_filter" in source_of(o)
+    r = _run(o, solver)
+    assert np.nanmax(np.abs(r.u_cmd)) <= 0.5  # the command filter keeps it within travel
+    plain = oracle(hw)
+    assert plain.controller.constraint_aware is None and "command_filter" not in source_of(plain)
+    assert oracle(aware, constraint_aware=None).controller == plain.controller
+
+
+def test_the_loop_rate_is_measured_from_the_loop_gain(direct):
+    """Issue 25 item 2: the rule slows the law's actual loop, ``max(g, sqrt(g K))`` with
+    ``g = |d s'/d u0| gamma |Pi(z0)|^2`` and ``K = k + k0/eps0``, not the proxy ``K``."""
+    loop, _ = direct
+    ctrl = loop.controller
+    pi = ctrl.regressor(np.array(loop.initial_state))  # z = (alpha, q) at t0
+    g = 113.5891 * 0.0292 * 3.0 * ctrl.gamma * float(np.sum(pi**2))
+    big_k = ctrl.k + ctrl.k0 / ctrl.eps0
+    rate, gain, least = ctrl.measured_loop_rate(loop)
+    assert gain == pytest.approx(g, rel=1e-6) and least == gain
+    assert rate == pytest.approx(max(g, math.sqrt(g * big_k)), rel=1e-6)
+    lagged = replace(ctrl, constraint_aware=ConstraintAware(lag=0.05))
+    bound = lagged.bound(loop).constraint_aware
+    assert (bound.loop_rate, bound.loop_gain, bound.b_max) == (rate, gain, 2.0)
+    assert lagged.bound(loop).adaptation_scale < 1.0 and ctrl.bound(loop) is ctrl
+
+
+def test_a_slow_adaptive_loop_keeps_its_adaptation_gain_and_smooths_its_robust_term():
+    """The manipulator's law (g = 1.8 and 10.7 1/s, K = k + k0/eps0 = 501 1/s): behind a
+    50 ms lag the thesis law chatters; the rule keeps eta near the thesis's (the arm is lost
+    below 0.3) and widens the robust term's boundary layer instead, and keeps lam (a corner
+    above the first joint's loop gain loses the arm)."""
+    sc = load_scenario("manipulator-mimo-s1")
+    loop = replace(sc.loop, actuators=Actuators(tau=0.05))
+    solver = replace(sc.solver, record_dt=1e-3)
+    aware = _aware(loop)
+    ctrl = aware.controller.bound(aware)
+    cfg = ctrl.configuration()
+    assert cfg.scale > 0.3 and cfg.slope_scale < 0.1 * cfg.scale
+    lam = ctrl.robust_settings()[0]  # at most 0.8 x the first joint's scaled loop gain
+    assert lam <= max(1.0, 0.8 * cfg.scale * ctrl.constraint_aware.min_loop_gain) < 1.1
+    target = 0.03 * 12.1  # 3 % of the ideal command's peak to peak (scripts/hardware_cases.py)
+    thesis = _judge(_run(loop, solver), loop, window=5.0)
+    quiet = _judge(_run(aware, solver), aware, window=5.0)
+    assert thesis[0] and thesis[2] > target, thesis  # 13.7 N m of fast content
+    done, err, fast, peak = quiet
+    assert done and err <= 0.05 and fast <= target and peak <= 132, quiet

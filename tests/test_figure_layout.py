@@ -377,9 +377,7 @@ def test_the_shipped_robustness_table_draws_print_ready():
     assert_print_ready(plot_robustness(pd.read_csv(csv), title="Robustness"), "robustness.csv")
 
 
-def test_the_campaign_figures_fit_their_canvas(tmp_path, monkeypatch):
-    import matplotlib.pyplot as plt
-
+def test_the_campaign_figures_fit_their_canvas():
     from adaptive_ftc.campaigns import summary
 
     rng = np.random.default_rng(0)
@@ -396,21 +394,17 @@ def test_the_campaign_figures_fit_their_canvas(tmp_path, monkeypatch):
                     "status": np.where(rng.uniform(0, 1, n) > 0.9, "diverged", "completed"),
                 }
             )
-            for design in ("direct-adaptive", "nominal-inverse", "fixed-gain")
+            for design in ("direct-adaptive", "nominal-inverse", "fixed-gain", "frozen")
         ],
         ignore_index=True,
     )
-    drawn = []
-    monkeypatch.setattr(plt, "close", drawn.append)  # keep the figures to check them
-    paths = summary._figures(df, tmp_path)
-    assert len(drawn) == len(paths) == 3
-    for fig, name in zip(drawn, paths, strict=True):
+    figs = summary.draw_figures(df, threshold=1e-3, unit="rad")
+    assert len(figs) == 4
+    for name, fig in figs.items():
         assert_print_ready(fig, f"campaign figure {name}")
-        for ax in fig.axes:
-            assert ax.get_xlabel().endswith(")") and ax.get_ylabel().endswith(")"), name
-    monkeypatch.undo()
-    for fig in drawn:
-        plt.close(fig)
+        for ax in fig.axes:  # every labelled axis gives its unit
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                assert not label or label.endswith(")"), (name, label)
 
 
 def test_figure_titles_quote_angles_in_the_unit_of_their_axes():

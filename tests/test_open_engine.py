@@ -578,7 +578,11 @@ def test_ctrl_c_returns_the_partial_result_quickly():
         "print('ready', flush=True)\n"
         "warnings.simplefilter('ignore')\n"
         "t = time.perf_counter()\n"
-        "r = simulate(replace(sc.loop, t_final=5000.0), opts)\n"
+        "from adaptive_ftc import SimulationInterrupted\n"
+        "try:\n"
+        "    simulate(replace(sc.loop, t_final=5000.0), opts)\n"
+        "except SimulationInterrupted as exc:\n"  # raised, with the partial result
+        "    r = exc.result\n"
         "print(r.status, r.time[-1] < 5000, round(time.perf_counter() - t, 1), flush=True)\n"
     )
     proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)

@@ -46,6 +46,7 @@ from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.sim import ClosedLoop, SimResult, SolverOptions, simulate
 from adaptive_ftc.sim.batch import iter_simulate, simulate_many
+from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason
 
 __all__ = [
     "Affine",
@@ -69,11 +70,14 @@ __all__ = [
     "ParameterisedStuck",
     "PositionLimit",
     "Reversal",
+    "RunStatus",
     "Scenario",
     "ScenarioError",
     "SignEstimation",
     "SimResult",
+    "SimulationInterrupted",
     "SolverOptions",
+    "StatusReason",
     "Stuck",
     "TwoLinkManipulator",
     "WingRock",

@@ -112,7 +112,8 @@ def healthy_parameters(loop: ClosedLoop, solver: SolverOptions | None = None) ->
             "Fix the loop's gains or initial state, or pass a stiffer solver "
             "(SolverOptions(method='auto'))."
         )
-    # the s' filter's states (also where "auto" resolves to it: a loop with sensor noise)
+    # the s' filter's states (on with sdot "filtered", or "auto" on a measured loop) follow
+    # the adaptive parameters and are not parameters
     n_filter = loop.plant.n_outputs if solver.sdot_for(healthy) == "filtered" else 0
     final = result.adaptive[-1, : result.adaptive.shape[1] - n_filter]
     if not np.all(np.isfinite(final)):  # pragma: no cover - a completed run is finite
@@ -159,13 +160,21 @@ def fixed_gain(loop: ClosedLoop, solver: SolverOptions | None = None) -> ClosedL
     return replace(loop, adapt=False, adaptive_initial=params, name=name)
 
 
-def _inverse(loop: ClosedLoop, cls, label: str, **settings) -> ClosedLoop:
+def _inverse(
+    loop: ClosedLoop, cls, label: str, *, hardware: bool = False, **settings
+) -> ClosedLoop:
     if not isinstance(loop, ClosedLoop):
         raise ConfigurationError(
             f"{label}() needs a ClosedLoop (e.g. load_scenario(name).loop); "
             f"got {type(loop).__name__}."
         )
     c = loop.controller
+    if hardware and "constraint_aware" not in settings:
+        # the same designer's model: the same command filter, smoothing and measurement
+        # filters (derived from the same loop rate k + k0/eps0), so the oracle answers
+        # "how good could any controller be on this hardware"
+        # (the adaptive design's model completed from the loop: its loop rate)
+        settings["constraint_aware"] = c.bound(loop).constraint_aware
     ctrl = cls(lam=c.lam, k=c.k, k0=c.k0, eps0=c.eps0, **settings)
     name = f"{loop.name} ({ctrl.design})" if loop.name else ctrl.design
     return replace(loop, controller=ctrl, adaptive_initial=(), adapt=False, name=name)
@@ -210,6 +219,16 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     failures). An upper bound on what a controller of this form can achieve; not a fair
     competitor (claims never compare with it).
 
+    Under hardware (issue 25, item 3) the oracle runs on the loop's own actuators, sampling
+    and sensors, and, when the loop's design has the constraint-aware option
+    (``constraint_aware``), with the same designer's model: the same command filter (rate,
+    travel and bandwidth limits), the same smoothing of the robust term (``k``, ``k0``,
+    ``eps0``, ``lam`` as :meth:`~adaptive_ftc.controllers.base.AdaptiveController.robust_settings`
+    derives them from the same loop rate) and the same measurement filters; so its error is
+    "how good could a controller that knows the failure be on this hardware" (the yardstick
+    of issue 25's "2x the oracle's error"). ``constraint_aware=None`` in ``settings`` gives
+    the thesis-gain oracle on the same hardware.
+
     Examples
     --------
     >>> from adaptive_ftc import load_scenario
@@ -218,7 +237,7 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     """
     from adaptive_ftc.controllers.nominal import OracleInverse
 
-    return _inverse(loop, OracleInverse, "oracle", **settings)
+    return _inverse(loop, OracleInverse, "oracle", hardware=True, **settings)
 
 
 def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = None) -> ClosedLoop:

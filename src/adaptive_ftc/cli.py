@@ -6,7 +6,8 @@ Exit status (also in ``aftc --help`` and the README):
 0     success
 1     internal error (a bug: please report it with the command line)
 2     invalid input: scenario file, command-line argument, output folder
-3     the run diverged (``aftc run``)
+3     the run stopped early: diverged, nonfinite, step_underflow or singular (``aftc run``;
+      the message says why, see docs/statuses.md)
 4     claims failed (``aftc run``: the scenario's ``[[claims]]``; ``aftc reproduce``: the
       thesis claims), or some runs raised errors (``aftc reproduce``); a claim marked as an
       expected ``finding`` that the data show is reported as FINDING, not as a failure
@@ -62,7 +63,7 @@ _EPILOG = """exit status:
   0    success
   1    internal error (a bug: please report it with the command line)
   2    invalid input (scenario file, argument, output folder)
-  3    the run diverged (run)
+  3    the run stopped early: diverged, nonfinite, step_underflow, singular (run)
   4    claims failed (run, reproduce) or runs raised errors (reproduce); FINDING is not a
        failure
   5    not compensable: rank (3.6) or sign (2.16)/(4.6) conditions fail (validate)
@@ -114,6 +115,12 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
     r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
     r.add_argument(
+        "--t-final",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="end the run at this time instead of the scenario's t_final (e.g. a quick check)",
+    )
+    r.add_argument(
         "--no-baselines",
         action="store_true",
         help="skip the frozen-adaptation, failure-free and baseline comparison runs (a "
@@ -153,6 +160,18 @@ def _parser() -> argparse.ArgumentParser:
         help="figure formats, comma-separated (png, pdf, svg; default png,pdf)",
     )
     rep.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
+    rep.add_argument(
+        "--float32",
+        action="store_true",
+        help="store the data files in single precision (default: double, so that metrics "
+        "recomputed from them equal metrics.csv; the choice is recorded in the files and report)",
+    )
+    rep.add_argument(
+        "--decimate",
+        type=_count(1, 1_000_000),
+        default=1,
+        help="keep every K-th recorded sample in the data files (default 1: all)",
+    )
     s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     s.add_argument("--out", help="write it to this file instead of printing it")
     try:
@@ -236,6 +255,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from adaptive_ftc.sim.engine import simulate
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
+    if args.t_final is not None:  # ClosedLoop checks it (after t0)
+        if args.t_final < sc.loop.t_final and sc.claims:
+            # the claims hold for the whole run (final windows, recovery after each failure)
+            print(
+                f"note: --t-final {args.t_final:g} s shortens the run ({sc.name} lasts "
+                f"{sc.loop.t_final:g} s): its {len(sc.claims)} claim(s) are not judged.",
+                file=sys.stderr,
+            )
+            sc = replace(sc, claims=())
+        sc = replace(sc, loop=replace(sc.loop, t_final=args.t_final))
     solver = sc.solver
     if args.method:
         solver = replace(solver, method=args.method)
@@ -280,11 +309,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for key, loop in tqdm(
                 variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
             ):
+                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
                 results[key] = sc.stamp(simulate(loop, solver))
-                if results[key].status == "interrupted":  # Ctrl-C inside the compiled loop
-                    raise KeyboardInterrupt
-        if results["adaptive"].message:
-            print(f"warning: {results['adaptive'].message}", file=sys.stderr)
+        main = results["adaptive"]
+        if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
+            discard_staged(stage)
+            print(
+                f"aftc run: {sc.name}: {main.status} before the first sample: {main.message} "
+                f"Nothing was written to {out}.",
+                file=sys.stderr,
+            )
+            return EXIT_DIVERGED
+        if main.message:
+            print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         for key, res in results.items():
@@ -298,11 +335,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
-        main = results["adaptive"]
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
-            if k in ("frozen", "failure_free", "thesis_law")
+            if k in ("frozen", "failure_free", "thesis_law") and v.time.size  # a run with no samples: none
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
@@ -491,6 +527,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         fair_baselines=False if args.no_fair_baselines else None,
         formats=formats,
         dpi=args.dpi,
+        float32=args.float32,
+        decimate=args.decimate,
     )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "

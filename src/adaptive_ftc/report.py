@@ -394,6 +394,7 @@ def render_report(
     wall_time_s: float = math.nan,
     jobs: int = 1,
     embed: bool = False,
+    data_note: str = "",
 ) -> str:
     """The report as one HTML string (see the module docstring).
 
@@ -408,6 +409,8 @@ def render_report(
     embed
         Embed the PNG figures as base64 (a single self-contained file) instead of linking the
         files in ``figures/`` beside the report.
+    data_note
+        What the data files hold (precision, decimation), shown under the totals.
     """
     n = sum(len(s.claims) for s in entries)
     counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)}
@@ -441,6 +444,8 @@ def render_report(
         + f'<div class="tot"><b>{_num(wall_time_s)} s</b>wall time ({jobs} process'
         f"{'es' if jobs != 1 else ''})</div></div>"
     )
+    if data_note:
+        totals += f'<p class="data-note">{_e(data_note)}</p>'
     body = "".join(_scenario(s, embed) for s in entries)
     return (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
@@ -462,6 +467,7 @@ def write_report(
     wall_time_s: float = math.nan,
     jobs: int = 1,
     embed: bool = False,
+    data_note: str = "",
 ) -> Path:
     """Write :func:`render_report` to ``path`` (UTF-8) and return the path.
 
@@ -470,6 +476,8 @@ def write_report(
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    page = render_report(entries, quick=quick, wall_time_s=wall_time_s, jobs=jobs, embed=embed)
+    page = render_report(
+        entries, quick=quick, wall_time_s=wall_time_s, jobs=jobs, embed=embed, data_note=data_note
+    )
     path.write_text(page, encoding="utf-8")
     return path

@@ -256,8 +256,11 @@ def _data_path(out_dir: Path, name: str, variant: str) -> Path:
 
 
 # ---------------------------------------------------------------------------- worker tasks
-def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[str, Any]:
-    """Run one variant in a worker process, write its netCDF, return the result."""
+def _simulate_task(
+    name: str, variant: str, quick: bool, out_dir: str, float32: bool = False, decimate: int = 1
+) -> dict[str, Any]:
+    """Run one variant in a worker process, write its netCDF (float64, every sample unless
+    ``float32`` / ``decimate`` say otherwise), return the result."""
     start = time.perf_counter()
     try:
         sc = _prepare(name, quick)
@@ -282,8 +285,8 @@ def _simulate_task(name: str, variant: str, quick: bool, out_dir: str) -> dict[s
         result.meta["variant"] = variant
         result.to_netcdf(
             _data_path(Path(out_dir), name, variant),
-            float32=True,
-            decimate=max(1, math.ceil(result.time.size / DATA_MAX_SAMPLES)),
+            float32=float32,
+            decimate=decimate,
         )
         return {"result": result, "error": "", "wall": time.perf_counter() - start}
     except Exception:  # noqa: BLE001 - reported in the report and metrics, the others go on
@@ -554,9 +557,27 @@ def _staged(fn):
     return wrapper
 
 
-#: Most samples kept per data file of the reproduction (longer runs are decimated, and the
-#: data are stored in single precision: the full reproduction stays well under 40 MB).
-DATA_MAX_SAMPLES = 6000
+def _data_note(float32: bool, decimate: int) -> str:
+    """What the data files of a reproduction hold, for the report."""
+    if not float32 and decimate == 1:
+        return (
+            "Data files (data/*.nc): double precision, every recorded sample: metrics "
+            "recomputed from them equal metrics.csv."
+        )
+    kept = "every recorded sample" if decimate == 1 else f"one recorded sample in {decimate}"
+    prec = "single precision (about 7 digits)" if float32 else "double precision"
+    return (
+        f"Data files (data/*.nc): {prec}, {kept} (--float32/--decimate, recorded in each "
+        "file's 'precision' and 'decimation' attributes): metrics recomputed from them can "
+        "differ from metrics.csv, which is computed from the full runs."
+    )
+
+
+def _short_status(result) -> str:
+    """The status of a run with where and what stopped it (report tables)."""
+    from adaptive_ftc.sim.status import short
+
+    return short(result.status, result.reason)
 
 
 @_staged
@@ -571,6 +592,8 @@ def run_reproduction(
     formats: Sequence[str] = ("png", "pdf"),
     dpi: int | None = None,
     fair_baselines: bool | None = None,
+    float32: bool = False,
+    decimate: int = 1,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -601,6 +624,11 @@ def run_reproduction(
         quick mode, whose shortened runs never reach a ``baseline_ratio`` claim's final window
         (those claims are NOT EVALUATED there) unless ``baselines=True``. ``False`` holds
         ``baseline_ratio`` claims against the frozen run alone, as before issue 14 (faster).
+    float32, decimate
+        Store the data files in single precision / keep every ``decimate``-th sample (the
+        last always). Default: double precision, every sample, so that every metric
+        recomputed from a file equals ``metrics.csv``. The choice is recorded in each file's
+        ``precision``, ``decimation`` and ``history`` attributes and stated in the report.
 
     Returns
     -------
@@ -622,6 +650,14 @@ def run_reproduction(
     from tqdm.auto import tqdm
 
     t_start = time.perf_counter()
+    if isinstance(decimate, bool) or not isinstance(decimate, int) or decimate < 1:
+        from adaptive_ftc.errors import ConfigurationError
+
+        raise ConfigurationError(
+            f"`decimate` must be a whole number >= 1 (keep every k-th sample of the data "
+            f"files); got {decimate!r}."
+        )
+    float32 = bool(float32)
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     (out / "data").mkdir(parents=True, exist_ok=True)
@@ -661,7 +697,11 @@ def run_reproduction(
     bar = tqdm(total=len(sim_tasks), disable=not progress, desc="reproduce", unit="task")
     with executor:
         pending: dict[cf.Future, tuple] = {
-            executor.submit(_simulate_task, n, v, quick, str(out)): ("sim", n, v)
+            executor.submit(_simulate_task, n, v, quick, str(out), float32, decimate): (
+                "sim",
+                n,
+                v,
+            )
             for n, v in sim_tasks
         }
         while pending:
@@ -761,7 +801,7 @@ def run_reproduction(
                 entry.error = err
         statuses = {
             v: (
-                results[(sc.name, v)]["result"].status
+                _short_status(results[(sc.name, v)]["result"])
                 if results[(sc.name, v)]["result"] is not None
                 else ("not run: " if results[(sc.name, v)].get("skipped") else "error: ")
                 + results[(sc.name, v)]["error"].strip().splitlines()[-1]
@@ -790,7 +830,14 @@ def run_reproduction(
     _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
     _write_csv(out / "claims.csv", CLAIM_FIELDS, claim_rows)
     wall = time.perf_counter() - t_start
-    report = write_report(out / "report.html", entries, quick=quick, wall_time_s=wall, jobs=jobs)
+    report = write_report(
+        out / "report.html",
+        entries,
+        quick=quick,
+        wall_time_s=wall,
+        jobs=jobs,
+        data_note=_data_note(float32, decimate),
+    )
     return {
         "n_scenarios": len(scenarios),
         "n_runs": len(sim_tasks),
@@ -802,6 +849,8 @@ def run_reproduction(
         "n_finding": n_finding,
         "n_thesis_law_finding": n_thesis_finding,
         "n_errors": n_errors,
+        "data_precision": "float32" if float32 else "float64",
+        "data_decimation": decimate,
         "wall_time_s": time.perf_counter() - t_start,
         "report": report,
         "out_dir": out,

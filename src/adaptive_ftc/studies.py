@@ -43,13 +43,20 @@ tested is broken too. The table also reports the ratio to the ideal error and th
 ``|u|``: a design can keep its error small while its adaptive law winds the command up to
 hundreds of radians behind a rate limit (no anti-windup in the thesis's laws), which the
 ``windup`` column flags (peak command more than 10 times the ideal run's).
+
+**Time-delay margin.** :func:`delay_margin` finds, by bisection on an injected input delay
+(:class:`~adaptive_ftc.hardware.Actuators` ``delay``), the largest delay at which a loop stays
+acceptable (no divergence, final-window RMS error within the tracking threshold, fast command
+content within 3 % of the undelayed run's command peak to peak); :func:`delay_margin_study`
+tabulates it per scenario for the thesis law and the constraint-aware law
+(``aftc study delay-margin``).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -64,11 +71,17 @@ from adaptive_ftc.sim.result import SimResult
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
+    "ACTIVITY_FRACTION",
     "DEFAULT_VALUES",
+    "DELAY_SCENARIOS",
+    "DelayMargin",
+    "DelayRun",
     "KNOBS",
     "QUICK_VALUES",
     "STUDY_SCENARIOS",
     "break_points",
+    "delay_margin",
+    "delay_margin_study",
     "robustness_study",
     "robustness_sweep",
 ]
@@ -471,9 +484,18 @@ def add_parser(subparsers):
         help="robustness studies beyond the thesis (sensor noise, digital control, actuators)",
         description="aftc study robustness --out DIR: sweep sensor noise, controller rate, "
         "actuator lag and rate limit on the §2.3 and §4.4 hypersonic designs; write "
-        "robustness.csv, break_points.csv and robustness.png/.pdf.",
+        "robustness.csv, break_points.csv and robustness.png/.pdf. "
+        "aftc study delay-margin --out DIR [SCENARIO ...]: the time-delay margin of each "
+        "scenario under the thesis law and the constraint-aware law (bisection on an injected "
+        "input delay); write delay_margin.csv and delay_margin.png/.pdf.",
     )
-    st.add_argument("study", choices=["robustness"], help="which study")
+    st.add_argument("study", choices=["robustness", "delay-margin"], help="which study")
+    st.add_argument(
+        "scenarios",
+        nargs="*",
+        metavar="SCENARIO",
+        help="scenarios (as --scenario; delay-margin default: " + ", ".join(DELAY_SCENARIOS) + ")",
+    )
     st.add_argument("--out", default="study", help="output folder (default: ./study)")
     st.add_argument("--quick", action="store_true", help="3 values per knob, one noise seed")
     st.add_argument(
@@ -496,8 +518,22 @@ def cli_main(args) -> int:
         raise ConfigurationError(f"--jobs must be >= 1; got {args.jobs}.")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    chosen = [*(getattr(args, "scenarios", None) or []), *(args.scenario or [])]
+    if args.study == "delay-margin":
+        from adaptive_ftc.study_plots import save_delay_margin_figure
+
+        table = delay_margin_study(
+            tuple(chosen or DELAY_SCENARIOS), quick=args.quick, progress=not args.quiet
+        )
+        table.to_csv(out / "delay_margin.csv", index=False)
+        files = save_delay_margin_figure(table, out / "delay_margin.png", formats=("png", "pdf"))
+        show = table[["scenario", "law", "margin", "upper", "how", "runs"]]
+        with pd.option_context("display.width", 200, "display.max_columns", 10):
+            print(show.to_string(index=False))
+        print(f"wrote {out / 'delay_margin.csv'}, " + ", ".join(map(str, files)))
+        return 0
     table = robustness_study(
-        tuple(args.scenario or STUDY_SCENARIOS),
+        tuple(chosen or STUDY_SCENARIOS),
         quick=args.quick,
         jobs=args.jobs,
         progress=not args.quiet,
@@ -512,3 +548,401 @@ def cli_main(args) -> int:
         f"wrote {out / 'robustness.csv'}, {out / 'break_points.csv'}, " + ", ".join(map(str, files))
     )
     return 0
+
+
+# ---------------------------------------------------------------------------- delay margin
+
+#: The scenarios of ``aftc study delay-margin``.
+DELAY_SCENARIOS: tuple[str, ...] = (
+    "hypersonic-direct-s1",
+    "hypersonic-sign-s1-rho0pos",
+    "hypersonic-nussbaum-s1-pos",
+    "wingrock-estimation-s1",
+    "manipulator-mimo-s1",
+    "spacecraft-mimo-s1",
+)
+
+#: Fast command content (above ``f_c``) allowed in an acceptable run, as a fraction of the
+#: undelayed run's command peak to peak in the same window, per actuator (issue 25).
+ACTIVITY_FRACTION = 0.03
+
+_DELAY_COLUMNS = [
+    "scenario",
+    "design",
+    "law",
+    "margin",
+    "lower",
+    "upper",
+    "unit",
+    "resolution",
+    "runs",
+    "how",
+    "ideal_rms_error",
+    "threshold",
+    "window",
+    "duration",
+]
+
+
+@dataclass(frozen=True)
+class DelayRun:
+    """One run of a :func:`delay_margin` search."""
+
+    #: injected input delay (s)
+    delay: float
+    #: whether the run is acceptable (see :func:`delay_margin`)
+    acceptable: bool
+    #: why not: "diverged", "error > threshold", "fast command content" ("" when acceptable)
+    reason: str
+    #: RMS tracking error over the final window (worst output; NaN when diverged)
+    rms_error: float
+    #: largest ratio over the actuators of the fast command content to its allowance
+    activity_ratio: float
+
+
+@dataclass(frozen=True)
+class DelayMargin:
+    """What :func:`delay_margin` found: the margin lies in ``[lower, upper]`` (s)."""
+
+    #: scenario (or loop) name, design and law ("thesis", "constraint-aware (...)", "scenario")
+    scenario: str
+    design: str
+    law: str
+    #: the largest acceptable delay tested below the first unacceptable one (s); 0 when even
+    #: the smallest tried delay is not acceptable, NaN when the undelayed run is not
+    margin: float
+    #: bracket: ``lower`` acceptable, ``upper`` not (``inf``: none found below ``max_delay``)
+    lower: float
+    upper: float
+    #: every run, in the order made (the undelayed run first)
+    runs: tuple[DelayRun, ...]
+    #: why the ``upper`` run is not acceptable
+    how: str
+    ideal_rms_error: float
+    threshold: float
+    window: float
+    duration: float
+    resolution: float
+
+    def row(self) -> dict[str, Any]:
+        """The study table's row."""
+        return {
+            "scenario": self.scenario,
+            "design": self.design,
+            "law": self.law,
+            "margin": self.margin,
+            "lower": self.lower,
+            "upper": self.upper,
+            "unit": "s",
+            "resolution": self.resolution,
+            "runs": len(self.runs),
+            "how": self.how,
+            "ideal_rms_error": self.ideal_rms_error,
+            "threshold": self.threshold,
+            "window": self.window,
+            "duration": self.duration,
+        }
+
+
+def _tracking_window(sc: Scenario, default: float) -> float:
+    for claim in sc.claims:
+        if claim.get("kind") == "tracking" and "window" in claim:
+            return float(claim["window"])
+    return default
+
+
+def _judge(
+    r: SimResult,
+    delay: float,
+    t_final: float,
+    window: float,
+    threshold: float,
+    allowance: np.ndarray | None,
+    f_c: float,
+    fraction: float = ACTIVITY_FRACTION,
+) -> DelayRun:
+    done = r.status == "completed" and r.time.size and r.time[-1] >= t_final - 1e-9
+    if not done:
+        return DelayRun(delay, False, "diverged", math.nan, math.nan)
+    rms = float(np.max(r.rms_error(t_final - window, t_final)))
+    acts = list(r.activity(t_final - window, t_final, f_c=f_c).values())
+    fast = np.array([a.fast_rms for a in acts])
+    if allowance is None:  # the undelayed run: its own allowance
+        allowance = fraction * np.array([a.peak_to_peak for a in acts])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = float(np.nanmax(np.where(allowance > 0, fast / allowance, 0.0), initial=0.0))
+    if not rms <= threshold:
+        return DelayRun(delay, False, "error > threshold", rms, ratio)
+    if not ratio <= 1.0:
+        return DelayRun(delay, False, "fast command content", rms, ratio)
+    return DelayRun(delay, True, "", rms, ratio)
+
+
+def delay_margin(
+    scenario: str | Scenario | ClosedLoop,
+    *,
+    constraint_aware: Any = "scenario",
+    solver: SolverOptions | None = None,
+    threshold: float | None = None,
+    window: float | None = None,
+    duration: float | None = None,
+    resolution: float = 0.05,
+    min_delay: float = 1e-6,
+    max_delay: float = 2.0,
+    start: float = 1e-3,
+    max_runs: int = 20,
+    order: int | None = None,
+    f_c: float = 1.0,
+    activity_fraction: float | None = ACTIVITY_FRACTION,
+) -> DelayMargin:
+    """Time-delay margin of a loop: the largest injected input delay for which it stays
+    acceptable, by bisection (issue 25, item 4; the robustness figure of adaptive control).
+
+    The delay is :class:`~adaptive_ftc.hardware.Actuators` ``delay`` on every actuator, added
+    to the loop's own actuators: a Padé approximant (order ``order``, default 4, phase exact
+    to 1e-4 degrees at ``omega d <= pi/2``) for a continuous controller, a shift of whole
+    samples for a digital one (then the delays tried are whole samples and the resolution
+    one sample). A run is **acceptable** when
+
+    - it reaches its end (no divergence),
+    - its RMS tracking error over the final ``window`` is at most ``threshold`` (default:
+      the scenario's ``tracking`` claim: its threshold and window), and
+    - every actuator's fast command content (RMS above ``f_c`` Hz over that window,
+      :meth:`~adaptive_ftc.sim.result.SimResult.activity`) is at most
+      ``activity_fraction`` (default :data:`ACTIVITY_FRACTION`, 3 %) of the undelayed run's
+      command peak to peak there (the activity threshold of issue 25); ``None`` leaves the
+      activity out (a regulation loop whose ideal command is constant in the window).
+
+    Runs are recorded at ``min(record_dt, 1 ms)`` (the activity's aliasing rule). The search
+    starts at ``start`` s, doubles (or halves) until the verdict changes, then bisects the
+    bracket ``[lower, upper]`` until ``upper - lower <= resolution * upper`` (relative
+    resolution; 5 % by default) or ``max_runs`` runs are made. ``margin`` is ``lower``: an
+    acceptable delay with every tested larger delay up to ``upper`` unacceptable. The verdict
+    need not be monotonic in the delay (a limit cycle can come and go); the bisection finds
+    one boundary, the first from below along the doubling. A continuous loop's fixed-step
+    solver is replaced by ``dopri5`` (the Padé states' fast mode, ``|p| ~ 6.8/d``, would make
+    a fixed step unstable for small delays).
+
+    Parameters
+    ----------
+    scenario
+        A catalogue name, scenario file, :class:`Scenario`, or a :class:`ClosedLoop` (then
+        ``threshold`` and ``window`` are needed, and ``solver`` defaults to
+        :class:`SolverOptions`).
+    constraint_aware
+        ``"scenario"``: the design as the scenario declares it; ``None``: the thesis law
+        (``constraint_aware`` removed); a
+        :class:`~adaptive_ftc.controllers.constraints.ConstraintAware`: that designer's model.
+    duration
+        Shorten the run to this many seconds.
+    min_delay, max_delay
+        Below ``min_delay`` the margin is reported as 0; above ``max_delay`` as
+        ``max_delay`` with ``upper = inf``.
+
+    Examples
+    --------
+    >>> dm = delay_margin("hypersonic-direct-s1", duration=30.0, window=10.0, resolution=0.3)
+    >>> 0.0 < dm.margin < 0.01 and dm.lower < dm.upper
+    True
+    """
+    from adaptive_ftc.hardware import PADE_ORDER
+
+    if isinstance(scenario, ClosedLoop):
+        loop, name = scenario, scenario.name or "loop"
+        solver = solver or SolverOptions()
+        if threshold is None or window is None:
+            raise ConfigurationError(
+                "delay_margin() of a ClosedLoop needs `threshold` (an RMS tracking error) and "
+                "`window` (s): a scenario gives them from its tracking claim."
+            )
+    else:
+        sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+        loop, name = sc.loop, sc.name
+        solver = solver or sc.solver
+        threshold = _default_threshold(sc) if threshold is None else threshold
+        window = _tracking_window(sc, 20.0) if window is None else window
+    if duration is not None:
+        if not duration > 0:
+            raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
+        loop = replace(loop, t_final=loop.t0 + float(duration))
+    span = loop.t_final - loop.t0
+    if not 0 < window <= span:
+        raise ConfigurationError(
+            f"`window` must be in (0, {span:g}] s (the run's length); got {window!r}."
+        )
+    if not 0 < resolution < 1:
+        raise ConfigurationError(
+            f"`resolution` is relative (upper - lower <= resolution * upper): in (0, 1); "
+            f"got {resolution!r}."
+        )
+    if not 0 < min_delay <= start <= max_delay or not math.isfinite(max_delay):
+        raise ConfigurationError(
+            "Need 0 < min_delay <= start <= max_delay < inf (s); got "
+            f"{min_delay!r}, {start!r}, {max_delay!r}."
+        )
+    if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 3:
+        raise ConfigurationError(f"`max_runs` must be an integer >= 3; got {max_runs!r}.")
+    ctrl = loop.controller
+    if constraint_aware is None:
+        ctrl, law = replace(ctrl, constraint_aware=None), "thesis"
+    elif isinstance(constraint_aware, str):
+        if constraint_aware != "scenario":
+            raise ConfigurationError(
+                f"`constraint_aware` must be 'scenario', None (the thesis law) or a "
+                f"ConstraintAware; got {constraint_aware!r}."
+            )
+        law = "scenario" if ctrl.constraint_aware is None else "constraint-aware (scenario)"
+    else:
+        ctrl, law = replace(ctrl, constraint_aware=constraint_aware), "constraint-aware"
+    loop = replace(loop, controller=ctrl)
+    from adaptive_ftc.sim.activity import max_record_dt
+
+    ts = loop.sample_time
+    rec = min(solver.record_dt or math.inf, max_record_dt(f_c, ts))
+    solver = replace(solver, record_dt=rec)
+    if ts == 0 and solver.method in ("rk4", "euler"):
+        solver = replace(solver, method="dopri5")
+    base_acts = loop.actuators or Actuators()
+    kw = {"delay_order": PADE_ORDER if order is None else order}
+
+    def run(d: float) -> tuple[SimResult, float]:
+        import warnings
+
+        from adaptive_ftc.errors import DivergenceWarning
+
+        if ts > 0:
+            d = round(d / ts) * ts
+        acts = replace(base_acts, delay=d, **kw)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DivergenceWarning)
+            from adaptive_ftc.sim.engine import simulate
+
+            return simulate(replace(loop, actuators=acts), solver), d
+
+    t1 = loop.t_final
+    frac = math.inf if activity_fraction is None else float(activity_fraction)
+    ideal, _ = run(0.0)
+    first = _judge(ideal, 0.0, t1, window, threshold, None, f_c, frac)
+    acts0 = list(ideal.activity(t1 - window, t1, f_c=f_c).values()) if first.acceptable else []
+    allowance = frac * np.array([a.peak_to_peak for a in acts0])
+    runs = [first]
+    res = max(resolution, 0.0)
+
+    def result(lower: float, upper: float, margin: float, how: str) -> DelayMargin:
+        return DelayMargin(
+            scenario=name,
+            design=loop.controller.design,
+            law=law,
+            margin=margin,
+            lower=lower,
+            upper=upper,
+            runs=tuple(runs),
+            how=how,
+            ideal_rms_error=first.rms_error,
+            threshold=float(threshold),
+            window=float(window),
+            duration=float(span),
+            resolution=ts if ts > 0 else res,
+        )
+
+    if not first.acceptable:
+        return result(math.nan, 0.0, math.nan, "undelayed run: " + first.reason)
+    verdict: dict[float, DelayRun] = {}
+
+    def test(d: float) -> DelayRun:
+        r, d = run(d)
+        v = _judge(r, d, t1, window, threshold, allowance, f_c)
+        runs.append(v)
+        verdict[d] = v
+        return v
+
+    if ts > 0:  # whole samples: integer bisection
+        lo_k, hi_k, k = 0, None, max(1, round(start / ts))
+        while len(runs) < max_runs and hi_k is None and k * ts <= max_delay:
+            if test(k * ts).acceptable:
+                lo_k, k = k, 2 * k
+            else:
+                hi_k = k
+        while hi_k is not None and hi_k - lo_k > 1 and len(runs) < max_runs:
+            mid = (lo_k + hi_k) // 2
+            if test(mid * ts).acceptable:
+                lo_k = mid
+            else:
+                hi_k = mid
+        lo, hi = lo_k * ts, (math.inf if hi_k is None else hi_k * ts)
+    else:
+        lo, hi, d = 0.0, math.inf, start
+        if test(d).acceptable:
+            lo = d
+            while len(runs) < max_runs and d < max_delay:
+                d = min(2 * d, max_delay)
+                if test(d).acceptable:
+                    lo = d
+                else:
+                    hi = d
+                    break
+        else:
+            hi = d
+            while len(runs) < max_runs and d / 2 >= min_delay:
+                d /= 2
+                if test(d).acceptable:
+                    lo = d
+                    break
+                hi = d
+        while math.isfinite(hi) and lo > 0 and hi - lo > res * hi and len(runs) < max_runs:
+            mid = 0.5 * (lo + hi)
+            if test(mid).acceptable:
+                lo = mid
+            else:
+                hi = mid
+    how = verdict[hi].reason if hi in verdict else ""
+    return result(lo, hi, lo, how)
+
+
+def delay_margin_study(
+    scenarios: Sequence[str] = DELAY_SCENARIOS,
+    *,
+    quick: bool = False,
+    laws: Mapping[str, Any] | None = None,
+    progress: bool = False,
+    **kwargs,
+) -> pd.DataFrame:
+    """:func:`delay_margin` of every scenario under every law (the ``aftc study delay-margin``
+    table, one row per scenario and law).
+
+    ``laws`` maps a label to a ``constraint_aware`` argument of :func:`delay_margin`; default:
+    ``thesis`` (None), ``constraint-aware (ideal model)`` (the model derived from ideal
+    hardware: :meth:`ConstraintAware.from_hardware` with nothing declared, which is the
+    thesis law by construction) and ``constraint-aware (lag 20 ms)``
+    (``ConstraintAware.from_hardware(actuators=Actuators(tau=0.02))``). ``quick``: the thesis
+    law only, a third of each scenario's horizon (final window a quarter of that), 20 %
+    resolution.
+    """
+    from tqdm.auto import tqdm
+
+    from adaptive_ftc.controllers.constraints import ConstraintAware
+
+    if laws is None:
+        laws = {"thesis": None}
+        if not quick:
+            laws["constraint-aware (ideal model)"] = "ideal"
+            laws["constraint-aware (lag 20 ms)"] = "lag 20 ms"
+    rows = []
+    jobs = [(s, lab, law) for s in scenarios for lab, law in laws.items()]
+    for name, label, law in tqdm(jobs, disable=not progress, desc="delay margins", unit="law"):
+        sc = load_scenario(name)
+        if law == "ideal":
+            law = ConstraintAware.from_hardware(plant=sc.loop.plant, lam=sc.loop.controller.lam)
+        elif law == "lag 20 ms":
+            law = ConstraintAware.from_hardware(
+                actuators=Actuators(tau=0.02), plant=sc.loop.plant, lam=sc.loop.controller.lam
+            )
+        kw = dict(kwargs)
+        if quick:
+            span = sc.loop.t_final - sc.loop.t0
+            kw.setdefault("duration", span / 3)
+            kw.setdefault("window", min(_tracking_window(sc, 20.0), span / 12))
+            kw.setdefault("resolution", 0.2)
+        dm = delay_margin(sc, constraint_aware=law, **kw)
+        rows.append({**dm.row(), "law": label})
+    return pd.DataFrame(rows, columns=_DELAY_COLUMNS)

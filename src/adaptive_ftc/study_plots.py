@@ -26,7 +26,12 @@ from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plots import DPI, FORMATS, figure_style, new_figure, wrap_title
 from adaptive_ftc.studies import KNOBS, break_points
 
-__all__ = ["plot_robustness", "save_robustness_figure"]
+__all__ = [
+    "plot_delay_margins",
+    "plot_robustness",
+    "save_delay_margin_figure",
+    "save_robustness_figure",
+]
 
 _TITLES = {
     "noise": "sensor noise (std of the output; rates 10x)",
@@ -197,5 +202,92 @@ def save_robustness_figure(
         p = path.with_suffix(f".{fmt}")
         with figure_style():
             fig.savefig(p, dpi=dpi or DPI)
+        out.append(p)
+    return out
+
+
+def plot_delay_margins(table: pd.DataFrame, *, title: str | None = None) -> Figure:
+    """Time-delay margin per scenario and law of a :func:`~adaptive_ftc.studies.
+    delay_margin_study` table: one horizontal bar per (scenario, law), log scale in ms, the
+    bracket ``[lower, upper]`` as an error bar, the reason the upper
+    delay fails written beside it; a loop whose undelayed run is not acceptable is marked
+    "not acceptable undelayed" (``gid="no-margin"``)."""
+    need = {"scenario", "law", "margin", "lower", "upper", "how"}
+    missing = need - set(table.columns)
+    if missing or table.empty:
+        raise ConfigurationError(
+            "plot_delay_margins() needs a non-empty delay_margin_study table"
+            + (f"; columns missing: {', '.join(sorted(missing))}" if missing else "")
+            + "."
+        )
+    with figure_style():
+        laws = list(dict.fromkeys(table["law"]))
+        scen = list(dict.fromkeys(table["scenario"]))
+        fig = new_figure(7.0, 1.0 + 0.35 * len(table))
+        ax = fig.add_subplot(1, 1, 1)
+        good = table["margin"][np.isfinite(table["margin"]) & (table["margin"] > 0)]
+        floor = float(good.min()) * 1e3 / 3 if len(good) else 0.1
+        labels = []
+        y = 0
+        for s in scen:
+            for k, law in enumerate(laws):
+                rows = table[(table["scenario"] == s) & (table["law"] == law)]
+                if rows.empty:
+                    continue
+                row = rows.iloc[0]
+                color = _COLORS[k % len(_COLORS)]
+                m = float(row["margin"])
+                if not math.isfinite(m):
+                    ax.text(floor, y, " not acceptable undelayed", va="center", gid="no-margin")
+                else:
+                    ms = max(m * 1e3, floor)
+                    ax.barh(y, ms - floor, left=floor, color=color, height=0.7)
+                    hi = float(row["upper"]) * 1e3
+                    if math.isfinite(hi):
+                        ax.errorbar(
+                            [ms],
+                            [y],
+                            xerr=[[0.0], [hi - ms]],
+                            fmt="none",
+                            ecolor="k",
+                            capsize=3,
+                        )
+                    ax.text(
+                        (hi if math.isfinite(hi) else ms) * 1.1,
+                        y,
+                        f"{m * 1e3:.3g} ms" + (f" ({row['how']})" if row["how"] else ""),
+                        va="center",
+                        fontsize="small",
+                    )
+                labels.append(f"{s}\n{law}" if k == 0 else law)
+                y += 1
+        ax.set_yticks(range(len(labels)), labels, fontsize="small")
+        ax.invert_yaxis()
+        ax.set_xscale("log")
+        ax.set_xlabel("time-delay margin (ms)")
+        ax.grid(True, axis="x", which="both", alpha=0.3)
+        if title:
+            fig.suptitle(wrap_title(title, 7.0))
+        return fig
+
+
+def save_delay_margin_figure(
+    table: pd.DataFrame, path: str | Path, *, formats: Sequence[str] = ("png", "pdf")
+) -> list[Path]:
+    """Draw :func:`plot_delay_margins` and write it as ``path`` with each suffix of
+    ``formats``; returns the written files."""
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise ConfigurationError(
+            f"Figure formats must be among {', '.join(FORMATS)}; got {', '.join(bad) or 'none'}."
+        )
+    fig = plot_delay_margins(table)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = []
+    for fmt in formats:
+        p = path.with_suffix(f".{fmt}")
+        with figure_style():
+            fig.savefig(p, dpi=DPI)
         out.append(p)
     return out

@@ -70,8 +70,17 @@ def _run(args: argparse.Namespace) -> int:
     if not run.complete:
         print(f"incomplete: run the same command again to resume ({run.out})")
         return 0
+    per = run.summary.get("per_design", {})
     for design, rate in run.summary.get("success_rate", {}).items():
-        print(f"  {design}: success rate {rate:.1%}")
+        r = per.get(design)
+        ci = (
+            f" ({r['successes']}/{r['runs']}; 95 % CI {r['ci_low']:.1%}-{r['ci_high']:.1%})"
+            if r and r["runs"]
+            else ""
+        )
+        print(f"  {design}: success rate {rate:.1%}{ci}")
+    if run.summary.get("headline"):
+        print(run.summary["headline"].replace("\u00a0", " "))
     print(f"results: {run.results}; summary: {run.out / 'summary.html'}")
     return 0
 

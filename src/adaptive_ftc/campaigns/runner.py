@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 import signal
 import time
 import warnings
@@ -24,8 +23,6 @@ from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.result import SimResult
 
 __all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
-
-_DIVERGED = re.compile(r"diverged at t = ([-+0-9.eE]+) s: signal '([^']*)'")
 
 
 @dataclass(frozen=True)
@@ -82,7 +79,7 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
 
     ``success``: ``tracking_ok`` (completed, final-window RMS error within the threshold) and,
     when the spec judges it (:mod:`adaptive_ftc.campaigns.activity`), ``activity_ok``."""
-    row: dict[str, Any] = {"status": result.status, "message": result.message}
+    row: dict[str, Any] = {"status": str(result.status), "message": result.message}
     m = result.metrics(final_window=spec.final_window) if result.time.size else {}
     for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
         row[key] = float(m.get(key, math.nan))
@@ -94,9 +91,10 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
         value = m.get(key, math.nan)
         row[key] = bool(value) if key == "activity_record_ok" else float(value)
     row["peak_command_final"] = float(m.get("peak_command_max", math.nan))
-    hit = _DIVERGED.search(result.message or "")
-    row["divergence_time"] = float(hit.group(1)) if hit else math.nan
-    row["divergence_signal"] = hit.group(2) if hit else ""
+    reason = result.reason  # where and what stopped the run, never parsed from the message
+    stopped = reason is not None and result.status != "completed"
+    row["divergence_time"] = float(reason.time) if stopped and reason.time is not None else math.nan
+    row["divergence_signal"] = (reason.signal or reason.expression) if stopped else ""
     rec = recovery_times(result, spec.recovery_tolerance)
     row["worst_recovery_time"] = max(rec) if rec else 0.0
     rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []

@@ -520,7 +520,7 @@ def load_campaign(
     --------
     >>> spec = load_campaign("hypersonic-loe")
     >>> spec.designs
-    ('adaptive', 'frozen')
+    ('adaptive', 'nominal-inverse', 'fixed-gain', 'frozen')
     """
     if isinstance(spec, dict):
         data, label = dict(spec), "campaign"

@@ -29,6 +29,7 @@ from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
 __all__ = [
     "OUTCOME_COLUMNS",
     "check_manifest",
+    "column_units",
     "finished_chunks",
     "prepare_folder",
     "read_results",
@@ -119,7 +120,68 @@ def schema(spec: CampaignSpec):
         cols += [(c, "float64") for c in spec.hardware.columns(spec.loop.plant.n_actuators)]
     cols += [("compensable", "bool"), ("compensability", "string")]
     cols += list(OUTCOME_COLUMNS.items())
-    return pa.schema([(name, types[t]) for name, t in cols])
+    units = column_units(spec)
+    return pa.schema(
+        [
+            pa.field(name, types[t], metadata={"units": units[name]} if name in units else None)
+            for name, t in cols
+        ]
+    )
+
+
+def column_units(spec: CampaignSpec) -> dict[str, str]:
+    """UDUNITS unit (:mod:`adaptive_ftc._units`) of each numeric column of the results table
+    whose unit is known, by column name; stored as the ``units`` metadata of the Parquet
+    fields (``pyarrow.parquet.read_schema(path).field(name).metadata[b"units"]``). Strings,
+    flags, the drawn ``severity`` (a unit of its own per spec) and the gains have none;
+    counts and fractions are ``"1"``. Output and actuator units come from the plant class
+    (``"1"`` where it declares none)."""
+    from adaptive_ftc._units import per_second, udunits
+    from adaptive_ftc.sim.result import _common, _declared_units, _output_units, _unit
+
+    plant = spec.loop.plant
+    n, p, m = plant.n_states, plant.n_outputs, plant.n_actuators
+    state_u = _declared_units(plant, ("state_units", "units"), n)
+    out_u = _declared_units(plant, ("output_units",), p) or _output_units(
+        tuple(plant.state_names), tuple(plant.output_names), state_u
+    )
+    y = _common([_unit(out_u, i) for i in range(p)])
+    u = _common([_unit(_declared_units(plant, ("actuator_units",), m), j) for j in range(m)])
+    units = {"n_failures": "1"}
+    for j in range(1, spec.max_failures + 1):
+        units.update({f"f{j}_onset": "s", f"f{j}_recovery": "s", f"f{j}_ramp": "s"})
+    for i, _ in spec.initial_state:
+        units[f"x0_{plant.state_names[i]}"] = _unit(state_u, i)
+    if spec.reference_amplitude is not None:
+        units["reference_amplitude"] = y
+    if spec.hardware is not None:
+        for col in spec.hardware.columns(m):
+            if col.startswith("hw_lag") or col == "hw_sample_time":
+                units[col] = "s"
+            elif col.startswith("hw_rate_limit"):
+                units[col] = per_second(u)
+            elif col.startswith("hw_travel"):
+                units[col] = u
+            elif col.startswith("noise_") and col[len("noise_") :] in plant.state_names:
+                units[col] = _unit(state_u, plant.state_names.index(col[len("noise_") :]))
+    units.update(
+        divergence_time="s",
+        rms_error=y,
+        max_error=y,
+        rms_error_final=y,
+        max_error_final=y,
+        peak_command=u,
+        peak_applied=u,
+        t_end="s",
+        worst_recovery_time="s",
+        worst_recovery_rms=y,
+        fast_rms_max=u,
+        tv_per_s_max=per_second(u),
+        peak_rate_max=per_second(u),
+        rate_limited_fraction_max="1",
+        peak_command_travel_ratio_max="1",
+    )
+    return {k: udunits(v) for k, v in units.items()}
 
 
 _MISSING = {"string": "", "float64": np.nan, "int64": 0, "bool": False}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
@@ -121,12 +121,100 @@ class AdaptiveController(ABC):
         k0 = k0 * len(k) if len(k0) == 1 else k0
         return max(float(a) + float(b) / float(self.eps0) for a, b in zip(k, k0, strict=True))
 
-    def configuration(self, b_max: float = 1.0) -> constraints.Configuration:
-        """The constraint-aware configuration (the identity without ``constraint_aware``)."""
-        if self.constraint_aware is None:
+    def configuration(
+        self, b_max: float = 1.0, input_gain: float = 0.0
+    ) -> constraints.Configuration:
+        """The constraint-aware configuration (the identity without ``constraint_aware``);
+        ``input_gain``: the loop's nominal ``|d s'/d u0|`` (:meth:`nominal_input_gain`)."""
+        ca = self.constraint_aware
+        if ca is None:
             return constraints.IDENTITY
         lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
-        return self.constraint_aware.configure(w0=self.loop_rate(), b_max=b_max, lam=float(lam))
+        return ca.configure(
+            w0=ca.loop_rate if ca.loop_rate is not None else self.loop_rate(),
+            b_max=ca.b_max if ca.b_max is not None else b_max,
+            lam=float(lam),
+            input_gain=input_gain,
+        )
+
+    def theta_gain(self) -> float:
+        """The gain of ``Pi q`` in the law of ``theta`` at the initial state (``gamma`` of
+        (2.29)); the loop gain of the law is this times ``|Pi|^2`` and the input gain."""
+        raise NotImplementedError
+
+    def measured_loop_rate(self, loop) -> tuple[float, float, float]:
+        """The law's loop rate on ``loop`` (1/s): in the linear band ``u0`` moves by ``x |Pi|^2
+        (s + (k + k0/eps0) int s)`` per unit of the filtered error (``x`` =
+        :meth:`theta_gain`), and ``s' = -b u0 + ...`` with ``b = |d s'/d u0|``
+        (:meth:`nominal_input_gain`), so the law's poles satisfy ``l^2 + g l + g K = 0``
+        with ``g = b x |Pi(z0)|^2``, ``K = k + k0/eps0``: the rate is ``max(g, sqrt(g K))``,
+        the largest over the outputs, with ``Pi`` at the loop's initial state. Returns
+        ``(rate, g)`` of that output and the smallest ``g``. Designs without a regressor (the
+        baselines): ``(k + k0/eps0, 0, 0)``."""
+        regs = self.regressors_for(loop.plant.n_outputs)
+        if not regs:
+            return self.loop_rate(), 0.0, 0.0
+        from adaptive_ftc.sim.compose import assemble  # the regressor as the loop computes it
+
+        thesis = replace(
+            loop,
+            controller=replace(self, constraint_aware=None),
+            actuators=None,
+            sensors=None,
+            sample_time=0.0,
+            adaptive_initial=(),
+            adapt=True,
+        )
+        a = assemble(thesis)
+        phi = a.regressor_values(loop.t0, a.y0)
+        G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        b = np.abs(np.sum(R * G, axis=1)) if G.shape == R.shape else np.ones(len(regs))
+        p = len(regs)
+        k = as_tuple(self.k, p, "k", type(self).__name__)
+        k0 = as_tuple(self.k0, p, "k0", type(self).__name__)
+        x = abs(float(self.theta_gain()))
+        rate, gain, least = 0.0, 0.0, math.inf
+        for i, sl in enumerate(a.theta_slices):
+            bi = float(b[i] if len(b) == len(a.theta_slices) else np.max(b))
+            g = bi * x * float(np.sum(phi[sl] ** 2))
+            least = min(least, g)
+            ri = max(g, math.sqrt(g * (k[i] + k0[i] / float(self.eps0))))
+            if ri > rate:
+                rate, gain = ri, g
+        return (rate, gain, least) if rate > 0 else (self.loop_rate(), 0.0, 0.0)
+
+    def bound(self, loop):
+        """The design with its designer's model completed from ``loop`` (what the compiled
+        loop uses): the measured loop rate, the allocation's largest gain and the nominal
+        input gain where the model leaves them ``None``. Without the option, or with an ideal
+        model, the design itself."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal:
+            return self
+        updates = {}
+        if ca.b_max is None:
+            R = np.asarray(loop.R, dtype=float)
+            updates["b_max"] = float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0
+        if ca.input_gain is None:
+            updates["input_gain"] = self.nominal_input_gain(loop)
+        if ca.loop_rate is None:
+            updates["loop_rate"], gain, least = self.measured_loop_rate(loop)
+            if ca.loop_gain is None and gain > 0:
+                updates["loop_gain"] = gain
+            if ca.min_loop_gain is None and least > 0:
+                updates["min_loop_gain"] = least
+        return replace(self, constraint_aware=replace(ca, **updates))
+
+    @staticmethod
+    def nominal_input_gain(loop) -> float:
+        """The healthy loop's ``|d s_i'/d u0_i| = |sum_j R_ij dy_i''/du_j|`` at the initial
+        state (the largest over the outputs): the gain of the compensated-error filter."""
+        G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, dtype=float)))
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        if G.shape != R.shape:
+            return 0.0
+        return float(np.max(np.abs(np.sum(R * G, axis=1))))
 
     @property
     def adaptation_scale(self) -> float:
@@ -135,23 +223,27 @@ class AdaptiveController(ABC):
 
     def robust_settings(self) -> tuple:
         """``(lam, k, k0, eps0)`` as the compiled law uses them: the thesis's, or
-        ``(f lam, r k, W k0, W eps0 / r)`` with the constraint-aware bandwidth scale ``r``,
-        error-filter factor ``f`` and boundary-layer widening ``W``."""
+        ``(f lam, r k, W k0, W eps0 / r_K)`` with the constraint-aware bandwidth scale ``r``,
+        error-filter factor ``f``, boundary-layer widening ``W`` and slope scale ``r_K``."""
         cfg = self.configuration()
-        r, f, w = cfg.scale, cfg.lam_factor, cfg.widen
-        if r == 1.0 and f == 1.0 and w == 1.0:
+        r, f, w, rk = cfg.scale, cfg.lam_factor, cfg.widen, cfg.slope_scale
+        if r == 1.0 and f == 1.0 and w == 1.0 and rk == 1.0:
             return self.lam, self.k, self.k0, self.eps0
 
         def times(v, x):
             return v * x if isinstance(v, (int, float)) else tuple(e * x for e in v)
 
-        return times(self.lam, f), times(self.k, r), times(self.k0, w), self.eps0 * w / r
+        return times(self.lam, f), times(self.k, r), times(self.k0, w), self.eps0 * w / rk
 
     def emit_constraint_aware(self, g, blocks, at: int):
         """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for
         the thesis law or an ideal designer's model."""
         b_max = float(abs(np.asarray(g.loop.R)).max()) if np.size(g.loop.R) else 1.0
-        cfg = self.configuration(b_max)
+        gain = 0.0
+        ca = self.constraint_aware
+        if ca is not None and ca.input_gain is None and not ca.is_ideal:
+            gain = self.nominal_input_gain(g.loop)
+        cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         return constraints.emit(cfg, g, blocks, at, self.single_output)

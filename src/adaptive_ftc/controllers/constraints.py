@@ -11,13 +11,22 @@ hardware; given to a design (``constraint_aware=ConstraintAware(...)``, an optio
 design, not another design) it derives, by the rules below, one configuration
 (:class:`Configuration`) that changes the law in these established ways:
 
-1. **Bandwidth scaling and smoothing of the robust term.** The loop rate of the law's linear
-   band is ``w0 = k + k0/eps0`` (the rate at which ``q`` integrates ``s``). The hardware
-   admits ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
-   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`); with ``r = w_max / w0`` the law
-   runs with ``gamma -> r gamma`` (every adaptation gain), ``k -> r k`` and
-   ``eps0 -> eps0 / r``. In the linear band ``u0 ~ gamma |Pi|^2 (s + (k + k0/eps0) int s)``,
-   so this moves every closed-loop frequency of the law down by ``r`` at the same damping:
+1. **Bandwidth scaling and smoothing of the robust term.** In the linear band
+   ``u0 ~ gamma |Pi|^2 (s + K int s)`` with ``K = k + k0/eps0``, and ``s' = -b u0 + ...``
+   with ``b = |d s'/d u0|`` (the plant's input gains along the allocation), so the law's
+   poles solve ``l^2 + g l + g K = 0`` with the *loop gain* ``g = b gamma |Pi(z0)|^2``: its
+   loop rate is ``w0 = max(g, sqrt(g K))``, measured on the loop when it is compiled
+   (:meth:`AdaptiveController.bound`, :meth:`AdaptiveController.measured_loop_rate`; 202
+   1/s on hypersonic-direct-s1, 73 on the manipulator, 48 on the spacecraft, 12700 on the
+   wing rock; without a loop the proxy ``K``). The hardware admits
+   ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
+   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`). The adaptation gains are scaled by
+   ``r = min(1, w_max/g)`` (every gain of ``theta``; ``k -> r k``) and the robust term's
+   slope ``k0/eps0`` by ``r_K`` so that ``sqrt(r g r_K K) <= w_max`` (``eps0 -> eps0/r_K``):
+   a loop whose adaptation is already slow keeps its gain and only its robust term is
+   smoothed (the manipulator loses the arm with ``eta`` scaled below 0.3; its 50 ms chatter
+   is the robust term's). On the hypersonic loop (``g ~ K``) both are ``w_max/w0``, which
+   moves every closed-loop frequency of the law down at the same damping:
    the smoothing of the discontinuous term is tied to the actuator bandwidth and the sample
    rate (Slotine & Li 1991, §7.2: boundary layer no thinner than the unmodelled dynamics
    allow; Ioannou & Sun 1996, §8.5: the adaptive loop kept below the unmodelled dynamics).
@@ -26,20 +35,29 @@ design, not another design) it derives, by the rules below, one configuration
    Where the loop is slowed, ``lam -> min(max(lam, C_LAM w_max), lam / r, F lam)`` with
    ``F = LAM_FACTOR_MAX`` (``LAM_FACTOR_NOISE`` where noise binds): the scaled loop's
    low-frequency gain (what rejects a failure's disturbance) falls as ``r^2 lam``; this
-   gives part of it back.
+   gives part of it back. ``lam`` stays below ``C_LAM_GAIN`` times the smallest scaled loop
+   gain over the outputs (a filtered-error corner above the loop gain loses the loop), and
+   with a travel limit or a tight rate limit (its bound below ``C_TIGHT w_max``)
+   ``C_LAM_LIMITED`` replaces ``C_LAM``: a failure that removes most of the input gain
+   leaves the hedged loop a quarter of its gain.
 2. **Command filter with magnitude, rate and bandwidth limits** (Farrell, Polycarpou, Sharma &
    Dong, IEEE TAC 54(6), 2009; Sonneveldt, Chu & Mulder, JGCD 30(2), 2007), with rate or
    travel limits: the law's command ``u0c`` passes through
    ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the allocation, with ``U`` and
    ``R`` the designer's travel and rate times ``C_MARGIN`` divided by ``max |b_j|`` (so no
    actuator is commanded past its limits) and ``w_f = C_FILTER w_max``.
-3. **Anti-windup by back-calculation on the estimates** (Åström & Rundqwist, ACC 1989):
-   ``theta' += -k_aw Pi (u0c - u0_reachable) / |Pi|^2`` pulls the law's command back to what
-   the filter can deliver, so the estimates do not learn the saturation (no wind-up to
-   hundreds of radians behind a rate limit). With a declared ``input_gain`` the laws also
-   see the **compensated error** ``s - xi``, ``xi' = -w_h xi + input_gain (u0c - u0)``
-   (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson & Calise, JGCD 26(6),
-   2003).
+3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
+   Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
+   ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
+   ``|d s'/d u0|`` (``input_gain``, by default measured on the loop) and ``u0_reachable =
+   u0 + u0'/w_f`` what the filter delivers: only the part of the command the limits did not
+   deliver (not the filter's linear lag, which left a steady error) drives ``xi``, so the
+   adaptation does not learn the saturation; ``xi`` returns slowly (``w_h = C_HEDGE
+   w_max``), at a rate the actuator can follow. Measured: this is what ends the
+   rate-limiter oscillation of the hypersonic loop at 2 rad/s (it diverged at 43 s with the
+   back-calculation below). With ``input_gain = 0``: **anti-windup by back-calculation on
+   the estimates** (Åström & Rundqwist, ACC 1989): ``theta' += -k_aw Pi (u0c -
+   u0_reachable) / |Pi|^2`` pulls the law's command back to what the filter can deliver.
 4. **Noise**: the law sees its measurements (regressor inputs, errors, ``s``) through a
    first-order prefilter at ``C_MEASURE w_max``, and its adaptation signal ``q`` through
    ``qf' = w_q (q - qf)`` at ``C_PREFILTER w_max``.
@@ -54,9 +72,9 @@ A digital controller integrates every state of the law by forward Euler at its s
 bound on the adaptive loop). The measurement and command filters keep running while the
 adaptation is frozen (``ClosedLoop(adapt=False)``).
 
-The constants below were chosen once, on the hypersonic §2.3 cases of issue 25, and are the
-same for every case, design and plant (no tuning per case). They do not transfer to the
-wing-rock and manipulator loops as they are (docs/hardware.md).
+The constants below were chosen once, on the hypersonic §2.3 cases of issue 25 (and the
+manipulator and §4.3 cases where said), and are the same for every case, design and plant
+(no tuning per case). Where they fail is measured in docs/hardware.md.
 
 Guarantees (which holds for which combination):
 
@@ -69,9 +87,11 @@ Guarantees (which holds for which combination):
   of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
   bounded signals for small enough unmodelled dynamics), not a proof for each case.
 - *rate / travel limits*: the command filter makes every commanded actuator respect the
-  designer's limits (a hard guarantee on the command); the back-calculation keeps the
-  estimates bounded while the filter limits; stability of the limited loop is not
-  guaranteed (measured: the hypersonic loop still diverges at 2 and 0.5 rad/s).
+  designer's limits (a hard guarantee on the command); with the compensated error the
+  adaptation sees only the error the delivered command is responsible for (Farrell et al.
+  2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
+  bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
+  loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure).
 - *noise*: the prefilters and the lower bandwidth bound the noise in the command (linear
   filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
 - *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
@@ -101,7 +121,7 @@ C_NOISE = 0.15
 #: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
 #: rate stays within the rate limit (the describing function of a rate limiter: no phase
 #: loss below it).
-A_RATE = 0.06
+A_RATE = 0.04
 #: ``w_max <= C_CAP w0`` whenever any constraint is declared: the thesis's loop rate is
 #: set for ideal hardware; measured, the hypersonic law limit-cycles above a tenth of it
 #: under any lag or sampling.
@@ -110,6 +130,20 @@ C_CAP = 0.1
 #: noise): the error filter's corner moved up to a fraction of the loop rate, which the
 #: scaled loop gives back in low-frequency gain (error ~ 1/(r^2 lam)).
 C_LAM = 0.8
+#: ... and ``C_LAM_LIMITED`` where rate or travel limits are declared: there the loop must
+#: also survive a failure that removes most of the input gain (hypersonic: 3/4) with the
+#: hedged loop, whose small-signal proportional gain after the failure falls to a quarter of
+#: ``w_max``; ``lam`` above it makes the filtered-error loop unstable (measured: the rate
+#: 2 rad/s case oscillates after the 40 s failure with ``lam = 0.4 w_max``).
+C_LAM_LIMITED = 0.125
+#: a rate limit is "tight" (``C_LAM_LIMITED`` applies) where its bound on the loop rate is
+#: below ``C_TIGHT w_max`` (hypersonic §2.3 at 2 rad/s: 22.5 against 20; §4.3 at half the
+#: ideal peak rate, 30.5 rad/s: 343 against 15, where raising ``lam`` is what meets the
+#: target, 3.8e-4 against 1.15e-3 without).
+C_TIGHT = 2.0
+#: ... and at most ``C_LAM_GAIN`` times the smallest scaled proportional loop gain
+#: (:attr:`ConstraintAware.min_loop_gain`), never below the thesis's ``lam``.
+C_LAM_GAIN = 0.8
 #: widening of the robust term's boundary layer where the loop is slowed (its slope kept).
 WIDEN = 3.0
 #: ``lam`` is raised at most this many times ...
@@ -126,8 +160,10 @@ C_PREFILTER = 2.0
 C_EULER = 0.5
 #: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
 C_AW = 1.0
-#: decay rate of the compensated error, in multiples of ``w_max``.
-C_HEDGE = 1.0
+#: decay rate of the compensated error, in multiples of ``w_max``: slow, so the part of the
+#: error the limited command caused comes back to the law at a rate the actuator can follow
+#: (at ``w_max`` it came back at once and the rate-limiter oscillation went on).
+C_HEDGE = 0.1
 #: the command filter keeps this fraction of the declared rate and travel (margin).
 C_MARGIN = 0.9
 
@@ -160,6 +196,9 @@ class Configuration(NamedTuple):
     omega_h: float
     #: radius of the projection ball of theta (inf = none)
     theta_max: float
+    #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
+    #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
+    slope_scale: float = 1.0
 
     @property
     def filtered(self) -> bool:
@@ -225,10 +264,30 @@ class ConstraintAware:
     input_gain
         The designer's nominal ``|d s'/d u0|`` of the healthy plant (``sum_j b_j dy''/du_j``;
         ``plant.input_gains()``): with rate or travel limits, the gain of the compensated-
-        error filter that hedges the limited command out of the adaptation; 0 (default) = no
-        hedging. Measured on the hypersonic rate-limit cases it did not prevent the
-        divergence (docs/hardware.md), so :meth:`from_loop` leaves it at 0. Not a
-        constraint: a model with only ``input_gain`` is ideal.
+        error filter that hedges the undelivered command out of the adaptation. ``None``
+        (default): derived from the loop's plant at its initial state and its allocation
+        (:meth:`AdaptiveController.nominal_input_gain`); 0 = no hedging. Not a constraint: a
+        model with only ``input_gain`` is ideal.
+    loop_rate
+        The law's loop rate ``w0`` (1/s) on the loop it runs, which the rule slows down to
+        ``w_max``. ``None`` (default): measured from the loop's nominal loop gain when the
+        loop is compiled (:meth:`AdaptiveController.measured_loop_rate`: per output
+        ``max(g, sqrt(g (k + k0/eps0)))`` with ``g = |d s'/d u0| x`` adaptation gain
+        ``x |Pi(z0)|^2``, the poles of the law's linear band); without a loop, the proxy
+        ``k + k0/eps0``. Not a constraint.
+    loop_gain
+        The law's proportional loop gain ``g = |d s'/d u0| x |Pi(z0)|^2`` x adaptation gain
+        of the output whose ``loop_rate`` is the largest; ``None``: measured with
+        ``loop_rate`` (without it, the adaptation gains and the robust term's slope are
+        scaled alike). Not a constraint.
+    min_loop_gain
+        The smallest ``g`` over the outputs: ``lam`` is raised to at most ``C_LAM_GAIN`` times
+        it after scaling (a filtered-error corner above the loop gain loses the loop: the
+        manipulator's first joint, ``g = 1.8``, spins away with ``lam = 4``). ``None``:
+        measured with ``loop_rate``. Not a constraint.
+    b_max
+        The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
+        actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
 
     Examples
     --------
@@ -245,7 +304,11 @@ class ConstraintAware:
     noise: float = 0.0
     bandwidth: float | None = None
     theta_max: float = math.inf
-    input_gain: float = 0.0
+    input_gain: float | None = None
+    loop_rate: float | None = None
+    loop_gain: float | None = None
+    min_loop_gain: float | None = None
+    b_max: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -255,7 +318,16 @@ class ConstraintAware:
         _number(owner, "sample_time", self.sample_time, allow_inf=False)
         _number(owner, "noise", self.noise, allow_inf=False)
         _number(owner, "theta_max", self.theta_max, allow_inf=True, positive=True)
-        _number(owner, "input_gain", self.input_gain, allow_inf=False)
+        if self.input_gain is not None:
+            _number(owner, "input_gain", self.input_gain, allow_inf=False)
+        if self.loop_rate is not None:
+            _number(owner, "loop_rate", self.loop_rate, allow_inf=False, positive=True)
+        if self.loop_gain is not None:
+            _number(owner, "loop_gain", self.loop_gain, allow_inf=False)
+        if self.min_loop_gain is not None:
+            _number(owner, "min_loop_gain", self.min_loop_gain, allow_inf=False)
+        if self.b_max is not None:
+            _number(owner, "b_max", self.b_max, allow_inf=False, positive=True)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
 
@@ -341,19 +413,40 @@ class ConstraintAware:
             return C_NOISE / self.noise, True
         return w, False
 
-    def configure(self, *, w0: float, b_max: float, lam: float = 1.0) -> Configuration:
+    def configure(
+        self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
+    ) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
         under this model, for an allocation whose largest gain is ``b_max`` and a filtered
-        error ``s = e' + lam e``."""
+        error ``s = e' + lam e``; ``input_gain`` is the loop's nominal ``|d s'/d u0|``, used
+        when the model's own ``input_gain`` is ``None``."""
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
-        scale = w / w0
+        scale = slope_scale = w / w0
+        g = self.loop_gain
+        if g is not None and g > 0 and scale < 1.0:
+            # the law's linear band has the poles of l^2 + g l + g K = 0 (g: proportional
+            # loop gain, K = k + k0/eps0, w0 = max(g, sqrt(g K))): the proportional gain is
+            # scaled only where it is itself above w, the integral path so that
+            # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
+            # manipulator loses the arm with eta scaled below 0.3)
+            big_k = w0 * w0 / g if w0 > g else g
+            scale = min(1.0, w / g)
+            slope_scale = min(1.0, w * w / (scale * g) / big_k)
         lam_factor = 1.0
-        if scale < 1.0:
-            top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
-            lam_factor = min(max(1.0, C_LAM * w / lam), 1.0 / scale, top)
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
+        rmin = min(scale, slope_scale)
+        if rmin < 1.0:
+            top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
+            # a rate limit close to binding at the loop rate, or a travel limit
+            rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
+            tight = math.isfinite(self.travel) or rate_bound < C_TIGHT * w
+            c_lam = C_LAM_LIMITED if tight else C_LAM
+            lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / rmin, top)
+            if self.min_loop_gain is not None and self.min_loop_gain > 0:
+                cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
+                lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
         if limited:
             omega_f = C_FILTER * w
@@ -371,20 +464,25 @@ class ConstraintAware:
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
-        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) else 0.0
+        hedge = self.input_gain if self.input_gain is not None else float(input_gain)
+        hedge = hedge if limited else 0.0
+        # anti-windup: the compensated error where the loop's input gain is known (it keeps
+        # the undelivered command out of the adaptation); back-calculation otherwise
+        k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
         return Configuration(
             scale,
             lam_factor,
-            WIDEN if scale < 1.0 else 1.0,
+            WIDEN if slope_scale < 1.0 else 1.0,
             omega_f,
             u_max,
             u_rate,
             omega_q,
             omega_m,
             k_aw,
-            self.input_gain if limited else 0.0,
+            hedge,
             C_HEDGE * w,
             self.theta_max,
+            slope_scale,
         )
 
 
@@ -485,7 +583,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
         for i in range(p):
             h = at_h + i
             pre += [
-                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - Y[{at_f + i}])",
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - (Y[{at_f + i}]"
+                f" + dY[{at_f + i}] / {wf}))",
                 f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
                 f" c[K + {i}], c[K0 + {i}], c[EPS0])",
             ]

@@ -40,6 +40,9 @@ class DirectAdaptive(AdaptiveController):
         _positive(type(self).__name__, gamma=self.gamma)
         _nonnegative(type(self).__name__, sigma=self.sigma)
 
+    def theta_gain(self) -> float:
+        return float(self.gamma)
+
     def gains(self) -> DirectGains:
         return DirectGains(float(self.gamma) * self.adaptation_scale, float(self.sigma))
 

@@ -69,6 +69,9 @@ class FailureEstimation(AdaptiveController):
             raise ConfigurationError("Each actuator's `basis` needs at least one function.")
         return out
 
+    def theta_gain(self) -> float:
+        return float(self.eta1)
+
     def gains(self) -> EstimationGains:
         r = self.adaptation_scale  # 1 for the thesis law
         return EstimationGains(float(self.eta1) * r, float(self.eta2) * r, float(self.sigma))

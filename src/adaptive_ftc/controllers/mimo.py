@@ -64,6 +64,9 @@ class MimoDirectAdaptive(AdaptiveController):
             )
         return regs
 
+    def theta_gain(self) -> float:
+        return float(self.eta)
+
     def gains(self) -> MimoGains:
         return MimoGains(float(self.eta) * self.adaptation_scale, float(self.sigma))
 

@@ -63,6 +63,10 @@ class NussbaumAdaptive(AdaptiveController):
         text = NUSSBAUM_FUNCTIONS.get(self.nussbaum, self.nussbaum)
         return Expression(text, ("tau",), context="`nussbaum` of NussbaumAdaptive")
 
+    def theta_gain(self) -> float:
+        """``alpha0 |N(tau0)|``: the law's gain at the initial ``tau``."""
+        return float(self.alpha0) * abs(float(self.nussbaum_expression()(tau=float(self.tau0))))
+
     def gains(self) -> NussbaumGains:
         r = self.adaptation_scale  # 1 for the thesis law
         return NussbaumGains(float(self.alpha0) * r, float(self.alpha1) * r, float(self.sigma))

@@ -49,6 +49,10 @@ class SignEstimation(AdaptiveController):
         _positive(type(self).__name__, alpha0=self.alpha0, alpha1=self.alpha1)
         _nonnegative(type(self).__name__, sigma0=self.sigma0, sigma1=self.sigma1)
 
+    def theta_gain(self) -> float:
+        """``alpha0 |rho0|``: the law's gain at the initial ``rho``."""
+        return float(self.alpha0) * abs(float(self.rho0))
+
     def gains(self) -> SignGains:
         r = self.adaptation_scale  # 1 for the thesis law
         return SignGains(

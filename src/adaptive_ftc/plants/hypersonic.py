@@ -60,7 +60,7 @@ class HypersonicAngleOfAttack(Plant):
     """
 
     name: ClassVar[str] = "hypersonic"
-    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad s-1")
     actuator_units: ClassVar[str] = "rad"
     equations = staticmethod(dynamics)
     envelope: ClassVar[tuple[float, ...]] = (1.5707963267948966, float("inf"))  # |alpha| <= 90 deg

@@ -55,7 +55,7 @@ class TwoLinkManipulator(Plant):
     """
 
     name: ClassVar[str] = "manipulator"
-    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s", "rad", "rad/s")
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad s-1", "rad", "rad s-1")
     actuator_units: ClassVar[str] = "N m"
     equations = staticmethod(dynamics)
     state_names: ClassVar[tuple[str, ...]] = ("q1", "q1_dot", "q2", "q2_dot")

@@ -52,7 +52,7 @@ class Pendulum(Plant):
     output_names: ClassVar[tuple[str, ...]] = ("theta",)
     position_index: ClassVar[tuple[int, ...]] = (0,)
     velocity_index: ClassVar[tuple[int, ...]] = (1,)
-    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad s-1")
     actuator_units: ClassVar[str] = "N m"
     equations = staticmethod(dynamics)
 

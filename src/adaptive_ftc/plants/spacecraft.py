@@ -8,6 +8,7 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
+from adaptive_ftc._units import SQRT_KG_M
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant, require_finite
 
@@ -144,7 +145,10 @@ class FlexibleSpacecraft(Plant):
     """
 
     name: ClassVar[str] = "spacecraft"
-    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s") * 3 + ("1",) * 6 + ("N m s",) * 6
+    #: UDUNITS units (adaptive_ftc._units); the modal coordinates are in sqrt(kg) m (3.67)
+    units: ClassVar[tuple[str, ...]] = (
+        ("rad", "rad s-1") * 3 + (SQRT_KG_M,) * 3 + (f"{SQRT_KG_M} s-1",) * 3 + ("N m s",) * 6
+    )
     actuator_units: ClassVar[str] = "N m"
     equations = staticmethod(dynamics)
     # the small-angle kinematics (3.66) mean nothing beyond 90 degrees

@@ -47,7 +47,7 @@ class WingRock(Plant):
     """
 
     name: ClassVar[str] = "wingrock"
-    units: ClassVar[tuple[str, ...]] = ("rad", "rad/s")
+    units: ClassVar[tuple[str, ...]] = ("rad", "rad s-1")
     actuator_units: ClassVar[str] = "rad"
     equations = staticmethod(dynamics)
     envelope: ClassVar[tuple[float, ...]] = (3.141592653589793, float("inf"))  # |phi| <= 180 deg

@@ -548,7 +548,7 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
     fphase = -np.ones((nph, m), dtype=np.int64)
     kinds: list[int] = []
     offsets: list[int] = []
-    patterns: list[tuple[str, str] | None] = []
+    patterns: list[tuple[str, str, str] | None] = []
     consts: list[float] = []
     seen: dict[int, int] = {}
     # every failure of the schedule, active in this window or not: a shortened run (quick
@@ -572,8 +572,11 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
             text = codegen.emit(e.node, names, local)
             dlocal: list[float] = []
             dtext = codegen.emit(e.derivative("u").node, names, dlocal)
+            # the pattern at u = uh (the same numbers as the pattern's: the same tree): the
+            # slope's central difference where the derivative is undefined
+            htext = codegen.emit(e.node, {**names, "u": "uh"}, [])
             # the slope's numbers follow the pattern's
-            pattern, numbers = (text, _shift(dtext, len(local))), local + dlocal
+            pattern, numbers = (text, _shift(dtext, len(local)), htext), local + dlocal
             kind = 3 if re.search(r"\b(u|x)\b", text) else 2
         seen[id(f)] = len(kinds)
         kinds.append(kind)
@@ -649,8 +652,9 @@ def instance(ph, j, D):
 _PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
 
 
-def _pattern_source(text: str, dtext: str) -> str:
-    """The module of one failure pattern (not affine): its value and its slope in ``u``."""
+def _pattern_source(text: str, dtext: str, htext: str) -> str:
+    """The module of one failure pattern (not affine): its value and its slope in ``u``
+    (``htext``: the pattern at ``u = uh``, for the slope where its derivative is undefined)."""
     guarded = _guarded()
     return "\n".join(
         [
@@ -681,14 +685,24 @@ def _pattern_source(text: str, dtext: str) -> str:
             "",
             "@hot",
             "def slope(t, x, u, c, o):",
-            '    """d(failed output)/du."""',
-            f"    return {dtext}",
+            '    """d(failed output)/du; where it is undefined (a kink: sqrt(u**2), abs(u)**0.5',
+            "    at u = 0) the central difference over 2e-6 max(1, |u|), so that the recorded",
+            '    control gain stays finite."""',
+            f"    d = {dtext}",
+            "    if math.isfinite(d):",
+            "        return d",
+            "    h = 1e-6 * max(1.0, abs(u))",
+            "    uh = u + h",
+            f"    above = {htext}",
+            "    uh = u - h",
+            f"    below = {htext}",
+            "    return (above - below) / (2.0 * h)",
             "",
         ]
     )
 
 
-def _pattern_addresses(pattern: tuple[str, str]) -> tuple[int, int]:
+def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
     """Addresses of the compiled ``value`` and ``slope`` of ``pattern`` (its module compiled
     or loaded from the cache on first use; remembered on the module)."""
     from adaptive_ftc.sim import fptr
@@ -910,7 +924,7 @@ def _immutable(parts) -> bool:
 
 def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     """The failure-independent part of :func:`generate`."""
-    plant, ctrl = loop.plant, loop.controller
+    plant, ctrl = loop.plant, loop.controller.bound(loop)  # constraint-aware: from the loop
     g = Generator(loop=loop, sdot=sdot)
     nx, p, m = g.nx, g.p, g.m
     # expression variables: t, u and the plant states by every alias
@@ -969,6 +983,23 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     at_hu = at_vel + (m if has_act2 else 0)
     at_hd = at_hu + (m if sampled else 0)
     ny_all = at_hd + ((ny - nx) if sampled else 0)
+    # an input delay (hardware.Actuators.delay): per actuator a Pade approximant's states
+    # (continuous) or a shift register of whole samples (digital), after every other state
+    has_delay = loop.actuators is not None and loop.actuators.has_delay
+    at_dl = ny_all
+    if has_delay:
+        from adaptive_ftc.hardware import pade_realization
+
+        delays = loop.actuators.delays(m)
+        if sampled:
+            delay_vals = tuple(float(round(d / loop.sample_time)) for d in delays)
+            n_dl = int(max(delay_vals))
+        else:
+            delay_vals = delays
+            n_dl = loop.actuators.delay_order
+            pade = pade_realization(n_dl)
+        ny_all = at_dl + m * n_dl
+    uj = "uj" if has_delay else "u[j]"  # what reaches the actuator
     # ------------------------------------------------------------ the right-hand side
     pos, vel = plant.position_index, plant.velocity_index
     body = [
@@ -1024,6 +1055,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             else []
         ),
         "        u[j] = acc",
+        *(["        acc = delayed(j, Y, acc, D)  # the input delay"] if has_delay else []),
         *(
             [
                 "        if act(ph, j, 0, D) > 0.0 or act(ph, j, 4, D) > 0.0:  # position: a state",
@@ -1044,12 +1076,13 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         body += [
             "    # actuators: a' = clip((clip(u, lower, upper) - a) / tau, -rate, rate)",
             f"    for j in range({m}):",
+            *(["        uj = delayed(j, Y, u[j], D)"] if has_delay else []),
             "        tau = act(ph, j, 0, D)",
             *(
                 [
                     "        omega = act(ph, j, 4, D)",
                     "        if omega > 0.0:  # a' = clip(v), v' = w^2 (u - a) - 2 z w v",
-                    "            target = min(max(u[j], act(ph, j, 2, D)), act(ph, j, 3, D))",
+                    f"            target = min(max({uj}, act(ph, j, 2, D)), act(ph, j, 3, D))",
                     f"            v = Y[{at_vel} + j]",
                     "            rate = act(ph, j, 1, D)",
                     f"            dY[{at_act} + j] = min(max(v, -rate), rate)",
@@ -1062,13 +1095,28 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
                 else []
             ),
             "        if tau > 0.0:",
-            "            target = min(max(u[j], act(ph, j, 2, D)), act(ph, j, 3, D))",
+            f"            target = min(max({uj}, act(ph, j, 2, D)), act(ph, j, 3, D))",
             "            rate = act(ph, j, 1, D)",
             f"            da = (target - Y[{at_act} + j]) / tau",
             f"            dY[{at_act} + j] = min(max(da, -rate), rate)",
             "        else:",
             f"            dY[{at_act} + j] = 0.0",
         ]
+    if has_delay and not sampled:
+        A, B, C, Dd, xss = pade
+        body += [
+            f"    # input delay: Pade states x' = (A x + B u) / d (order {n_dl}, balanced)",
+            f"    for j in range({m}):",
+            "        d = c[DELAY + j]",
+            f"        at = {at_dl} + j * {n_dl}",
+            "        if d == 0.0:",
+            f"            for i in range({n_dl}):",
+            "                dY[at + i] = 0.0",
+            "            continue",
+        ]
+        for r in range(n_dl):
+            terms = " + ".join(f"{A[r, q]!r} * Y[at + {q}]" for q in range(n_dl))
+            body.append(f"        dY[at + {r}] = ({terms} + {B[r]!r} * u[j]) / d")
     held = []
     if sampled:
         body += [
@@ -1115,10 +1163,36 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             "    scratch = W[SCR:SCR + N_SCR]",
             "    misc = W[MISC:MISC + N_MISC]",
         ]
+    if has_delay:
+        fill = "1.0" if sampled else None
+        jump_src += [
+            "    if ph == 0:  # the delay line starts holding the first command",
+            *(["        misc[5] = 1.0"] if sampled else []),
+            "        rhs(t, Y, ph, D, W, scratch)",
+            *(["        misc[5] = 0.0"] if sampled else []),
+            f"        for j in range({m}):",
+            f"            at = {at_dl} + j * {n_dl}",
+            *[
+                f"            Y[at + {q}] = {fill or repr(float(xss[q]))} * W[U + j]"
+                for q in range(n_dl)
+            ],
+        ]
     if sampled:
         jump_src += [
             "    if D.i[D.i[I_SAMP] + ph] != 0:  # a controller sample: new command and"
             " derivatives, held",
+            *(
+                [
+                    "        if ph > 0:  # the input delay: the held commands move one sample on",
+                    f"            for j in range({m}):",
+                    f"                at = {at_dl} + j * {n_dl}",
+                    f"                for i in range({n_dl - 1}, 0, -1):",
+                    "                    Y[at + i] = Y[at + i - 1]",
+                    f"                Y[at] = Y[{at_hu} + j]",
+                ]
+                if has_delay
+                else []
+            ),
             "        misc[5] = 1.0",
             "        rhs(t, Y, ph, D, W, scratch)",
             "        misc[5] = 0.0",
@@ -1128,6 +1202,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             f"            Y[{at_hd - nx} + i] = scratch[i]",
         ]
     if has_act:
+        uw = "delayed(j, Y, W[U + j], D)" if has_delay else "W[U + j]"
         jump_src += [
             "    # an actuator that was ideal (or starts at its first command) is where its",
             "    # command puts it when it becomes a dynamic one",
@@ -1138,7 +1213,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             "        else:",
             "            was_ideal = act(ph - 1, j, 0, D) == 0.0 and act(ph - 1, j, 4, D) == 0.0",
             "        if was_ideal:",
-            f"            Y[{at_act} + j] = min(max(W[U + j], act(ph, j, 2, D)), act(ph, j, 3, D))",
+            f"            Y[{at_act} + j] = min(max({uw}, act(ph, j, 2, D)), act(ph, j, 3, D))",
             *([f"            Y[{at_vel} + j] = 0.0"] if has_act2 else []),
         ]
     if len(jump_src) == 3:  # a continuous loop: a Python no-op (for the scipy path)
@@ -1187,6 +1262,37 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             "    return D.c[D.i[I_MEAS] + ph * NX + i]",
         ]
     )
+    if has_delay and sampled:
+        tables_src += "\n".join(
+            [
+                "",
+                "",
+                "",
+                "@inl",
+                "def delayed(j, Y, uj, D):",
+                '    """Command of actuator j after its input delay of k whole samples."""',
+                "    k = int(D.c[DELAY + j])",
+                "    if k == 0:",
+                "        return uj",
+                f"    return Y[{at_dl} + j * {n_dl} + k - 1]",
+            ]
+        )
+    elif has_delay:
+        out = " + ".join(f"{C[q]!r} * Y[at + {q}]" for q in range(n_dl))
+        tables_src += "\n".join(
+            [
+                "",
+                "",
+                "",
+                "@inl",
+                "def delayed(j, Y, uj, D):",
+                '    """Command of actuator j after its input delay: the Pade output C x + D u."""',
+                "    if D.c[DELAY + j] == 0.0:",
+                "        return uj",
+                f"    at = {at_dl} + j * {n_dl}",
+                f"    return {out} + {Dd!r} * uj",
+            ]
+        )
     # ------------------------------------------------------------ imports and module
     title = (
         f"Generated closed loop: plant {plant.name!r}, design {ctrl.code_label()}, "
@@ -1220,6 +1326,8 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         "gains": tuple(float(v) for v in gains),
         "plant": tuple(plant_vals),
     }
+    if has_delay:  # a Pade approximant's delay (s) or a digital delay in samples, per actuator
+        settings["delay"] = delay_vals
     layout: dict = {}
     values = list(g.consts)  # expression constants first: their indices are in the text
     names_c = {
@@ -1236,6 +1344,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         "envelope": "ENV",
         "gains": "GAINS",
         "plant": "PLANT",
+        "delay": "DELAY",
     }
     consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
     for key, vals in settings.items():
@@ -1286,6 +1395,9 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     if sampled:
         extra += [f"held command of {a}" for a in plant.actuator_names]
         extra += [f"held derivative of {n}" for n in g.adaptive_names]
+    if has_delay:
+        what = "delayed command" if sampled else "delay state"
+        extra += [f"{what} {q + 1} of {a}" for a in plant.actuator_names for q in range(n_dl)]
     layout.update(
         ny=ny,
         ny_all=ny_all,

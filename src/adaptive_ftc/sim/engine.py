@@ -9,13 +9,14 @@ import os
 import threading
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.sim.compose import Assembled, assemble
 from adaptive_ftc.sim.result import SimResult, signal_block
+from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["SolverOptions", "integrate_only", "simulate"]
@@ -189,8 +190,19 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     Returns
     -------
     SimResult
-        Recorded states and signals. If the run diverged, ``status == "diverged"``, the result
-        holds everything up to the last good sample and a :class:`DivergenceWarning` is issued.
+        Recorded states and signals. ``result.status`` says how the run ended (a
+        :class:`~adaptive_ftc.RunStatus`) and ``result.reason`` why (a
+        :class:`~adaptive_ftc.StatusReason`); a run that stopped early holds everything up to
+        the last good sample and a :class:`DivergenceWarning` with ``result.message`` is issued.
+        ``meta`` holds the integrator's statistics: ``steps`` (accepted), ``rejected_steps``
+        (absent where the method does not report them: scipy's Radau, BDF and LSODA),
+        ``rhs_evaluations`` (every call of the loop's right-hand side, those of finite-difference
+        Jacobians included), ``jacobian_evaluations`` and ``lu_decompositions``.
+
+    Raises
+    ------
+    SimulationInterrupted
+        On Ctrl-C (a :class:`KeyboardInterrupt`); its ``.result`` holds the partial result.
 
     Examples
     --------
@@ -201,7 +213,8 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     'completed'
     """
     solver = solver or SolverOptions()
-    asm, t_rec, Y, phases, nrec, message, wall, stats = _integrate(loop, solver, envelope=False)
+    asm, t_rec, Y, phases, nrec, outcome, wall, stats = _integrate(loop, solver, envelope=False)
+    status, reason = outcome
     T = t_rec[:nrec]
     Y = Y[:nrec]
     phases = phases[:nrec]
@@ -209,18 +222,34 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     if nrec:
         # the signals' pass over the records also finds the first one outside the envelope
         first = asm.signals(T, Y, phases, signals)
-        cut, message = _check_envelope(loop, Y, T, nrec, message, first=first)
+        cut, env_reason = _envelope_cut(loop, Y, T, nrec, first=first)
+        if env_reason is not None:
+            status, reason = RunStatus.DIVERGED, env_reason
         T, Y, phases, signals = T[:cut], Y[:cut], phases[:cut], signals[:cut]
+    message = describe(status, reason, _run_label(loop))
+    result = SimResult.from_run(
+        loop,
+        asm,
+        T,
+        Y,
+        phases,
+        signals=signals,
+        solver=solver,
+        message=message,
+        wall_time=wall,
+        status=status,
+        reason=reason,
+    )
+    result.meta["steps"] = int(stats[0])
+    if stats[1] >= 0:  # -1: not known (scipy's implicit methods do not count them)
+        result.meta["rejected_steps"] = int(stats[1])
+    result.meta["rhs_evaluations"] = int(stats[2])
+    result.meta["jacobian_evaluations"] = int(stats[3])
+    result.meta["lu_decompositions"] = int(stats[4])
+    if status is RunStatus.INTERRUPTED:
+        raise SimulationInterrupted(result, message)
     if message:
         warnings.warn(message, DivergenceWarning, stacklevel=2)
-    result = SimResult.from_run(
-        loop, asm, T, Y, phases, signals=signals, solver=solver, message=message, wall_time=wall
-    )
-    if message.startswith("Interrupted"):
-        result.status = "interrupted"
-    result.meta["steps"] = int(stats[0])
-    result.meta["rejected_steps"] = int(stats[1])
-    result.meta["rhs_evaluations"] = int(stats[2])
     return result
 
 
@@ -298,30 +327,47 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
                     stats,
                 )
 
-        nrec, status, t_stop, bad = _compiled_call(loop, run)
+        nrec, code, t_stop, bad = _compiled_call(loop, run)
         nrec = int(nrec)
-        if status == 0:
-            message = ""
-        elif status == 2:
-            message = (
-                f"Simulation {_run_label(loop)} stopped at t = {float(t_stop):.6g} s: the "
-                f"'{method}' step size fell below what the tolerances allow (or the step count "
-                "limit was reached). The loop may be too stiff for this method: try "
-                "method = 'rodasp' or 'auto', or looser rtol/atol."
-            )
-        elif status == 3:
-            message = (
-                f"Interrupted at t = {float(t_stop):.6g} s; the result keeps the samples before "
-                "that time."
-            )
+        if code == 0:
+            outcome = (RunStatus.COMPLETED, None)
         else:
-            message = _diverged_message(loop, asm, float(t_stop), int(bad), solver)
+            # codes 1 and 2 leave the state at the stop in the row after the last record
+            kept = int(code) in (1, 2) and nrec < t_rec.size
+            outcome = _stop(
+                loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
+                Y[nrec].copy() if kept else None,
+            )  # fmt: skip
+            if outcome[0] is RunStatus.STEP_UNDERFLOW and method != "rk4":
+                from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
+
+                if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
+                    outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
     else:
-        Y, phases, nrec, message = _integrate_scipy(asm, bps, t_rec, solver, loop, atol)
+        Y, phases, nrec, outcome = _integrate_scipy(asm, bps, t_rec, solver, loop, atol, stats)
     wall = time.perf_counter() - start
     if envelope:
-        nrec, message = _check_envelope(loop, Y, t_rec, nrec, message)
-    return asm, t_rec, Y, phases, nrec, message, wall, stats
+        nrec, env_reason = _envelope_cut(loop, Y, t_rec, nrec)
+        if env_reason is not None:
+            outcome = (RunStatus.DIVERGED, env_reason)
+    return asm, t_rec, Y, phases, nrec, outcome, wall, stats
+
+
+def _stop(loop, asm, solver, t_rec, Y, nrec, code, t_stop, bad, y_stop):
+    """The (status, reason) of a run that stopped with ``code`` (see :mod:`.diagnose`)."""
+    from adaptive_ftc.sim.diagnose import stop_outcome
+
+    return stop_outcome(
+        loop,
+        asm,
+        solver,
+        code=code,
+        t_stop=t_stop,
+        bad=bad,
+        y_stop=y_stop,
+        t_prev=float(t_rec[nrec - 1]) if nrec else float(loop.t0),
+        y_prev=Y[nrec - 1].copy() if nrec else None,
+    )
 
 
 def _check_envelope(
@@ -334,24 +380,41 @@ def _check_envelope(
     first: int | None = None,
 ):
     """Cut the run at the first recorded sample outside the plant's physical envelope
-    (``first``: that sample's row when the compiled signals found it, -1 when none is)."""
+    (``first``: that sample's row when the compiled signals found it, -1 when none is);
+    returns the number of rows kept and the message (``message`` when none is outside)."""
+    row, reason = _envelope_cut(loop, Y, t_rec, nrec, first=first)
+    if reason is None:
+        return nrec, message
+    return row, describe(RunStatus.DIVERGED, reason, _run_label(loop))
+
+
+def _envelope_cut(
+    loop: ClosedLoop,
+    Y: np.ndarray,
+    t_rec: np.ndarray,
+    nrec: int,
+    *,
+    first: int | None = None,
+) -> tuple[int, StatusReason | None]:
+    """The first recorded row outside the plant's envelope and its reason (``nrec, None``:
+    none is)."""
     env = tuple(getattr(loop.plant, "envelope", ()) or ())
     if not env or nrec == 0 or first == -1:
-        return nrec, message
+        return nrec, None
     bound = np.asarray(env, dtype=float)
     start = 0 if first is None else first
     out = np.abs(Y[start:nrec, : bound.size]) > bound
     if not out.any():
-        return nrec, message
+        return nrec, None
     k = int(np.argmax(out.any(axis=1)))
     i = int(np.argmax(out[k]))
     row = start + k
-    name = loop.plant.state_names[i]
-    return row, (
-        f"Simulation {_run_label(loop)} diverged at t = {t_rec[row]:.6g} s: signal '{name}' "
-        f"= {Y[row, i]:.4g} left the plant's envelope |{name}| <= {bound[i]:.4g} (a physically "
-        "meaningless value: a wrong control direction, or gains too high). The result keeps "
-        "the samples before that time."
+    return row, StatusReason(
+        time=float(t_rec[row]),
+        signal=loop.plant.state_names[i],
+        value=float(Y[row, i]),
+        bound=float(bound[i]),
+        envelope=True,
     )
 
 
@@ -460,24 +523,27 @@ def _run_label(loop: ClosedLoop) -> str:
     return f"'{loop.name}'" if loop.name else "(unnamed loop)"
 
 
-def _diverged_message(
-    loop: ClosedLoop, asm: Assembled, t: float, index: int, solver: SolverOptions
-) -> str:
-    label = _state_label(loop, asm, index)
-    env = tuple(getattr(loop.plant, "envelope", ()) or ())
-    if 0 <= index < min(len(env), asm.n_x) and math.isfinite(env[index]):
-        return (
-            f"Simulation {_run_label(loop)} diverged at t = {t:.6g} s: signal '{label}' left "
-            f"the plant's envelope |{label}| <= {env[index]:.4g} (a physically meaningless "
-            "value: a wrong control direction, or gains too high). The result keeps the "
-            "samples before that time."
-        )
-    return (
-        f"Simulation {_run_label(loop)} diverged at t = {t:.6g} s: signal '{label}' became "
-        f"non-finite or exceeded {solver.divergence_bound:g}. The result keeps the samples "
-        "before that time. Check the gains and failure values, or try a smaller `dt` or an "
-        "adaptive-step method ('rodasp', 'auto')."
-    )
+def _counting_method(name: str, counts: np.ndarray):
+    """scipy's ``name`` solver class, counting its accepted steps into ``counts[0]`` and, for
+    the explicit Runge-Kutta methods (whose every attempt costs ``n_stages`` evaluations),
+    its rejected steps into ``counts[1]``."""
+    from scipy.integrate._ivp.ivp import METHODS
+
+    base = METHODS[name]
+    stages = getattr(base, "n_stages", None)
+    stages = stages if isinstance(stages, int) else None
+
+    class Counting(base):  # type: ignore[misc,valid-type]
+        def _step_impl(self):
+            before = self.nfev
+            ok, message = super()._step_impl()
+            counts[0] += int(ok)
+            if stages:
+                counts[1] += (self.nfev - before) // stages - int(ok)
+            return ok, message
+
+    Counting.__name__ = Counting.__qualname__ = f"Counting{name}"
+    return Counting
 
 
 def _integrate_scipy(
@@ -487,7 +553,12 @@ def _integrate_scipy(
     solver: SolverOptions,
     loop: ClosedLoop,
     atol: np.ndarray,
+    stats: np.ndarray,
 ):
+    """The scipy path: :func:`scipy.integrate.solve_ivp` over each interval of fixed failure
+    pattern; ``stats`` receives the counts of the compiled path's ``stats`` (steps, rejected
+    steps or -1 when the method does not tell, right-hand side calls, Jacobians, LU
+    decompositions)."""
     from scipy.integrate import solve_ivp
 
     bound = solver.divergence_bound
@@ -497,6 +568,9 @@ def _integrate_scipy(
     y = asm.y0.copy()
     r = 0
     nph = bps.size - 1
+    counts = np.zeros(3, dtype=np.int64)  # accepted steps, rejected steps, rhs calls
+    method = _counting_method(solver.scipy_method, counts)
+    rejections_known = getattr(method, "n_stages", None) is not None
 
     def blowup(t, y):
         return bound - np.max(np.abs(y))
@@ -513,8 +587,12 @@ def _integrate_scipy(
         t_eval = np.append(t_want, b) if (t_want.size == 0 or t_want[-1] < b) else t_want
 
         def fun(t, y, ph=ph):
+            # the compiled rhs takes C-contiguous float64 vectors only; scipy's
+            # finite-difference Jacobians (Radau, BDF) pass columns of a matrix
+            y = np.ascontiguousarray(y, dtype=np.float64)
             dy = np.zeros(y.size)
-            asm.module.rhs(t, y, ph, asm.data, W, dy)
+            asm.module.rhs(float(t), y, ph, asm.data, W, dy)
+            counts[2] += 1
             return dy
 
         with np.errstate(all="ignore"):
@@ -522,13 +600,16 @@ def _integrate_scipy(
                 fun,
                 (a, b),
                 y,
-                method=solver.scipy_method,
+                method=method,
                 t_eval=t_eval,
                 rtol=solver.rtol,
                 atol=atol if isinstance(solver.atol, tuple) else solver.atol,
                 max_step=solver.max_step,
                 events=blowup,
             )
+        stats[3] += sol.njev
+        stats[4] += sol.nlu
+        stats[0], stats[1], stats[2] = counts[0], counts[1] if rejections_known else -1, counts[2]
         ys = sol.y[:, : min(sol.t.size, t_want.size)]
         good = np.all(np.abs(ys) < bound, axis=0)
         ngood = int(np.argmin(good)) if not good.all() else ys.shape[1]
@@ -547,9 +628,13 @@ def _integrate_scipy(
                 )
             off = ~(np.abs(yb) < bound)
             bad = int(np.argmax(off)) if off.any() else 0
-            msg = _diverged_message(loop, asm, t_bad, bad, solver)
+            # a state over the bound (the event, a recorded sample) or the solver's failure
+            code = 1 if off.any() else 2
+            status, reason = _stop(
+                loop, asm, solver, t_rec, Y, r, code, t_bad, bad, np.array(yb, dtype=float)
+            )
             if sol.status == -1:
-                msg += f" (solver: {sol.message})"
-            return Y, phases, r, msg
+                reason = replace(reason, detail=str(sol.message))
+            return Y, phases, r, (status, reason)
         y = sol.y[:, -1].copy()
-    return Y, phases, r, ""
+    return Y, phases, r, (RunStatus.COMPLETED, None)

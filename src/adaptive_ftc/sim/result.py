@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -12,7 +13,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adaptive_ftc._units import cf_unit_attrs, per_second, udunits
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.status import RunStatus, StatusReason
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -23,6 +26,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["SimResult"]
+
+#: Units of the time coordinate of the files: simulation time in seconds, with t = 0 put at a
+#: conventional epoch (CF wants a reference time; a simulation has none).
+TIME_UNITS = "seconds since 1970-01-01 00:00:00"
 
 
 @dataclass
@@ -50,8 +57,11 @@ class SimResult:
     control_gain
         True control gain of output 1 along the allocation, ``sum_j g_j R_1j d u^f_j / d u_j``:
         its sign is the true control direction (4.6).
-    status, message
-        ``"completed"`` or ``"diverged"`` and the divergence message.
+    status, reason, message
+        How the run ended (a :class:`~adaptive_ftc.RunStatus`: ``"completed"``,
+        ``"diverged"``, ``"nonfinite"``, ``"step_underflow"``, ``"singular"``, ...), why (a
+        :class:`~adaptive_ftc.StatusReason`, ``None`` when completed) and the message built
+        from both.
     state_units, output_units, actuator_units
         UDUNITS strings declared by the plant class (``state_units``, ``output_units``,
         ``actuator_units`` class attributes); empty when the plant declares none, and the
@@ -87,13 +97,17 @@ class SimResult:
     theta_slices: tuple[slice, ...]
     failure_times: tuple[float, ...]
     failures: tuple[str, ...]
-    status: str = "completed"
+    status: RunStatus = RunStatus.COMPLETED
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
     state_units: tuple[str, ...] = ()
     output_units: tuple[str, ...] = ()
     actuator_units: tuple[str, ...] = ()
     actuator_position: np.ndarray | None = None
+    reason: StatusReason | None = None
+
+    def __post_init__(self) -> None:
+        self.status = RunStatus(self.status)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -109,9 +123,12 @@ class SimResult:
         solver: SolverOptions,
         message: str,
         wall_time: float,
+        status: RunStatus | str = RunStatus.COMPLETED,
+        reason: StatusReason | None = None,
     ) -> SimResult:
         """Build a result from recorded closed-loop states; ``signals``: their block from
-        ``asm.signals`` (:func:`signal_block`), else recomputed here."""
+        ``asm.signals`` (:func:`signal_block`), else recomputed here. ``status`` and
+        ``reason`` say how the run ended; ``message`` is the text built from them."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
         out = signals
         if out is None:
@@ -178,7 +195,8 @@ class SimResult:
             theta_slices=asm.theta_slices,
             failure_times=tuple(times),
             failures=tuple(loop.describe_failures()),
-            status="diverged" if message else "completed",
+            status=RunStatus(status),
+            reason=reason,
             message=message,
             meta=meta,
             state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
@@ -320,14 +338,24 @@ class SimResult:
         return out
 
     # ------------------------------------------------------------------ export
-    def to_xarray(self, *, timing: bool = False, decimate: int = 1) -> xr.Dataset:
+    def to_xarray(
+        self, *, timing: bool = False, decimate: int = 1, float32: bool = False
+    ) -> xr.Dataset:
         """All recorded signals as a self-describing :class:`xarray.Dataset`.
 
-        Every variable carries CF attributes (``long_name``, ``units``); plant states are one
-        variable each (``state_<name>``) because their units differ. The global attributes
-        hold the provenance: ``Conventions = "CF-1.10"``, the package version, the git commit
-        when the package runs from a checkout, the scenario name and file text, the solver
-        settings and the controller (its gains).
+        Every variable carries CF attributes (``long_name``, ``units`` in UDUNITS style, see
+        :mod:`adaptive_ftc._units`; the spacecraft's modal coordinates, in √kg·m, which UDUNITS
+        cannot write, state it in ``units_note`` instead); plant states are one variable each
+        (``state_<name>``) because their units differ. The dimensions ``output``, ``actuator``,
+        ``param`` and ``state`` are plain integer dimensions labelled by the auxiliary
+        coordinates ``output_name``, ``actuator_name``, ``param_name`` and ``state_name``
+        (select by name with ``ds.swap_dims(output="output_name").sel(output_name="alpha")``).
+        ``time`` is the simulation time in :data:`TIME_UNITS` (``"seconds since 1970-01-01
+        00:00:00"``: the epoch is a convention, ``t = 0`` of the run's clock; xarray decodes it
+        to dates unless the file is opened with ``decode_times=False``).
+        The global attributes hold the provenance: ``Conventions = "CF-1.10"``, ``history``,
+        the package version, the git commit when the package runs from a checkout, the
+        scenario name and file text, the solver settings and the controller (its gains).
 
         Parameters
         ----------
@@ -336,6 +364,9 @@ class SimResult:
             identical inputs give identical files.
         decimate
             Keep every ``decimate``-th sample (the last sample is always kept), for long runs.
+        float32
+            Only recorded in the attributes (``precision``, ``history``): :meth:`to_netcdf`
+            stores the signals in single precision.
         """
         import xarray as xr
 
@@ -347,7 +378,7 @@ class SimResult:
         idx = _decimation_index(self.time.size, decimate)
         out_u = [_unit(self.output_units, i) for i in range(len(self.output_names))]
         y_units = _common(out_u)
-        rate = _per_second(y_units)
+        rate = per_second(y_units)
         act_units = _common(
             [_unit(self.actuator_units, j) for j in range(len(self.actuator_names))]
         )
@@ -368,7 +399,7 @@ class SimResult:
             ("e", "tracking error e = y_d - y", y_units, declared_y),
             ("edot", "tracking error rate de/dt", rate, declared_y),
             ("s", "filtered error s = de/dt + lambda e", rate, declared_y),
-            ("sdot", "filtered error rate ds/dt", _per_second(rate), declared_y),
+            ("sdot", "filtered error rate ds/dt", per_second(rate), declared_y),
             ("u0", "design control signal u0", act_units, declared_u),
         ):
             data[key] = (
@@ -427,32 +458,52 @@ class SimResult:
                 "comment": "units differ per parameter and are not declared",
             },
         )
+        # numeric dimensions, labelled by string auxiliary coordinates (CF 5: no string-valued
+        # dimension coordinates); the state labels ride on a variable of the state dimension
+        data["state_index"] = (
+            ("state",),
+            np.arange(len(self.state_names), dtype=np.int32),
+            {"long_name": "position of each plant state in the state vector", "units": "1"},
+        )
         ds = xr.Dataset(
             data,
             coords={
                 "time": (
                     "time",
                     self.time[idx],
-                    {"standard_name": "time", "long_name": "time", "units": "s", "axis": "T"},
+                    {
+                        "standard_name": "time",
+                        "long_name": "simulation time t",
+                        "units": TIME_UNITS,
+                        "calendar": "standard",
+                        "axis": "T",
+                        "comment": "t in seconds of the run's own clock; the epoch is a "
+                        "convention (t = 0 at 1970-01-01 00:00:00 UTC): open the file with "
+                        "xarray.open_dataset(..., decode_times=False) for t as float seconds",
+                    },
                 ),
-                "state": ("state", list(self.state_names), {"long_name": "plant state name"}),
-                "output": (
+                "state_name": ("state", list(self.state_names), {"long_name": "plant state name"}),
+                "output_name": (
                     "output",
                     list(self.output_names),
                     {"long_name": "controlled output name"},
                 ),
-                "actuator": ("actuator", list(self.actuator_names), {"long_name": "actuator name"}),
-                "param": (
+                "actuator_name": (
+                    "actuator",
+                    list(self.actuator_names),
+                    {"long_name": "actuator name"},
+                ),
+                "param_name": (
                     "param",
                     list(self.adaptive_names),
                     {"long_name": "adaptive parameter name"},
                 ),
             },
         )
-        ds.attrs.update(self._global_attrs(timing=timing, decimate=decimate))
+        ds.attrs.update(self._global_attrs(timing=timing, decimate=decimate, float32=float32))
         return ds
 
-    def _global_attrs(self, *, timing: bool, decimate: int) -> dict[str, Any]:
+    def _global_attrs(self, *, timing: bool, decimate: int, float32: bool) -> dict[str, Any]:
         from adaptive_ftc._version import __version__
 
         meta = {k: v for k, v in self.meta.items() if timing or k != "wall_time_s"}
@@ -461,6 +512,11 @@ class SimResult:
             "title": f"adaptive-ftc run of {meta.get('scenario', meta.get('name', ''))}".strip(),
             "source": f"adaptive-ftc {__version__}",
             "package_version": __version__,
+            # no date: identical inputs give byte-identical files
+            "history": (
+                f"written by adaptive-ftc {__version__} SimResult.to_netcdf("
+                f"float32={bool(float32)}, decimate={int(decimate)})"
+            ),
         }
         commit = _git_commit()
         if commit:
@@ -473,11 +529,12 @@ class SimResult:
             else:
                 attrs[k] = str(v)
         attrs.update(
-            status=self.status,
+            status=str(self.status),
             message=self.message,
             failure_times=np.asarray(self.failure_times, dtype=float),
             failures="; ".join(self.failures),
             decimation=int(decimate),
+            precision="float32" if float32 else "float64",
             # what from_netcdf needs to rebuild the result exactly
             aftc_result_json=json.dumps(
                 {
@@ -487,6 +544,9 @@ class SimResult:
                     "state_units": list(self.state_units),
                     "output_units": list(self.output_units),
                     "actuator_units": list(self.actuator_units),
+                    "reason": _jsonable(dataclasses.asdict(self.reason))
+                    if self.reason is not None
+                    else None,
                 },
                 sort_keys=True,
             ),
@@ -508,7 +568,7 @@ class SimResult:
         if not path.is_file():
             raise ConfigurationError(f"No netCDF file at '{path}'; give the path of a .nc file.")
         try:
-            with xr.open_dataset(path, engine="netcdf4") as handle:
+            with xr.open_dataset(path, engine="netcdf4", decode_times=False) as handle:
                 ds = handle.load()
         except Exception as exc:  # noqa: BLE001 - any reader failure is the same user error
             raise ConfigurationError(
@@ -521,7 +581,13 @@ class SimResult:
                 "attribute); open it with xarray.open_dataset instead."
             )
         info = json.loads(ds.attrs["aftc_result_json"])
-        states = [str(s) for s in ds["state"].values]
+
+        # older files have string dimension coordinates "state", "output", ... instead
+        def labels(dim: str) -> list[str]:
+            var = ds[f"{dim}_name"] if f"{dim}_name" in ds.variables else ds[dim]
+            return [str(v) for v in var.values]
+
+        states = labels("state")
         n_t = ds.sizes["time"]
 
         def arr(name: str) -> np.ndarray:
@@ -547,13 +613,14 @@ class SimResult:
             gain=arr("adaptive_gain"),
             control_gain=arr("true_control_gain"),
             state_names=tuple(states),
-            output_names=tuple(str(v) for v in ds["output"].values),
-            actuator_names=tuple(str(v) for v in ds["actuator"].values),
-            adaptive_names=tuple(str(v) for v in ds["param"].values),
+            output_names=tuple(labels("output")),
+            actuator_names=tuple(labels("actuator")),
+            adaptive_names=tuple(labels("param")),
             theta_slices=tuple(slice(a, b) for a, b in info["theta_slices"]),
             failure_times=tuple(float(t) for t in np.atleast_1d(ds.attrs.get("failure_times", []))),
             failures=tuple(info["failures"]),
-            status=str(ds.attrs.get("status", "completed")),
+            status=RunStatus(str(ds.attrs.get("status", "completed"))),
+            reason=_reason_from_json(info.get("reason")),
             message=str(ds.attrs.get("message", "")),
             meta=dict(info["meta"]),
             state_units=tuple(info.get("state_units", ())),
@@ -614,7 +681,7 @@ class SimResult:
 
         if isinstance(complevel, bool) or not isinstance(complevel, int) or not 0 <= complevel <= 9:
             raise ConfigurationError(f"`complevel` must be a whole number 0..9; got {complevel!r}.")
-        ds = self.to_xarray(timing=timing, decimate=decimate)
+        ds = self.to_xarray(timing=timing, decimate=decimate, float32=float32)
         encoding: dict[str, dict[str, Any]] = {}
         for name, var in ds.variables.items():
             if var.dtype.kind != "f":
@@ -665,7 +732,6 @@ def _solver_settings(solver: Any) -> str:
 
 @functools.lru_cache(maxsize=64)
 def _settings_text(solver: Any) -> str:
-    import dataclasses
 
     try:
         fields = dataclasses.asdict(solver)
@@ -686,6 +752,22 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+def _reason_from_json(data: dict[str, Any] | None) -> StatusReason | None:
+    """The :class:`StatusReason` written by :meth:`SimResult.to_netcdf` (non-finite numbers are
+    stored as their text)."""
+    if not data:
+        return None
+    known = {f.name: f for f in dataclasses.fields(StatusReason)}
+    values: dict[str, Any] = {}
+    for k, v in data.items():
+        if k not in known:
+            continue
+        if k in ("time", "value", "bound") and v is not None:
+            v = float(v)
+        values[k] = v
+    return StatusReason(**values)
 
 
 def _declared_units(plant: Any, attrs: tuple[str, ...], size: int) -> tuple[str, ...]:
@@ -710,19 +792,15 @@ def _output_units(
 
 
 def _unit(units: tuple[str, ...], i: int) -> str:
-    return units[i] if i < len(units) and units[i] else "1"
+    return udunits(units[i]) if i < len(units) and units[i] else "1"
 
 
 def _common(units: list[str]) -> str:
     return units[0] if units and all(u == units[0] for u in units) else "1"
 
 
-def _per_second(unit: str) -> str:
-    return "s-1" if unit == "1" else f"{unit} s-1"
-
-
 def _attrs(long_name: str, unit: str, *, declared: bool = True) -> dict[str, str]:
-    out = {"long_name": long_name, "units": unit}
+    out = {"long_name": long_name, **cf_unit_attrs(unit)}
     if not declared:
         out["comment"] = "units not declared by the plant class; '1' is a placeholder"
     return out

@@ -226,6 +226,16 @@ class ClosedLoop:
                 f"than the run ({self.t_final - self.t0:g} s); got {ts!r}."
             )
         object.__setattr__(self, "sample_time", float(ts))
+        if ts > 0 and self.actuators is not None and self.actuators.has_delay:
+            for j, d in enumerate(self.actuators.delays(m)):
+                k = round(d / ts)
+                if abs(d - k * ts) > 1e-9 * max(1.0, d):
+                    raise ConfigurationError(
+                        f"The input delay of actuator {j + 1} ({d:g} s) is not a whole number "
+                        f"of the controller's samples ({ts:g} s): a digital controller delays "
+                        f"its held command by whole samples. Set `delay` to "
+                        f"{math.floor(d / ts) * ts:g} or {math.ceil(d / ts) * ts:g} s."
+                    )
         if self.controller.single_output and p != 1:
             raise ConfigurationError(
                 f"Design '{self.controller.design}' is single-output but plant '{plant.name}' "

@@ -29,7 +29,8 @@ Rosenbrock code: on hypersonic-direct-s1 the whole cold compile fell from 11-12 
 
 ``status``: 0 finished, 1 diverged (a state non-finite or ``|y_i| >= bound``; ``bad = i``), 2 step
 size underflow or more than ``MAX_STEPS`` steps (``bad = -1``), 3 interrupted (``stop[0] != 0``,
-checked before every step; ``bad = -1``). ``stats`` (int64, length >= 5) receives
+checked before every step; ``bad = -1``). On statuses 1 and 2 the state where the run stopped is
+left in ``out_Y[n_recorded]`` (when that row exists). ``stats`` (int64, length >= 5) receives
 ``[accepted steps, rejected steps, rhs evaluations, Jacobians, LU factorisations]``.
 
 Integration restarts at every break time ``t_breaks[k]`` with a fresh step-size guess, and the
@@ -330,6 +331,15 @@ _PH = np.array(
 
 
 @jit
+def _keep_stop(r, out_Y, Y):
+    """Leave the state where a run stopped early in the row after the last record (never read
+    as a record; the engine reads it to say why the run stopped)."""
+    if r < out_Y.shape[0]:
+        for i in range(Y.size):
+            out_Y[r, i] = Y[i]
+
+
+@jit
 def _first_bad(Y, bound, D):
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
@@ -566,6 +576,7 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
     t_end = t_breaks[nph]
     bad = _first_bad(Y, bound, D)
     if bad >= 0:
+        _keep_stop(0, out_Y, Y)
         return 0, 1, t_breaks[0], bad
     stiff = not _DOPRI5
     # step-size exponent 1 / (q + 1) of the Rosenbrock error estimate of order q
@@ -600,6 +611,7 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
             if stop[0] != 0:
                 return r, 3, t, -1
             if nstep >= MAX_STEPS or h < 10.0 * _UROUND * max(1.0, abs(t)):
+                _keep_stop(r, out_Y, Y)
                 return r, 2, t, -1
             last = t + 1.01 * h >= b
             t1 = b if last else t + h
@@ -643,6 +655,7 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                 if err <= 1.0:
                     bad = _first_bad(yn, bound, D)
                     if bad >= 0:
+                        _keep_stop(r, out_Y, yn)
                         return r, 1, t1, bad
                     stats[0] += 1
                     last_phase = ph == nph - 1
@@ -885,6 +898,7 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
                 if err <= 1.0:
                     bad = _first_bad(yn, bound, D)
                     if bad >= 0:
+                        _keep_stop(r, out_Y, yn)
                         return r, 1, t1, bad
                     stats[0] += 1
                     if r < nrec and t_rec[r] < limit:

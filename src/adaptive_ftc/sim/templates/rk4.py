@@ -34,6 +34,15 @@ def first_bad(Y, bound, D):
 
 
 @inl
+def keep_stop(r, out_Y, Y):
+    """Leave the state where a run stopped early in the row after the last record (never read
+    as a record; the engine reads it to say why the run stopped)."""
+    if r < out_Y.shape[0]:
+        for i in range(Y.size):
+            out_Y[r, i] = Y[i]
+
+
+@inl
 def record_hermite(out_Y, r, tr, t, h, Y, k1, yn, fe):
     """Cubic Hermite interpolant between ``(t, Y, k1)`` and ``(t + h, yn, fe)`` at ``tr``."""
     s = (tr - t) / h
@@ -83,7 +92,9 @@ def integrate_rk4(
     values in memory).
 
     Returns ``(n_recorded, status, t_stop, bad_index)``; status 0 = finished, 1 = diverged,
-    3 = interrupted. ``stats`` receives [steps, rejected, rhs evaluations, 0, 0].
+    3 = interrupted; on status 1 the state where the run stopped is left in
+    ``out_Y[n_recorded]`` (when that row exists). ``stats`` receives [steps, rejected, rhs
+    evaluations, 0, 0].
     """
     for i in range(y0.size):
         Y[i] = y0[i]
@@ -94,6 +105,7 @@ def integrate_rk4(
     t_end = t_breaks[nph]
     bad = first_bad(Y, bound, D)
     if bad >= 0:
+        keep_stop(0, out_Y, Y)
         return 0, 1, t_breaks[0], bad
     for ph in range(nph):
         a = t_breaks[ph]
@@ -129,6 +141,7 @@ def integrate_rk4(
                 yn[i] = Y[i] + hh / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             bad = first_bad(yn, bound, D)
             if bad >= 0:
+                keep_stop(r, out_Y, yn)
                 return r, 1, t1, bad
             last = ph == nph - 1 and st == nsteps - 1
             limit = t1 + tol if last else t1 - tol
