@@ -75,7 +75,10 @@ def test_metrics_csv_has_one_row_per_run_and_the_adaptation_ratio(reproduction):
     with (out / "metrics.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["scenario"], r["variant"]) for r in rows] == [
-        (n, v) for n in NAMES for v in VARIANTS if v != "thesis_law"  # not constraint-aware
+        (n, v)
+        for n in NAMES
+        for v in VARIANTS
+        if v != "thesis_law"  # not constraint-aware
     ]
     for r in rows:
         assert r["status"] == "completed"

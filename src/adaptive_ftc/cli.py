@@ -338,7 +338,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
-            if k in ("frozen", "failure_free", "thesis_law") and v.time.size  # a run with no samples: none
+            # a run with no samples: none
+            if k in ("frozen", "failure_free", "thesis_law") and v.time.size
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
