@@ -98,7 +98,10 @@ def test_success_is_tracking_and_activity():
 
 
 def test_members_record_fine_enough_to_judge_their_activity():
+    from adaptive_ftc.campaigns.store import column_units
+
     spec = load_campaign(spec_with())
+    assert column_units(spec)["peak_command_final"] == "rad"  # the elevators' unit
     # the smallest drawable sample time is 0.01 s: records every 1 ms (<= T_s / 5)
     assert spec.solver.record_dt == pytest.approx(max_record_dt(1.0, 0.01))
     off = load_campaign(spec_with(activity=False))

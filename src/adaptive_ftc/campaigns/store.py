@@ -180,6 +180,7 @@ def column_units(spec: CampaignSpec) -> dict[str, str]:
         peak_rate_max=per_second(u),
         rate_limited_fraction_max="1",
         peak_command_travel_ratio_max="1",
+        peak_command_final=u,
     )
     return {k: udunits(v) for k, v in units.items()}
 
