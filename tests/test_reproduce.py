@@ -75,7 +75,10 @@ def test_metrics_csv_has_one_row_per_run_and_the_adaptation_ratio(reproduction):
     with (out / "metrics.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["scenario"], r["variant"]) for r in rows] == [
-        (n, v) for n in NAMES for v in VARIANTS
+        (n, v)
+        for n in NAMES
+        for v in VARIANTS
+        if v != "thesis_law"  # not constraint-aware
     ]
     for r in rows:
         assert r["status"] == "completed"
@@ -240,6 +243,11 @@ def test_ctrl_c_stops_a_reproduction_and_its_workers_at_once(tmp_path):
     )
     deadline = time.time() + 60
     while time.time() < deadline and not list(out.glob(".aftc-tmp-*")):
+        time.sleep(0.05)
+    # the scenarios load before the workers fork (a constraint-aware one measures its loop
+    # rate at load: compiled code, cold cache here): wait for the workers, then let them
+    # compile a while
+    while time.time() < deadline and proc.poll() is None and not _children(proc.pid):
         time.sleep(0.05)
     time.sleep(3.0)  # the workers are compiling
     assert proc.poll() is None, proc.communicate()

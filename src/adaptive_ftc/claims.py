@@ -23,6 +23,15 @@ Verdicts
     name, never as PASS and never counted as FAIL (exit codes); if it passes, the verdict is
     PASS and the detail says that the finding no longer shows.
 
+The thesis law beside a constraint-aware design
+-----------------------------------------------
+A scenario whose controller declares ``constraint_aware`` judges its claims on that design;
+:func:`evaluate_thesis_law_claims` judges the same claims on the thesis law's companion run
+(the option removed) and reports every claim it does not meet as FINDING, named by the claim's
+``thesis_law_finding`` (e.g. "the thesis law chatters at 7-10 Hz behind a 20 ms lag"), never
+as PASS and never as a FAIL of the exit codes. ``not_reproduced`` and ``finding`` belong to
+the scenario's own run and are not applied to the companion.
+
 Conventions
 -----------
 - "The last ``window`` seconds" ends at the scenario's duration (``duration=`` of
@@ -75,11 +84,14 @@ __all__ = [
     "NOT_EVALUATED",
     "NOT_REPRODUCED",
     "PASS",
+    "THESIS_LAW_FINDING",
     "VERDICTS",
     "ClaimError",
     "ClaimResult",
     "evaluate_claim",
     "evaluate_claims",
+    "evaluate_thesis_law_claims",
+    "thesis_law_claim",
 ]
 
 PASS = "PASS"
@@ -194,7 +206,7 @@ _KEYS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
     ),
 }
 #: keys every kind accepts
-_COMMON = {"not_reproduced": _NONE, "finding": _NONE}
+_COMMON = {"not_reproduced": _NONE, "finding": _NONE, "thesis_law_finding": _NONE}
 _NON_NUMERIC = {
     "kind",
     "text",
@@ -264,7 +276,11 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
         if key not in claim:
             raise ClaimError(f"{_name(claim)} is missing the key '{key}'.")
     out = {**_COMMON, **optional, **dict(claim)}
-    for key, what in (("not_reproduced", "the reason"), ("finding", "the finding's name")):
+    for key, what in (
+        ("not_reproduced", "the reason"),
+        ("finding", "the finding's name"),
+        ("thesis_law_finding", "the thesis law's finding"),
+    ):
         reason = out[key]
         if reason is not None and (not isinstance(reason, str) or not reason.strip()):
             raise ClaimError(
@@ -1094,3 +1110,43 @@ def evaluate_claims(
         except ClaimError as exc:
             raise ClaimError(f"[[claims]] #{i + 1}: {exc}") from None
     return out
+
+
+#: The finding's name of a claim without ``thesis_law_finding`` that the thesis law fails.
+THESIS_LAW_FINDING = "the thesis law (constraint_aware off) does not meet this claim"
+
+
+def thesis_law_claim(claim: Mapping[str, Any]) -> dict[str, Any]:
+    """``claim`` as it judges the thesis law's companion run: its ``thesis_law_finding`` (or
+    :data:`THESIS_LAW_FINDING`) becomes the ``finding``, the scenario's own ``finding`` and
+    ``not_reproduced`` notes are dropped."""
+    out = {
+        k: v
+        for k, v in dict(claim).items()
+        if k not in ("finding", "not_reproduced", "thesis_law_finding")
+    }
+    out["finding"] = claim.get("thesis_law_finding") or THESIS_LAW_FINDING
+    return out
+
+
+def evaluate_thesis_law_claims(
+    claims: Sequence[Mapping[str, Any]],
+    result: SimResult,
+    *,
+    baselines: Mapping[str, SimResult | None] | None = None,
+    duration: float | None = None,
+) -> list[ClaimResult]:
+    """The scenario's claims judged on the thesis law's companion run of a constraint-aware
+    scenario: a claim it does not meet is FINDING (named by ``thesis_law_finding``), never
+    FAIL and never PASS; one it meets is PASS. Order is kept."""
+    out = evaluate_claims(
+        [thesis_law_claim(c) for c in claims], result, baselines=baselines, duration=duration
+    )
+    # a claim without a named finding that the thesis law meets is a plain PASS (no stale note)
+    stale = f" [the catalogue expected the finding '{THESIS_LAW_FINDING}': it no longer shows]"
+    return [
+        dataclasses.replace(v, detail=v.detail.replace(stale, ""), finding="")
+        if v.status == PASS and v.finding == THESIS_LAW_FINDING
+        else v
+        for v in out
+    ]

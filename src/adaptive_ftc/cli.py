@@ -123,7 +123,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--no-baselines",
         action="store_true",
-        help="skip the frozen-adaptation and failure-free comparison runs",
+        help="skip the frozen-adaptation, failure-free and baseline comparison runs (a "
+        "constraint-aware scenario still runs the thesis law beside it: its claims name what "
+        "it fails)",
     )
     r.add_argument("--csv", action="store_true", help="also write CSV tables")
     r.add_argument("--float32", action="store_true", help="store the data in single precision")
@@ -284,6 +286,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     variants[name.replace("-", "_")] = baseline_loop(sc.loop, name, solver)
                 except ConfigurationError as exc:  # e.g. no healthy run to tune on
                     print(f"note: no {name} baseline: {exc}", file=sys.stderr)
+    if getattr(sc.loop.controller, "constraint_aware", None) is not None:
+        from adaptive_ftc.reproduce import thesis_law_loop
+
+        # the thesis law beside the constraint-aware design, judged on the same claims (also
+        # with --no-baselines: the scenario's claims name what it fails)
+        variants["thesis_law"] = thesis_law_loop(sc.loop)
     from adaptive_ftc.sim.compose import is_compiled
 
     if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot_for(sc.loop)):
@@ -330,7 +338,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
-            if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
+            # a run with no samples: none
+            if k in ("frozen", "failure_free", "thesis_law") and v.time.size
         }
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
@@ -342,8 +351,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             )
             figures.append(str(out / "figures" / name))
         verdicts = _run_claims(sc, results, args.no_baselines)
+        thesis_verdicts = _thesis_law_claims(sc, results)
         if verdicts:
-            _write_claims_csv(stage / "claims.csv", sc, verdicts)
+            _write_claims_csv(stage / "claims.csv", sc, verdicts, thesis_verdicts)
         (stage / "metrics.json").write_text(
             json.dumps(
                 {
@@ -351,7 +361,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     "runs": summary,
                     "recovery": main.recovery(),
                     "figures": figures,
-                    "claims": [_claim_row(sc, c) for c in verdicts],
+                    "claims": [_claim_row(sc, c) for c in verdicts]
+                    + [_claim_row(sc, c, "thesis_law") for c in thesis_verdicts],
                 },
                 indent=2,
                 default=float,
@@ -390,6 +401,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             )
     if verdicts:
         _print_claims(verdicts)
+    if thesis_verdicts:
+        print("the thesis law beside it (constraint-aware option off; what it fails is a finding):")
+        _print_claims(thesis_verdicts)
     print(
         f"wrote {len(figures)} figure(s) and {len(results)} dataset(s)"
         + (" and claims.csv" if verdicts else "")
@@ -437,9 +451,24 @@ def _run_claims(sc, results: dict, no_baselines: bool) -> list:
     return out
 
 
-def _claim_row(sc, c) -> dict:
+def _thesis_law_claims(sc, results: dict) -> list:
+    """The scenario's claims judged on the thesis law's companion run (a constraint-aware
+    scenario; ``[]`` otherwise): FINDING where it fails, never FAIL."""
+    from adaptive_ftc.claims import evaluate_thesis_law_claims
+
+    if "thesis_law" not in results or not sc.claims:
+        return []
+    names = {"fixed_gain": "fixed-gain", "nominal_inverse": "nominal-inverse", "oracle": "oracle"}
+    baselines = {names.get(k, k): v for k, v in results.items() if k in (*names, "frozen")}
+    return evaluate_thesis_law_claims(
+        sc.claims, results["thesis_law"], baselines=baselines, duration=sc.loop.t_final
+    )
+
+
+def _claim_row(sc, c, run: str = "adaptive") -> dict:
     return {
         "scenario": sc.name,
+        "run": run,
         "kind": c.kind,
         "verdict": c.verdict,
         "measured": c.measured,
@@ -451,10 +480,11 @@ def _claim_row(sc, c) -> dict:
     }
 
 
-def _write_claims_csv(path: Path, sc, verdicts: list) -> None:
+def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: list = ()) -> None:
     import csv
 
     rows = [_claim_row(sc, c) for c in verdicts]
+    rows += [_claim_row(sc, c, "thesis_law") for c in thesis_verdicts]
     with path.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -506,8 +536,14 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         f"{summary['n_pass']}/{summary['n_claims']} thesis claims PASS"
         f" ({summary.get('n_finding', 0)} FINDING, "
         f"{summary.get('n_not_reproduced', 0)} NOT REPRODUCED, "
-        f"{summary.get('n_not_evaluated', 0)} NOT EVALUATED, {summary.get('n_fail', 0)} FAIL); "
-        f"report: {summary['report']}"
+        f"{summary.get('n_not_evaluated', 0)} NOT EVALUATED, {summary.get('n_fail', 0)} FAIL)"
+        + (
+            f"; the thesis law beside the constraint-aware designs: "
+            f"{summary['n_thesis_law_finding']} FINDING"
+            if summary.get("n_thesis_law_finding")
+            else ""
+        )
+        + f"; report: {summary['report']}"
     )
     n_fail = int(summary.get("n_fail", 0))
     n_errors = int(summary.get("n_errors", 0))

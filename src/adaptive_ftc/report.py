@@ -14,7 +14,9 @@ beside the thesis's claims with the verdict (PASS, FAIL, NOT EVALUATED, NOT REPR
 an expected, named finding of the project that the data show, never a PASS) and the
 measured number with its unit against the threshold; a ``baseline_ratio`` claim lists every
 baseline's ratio, the oracle's included (shown, never compared with). A FAIL is shown as such,
-with its number.
+with its number. A scenario whose design is constraint-aware also shows the same claims judged
+on the thesis law's companion run (what it fails is a named FINDING; counted apart in the
+totals as "thesis-law findings").
 """
 
 from __future__ import annotations
@@ -70,6 +72,9 @@ class ScenarioEntry:
     statuses: dict[str, str] = field(default_factory=dict)
     #: baseline name -> its RMS error over the adaptive run's (last 10 % of the run)
     baseline_ratios: dict[str, float] = field(default_factory=dict)
+    #: the scenario's claims judged on the thesis law's companion run (constraint-aware
+    #: scenarios only; see :func:`adaptive_ftc.claims.evaluate_thesis_law_claims`)
+    thesis_law_claims: list[ClaimResult] = field(default_factory=list)
 
     @property
     def best_fair_ratio(self) -> tuple[str, float]:
@@ -208,6 +213,8 @@ def _claims_cell(entry: ScenarioEntry) -> str:
     for verdict in (FINDING, NOT_REPRODUCED, NOT_EVALUATED):
         if n := entry.count(verdict):
             out += f' <span class="badge {_CLASS[verdict]}">{n} {verdict.lower()}</span>'
+    if n := sum(c.status == FINDING for c in entry.thesis_law_claims):
+        out += f' <span class="badge {_CLASS[FINDING]}">thesis law: {n} finding(s)</span>'
     return out
 
 
@@ -347,7 +354,20 @@ def _scenario(s: ScenarioEntry, embed: bool = False) -> str:
         f"<h3>Failures</h3>{failures}{_baseline_table(s)}"
         f'<div class="cols"><div class="figs">{figs}</div>'
         f'<div class="claims"><h3>Thesis claims ({_claim_counts(s)})</h3>'
-        f"{claims}</div></div></section>"
+        f"{claims}{_thesis_law_claims(s)}</div></div></section>"
+    )
+
+
+def _thesis_law_claims(s: ScenarioEntry) -> str:
+    if not s.thesis_law_claims:
+        return ""
+    n = sum(c.status == FINDING for c in s.thesis_law_claims)
+    return (
+        f"<h3>The thesis law beside it (constraint-aware option off; {n} finding"
+        f"{'s' if n != 1 else ''})</h3>"
+        '<p class="meta">The same claims judged on the thesis law\'s run under the same '
+        "hardware (variant <code>thesis_law</code>): what it does not meet is a named finding, "
+        "not a failure of the scenario.</p>" + "".join(_claim_html(c) for c in s.thesis_law_claims)
     )
 
 
@@ -395,6 +415,7 @@ def render_report(
     n = sum(len(s.claims) for s in entries)
     counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)}
     n_noteval = sum(s.count(NOT_EVALUATED) for s in entries)
+    n_thesis = sum(c.status == FINDING for s in entries for c in s.thesis_law_claims)
     stamp = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     banner = (
         '<div class="banner"><b>Quick mode.</b> Every run was shortened (see '
@@ -414,7 +435,13 @@ def render_report(
         f'<div class="tot"><b>{len(entries)}</b>scenarios</div>'
         f'<div class="tot"><b>{n}</b>claims</div>{tots}'
         f'<div class="tot"><b style="color:#78909c">{n_noteval}</b>NOT EVALUATED</div>'
-        f'<div class="tot"><b>{_num(wall_time_s)} s</b>wall time ({jobs} process'
+        + (
+            f'<div class="tot"><b style="color:{_VERDICT_COLOURS[FINDING]}">{n_thesis}</b>'
+            "thesis-law findings</div>"
+            if n_thesis
+            else ""
+        )
+        + f'<div class="tot"><b>{_num(wall_time_s)} s</b>wall time ({jobs} process'
         f"{'es' if jobs != 1 else ''})</div></div>"
     )
     if data_note:

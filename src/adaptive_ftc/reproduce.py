@@ -13,7 +13,15 @@ For every catalogue scenario (or the ones named) three runs are made, in paralle
     with a ``baseline_ratio`` claim (every adaptive scenario with ``baselines=True``; not in
     quick mode unless asked, see ``fair_baselines``): the claim is held against the best of
     fixed-gain, nominal inverse and frozen; the oracle, which knows the true failure, is shown
-    but never compared with.
+    but never compared with;
+``thesis_law``
+    for every scenario whose controller declares ``constraint_aware`` (the scenario's design is
+    then the constraint-aware law): the thesis law beside it, the option removed
+    (``dataclasses.replace(controller, constraint_aware=None)``), same hardware, failures and
+    solver. The scenario's claims are judged on it too
+    (:func:`adaptive_ftc.claims.evaluate_thesis_law_claims`): what it does not meet is a named
+    FINDING, never PASS and never a FAIL of the exit code; ``claims.csv`` says in its ``run``
+    column which run a verdict judges, and the tracking figures overlay it.
 
 Variants that would repeat the adaptive run are skipped: ``frozen`` when the scenario has no
 adaptation (open-loop runs), ``failure_free`` when it has no failures.
@@ -22,9 +30,10 @@ Everything is written into ``out_dir``::
 
     figures/fig_<number>.png    every [[figure]] table (+ .pdf/.svg beside it, see ``formats``);
                                 with ``baselines=True`` the frozen/failure-free runs are overlaid
-    data/<scenario>[_frozen|_failure_free|_fixed-gain|_nominal-inverse|_oracle].nc
+    data/<scenario>[_frozen|_failure_free|_fixed-gain|_nominal-inverse|_oracle|_thesis_law].nc
     metrics.csv                 one row per run (+ baseline/adaptive error ratios per scenario)
-    claims.csv                  one row per [[claims]] table: verdict, measured number and unit
+    claims.csv                  one row per [[claims]] table and judged run (``run``: adaptive,
+                                or thesis_law for the companion): verdict, measured number, unit
     report.html                 the report (links the figure files; keep it beside figures/)
 
 A figure number used by several scenarios (e.g. the ``+``/``-`` variants of one thesis figure) is
@@ -67,6 +76,7 @@ from adaptive_ftc.claims import (
     ClaimError,
     ClaimResult,
     evaluate_claims,
+    evaluate_thesis_law_claims,
 )
 from adaptive_ftc.report import FigureEntry, ScenarioEntry, write_report
 from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
@@ -82,6 +92,7 @@ VARIANTS: tuple[str, ...] = (
     "fixed-gain",
     "nominal-inverse",
     "oracle",
+    "thesis_law",
 )
 #: The variants that are :mod:`adaptive_ftc.baselines` designs (besides ``frozen``).
 _DESIGN_BASELINES = tuple(b for b in BASELINES if b != "frozen")
@@ -92,7 +103,20 @@ _BASELINE_LABELS = {
     "fixed-gain": "fixed-gain",
     "nominal-inverse": "nominal inverse",
     "oracle": "oracle (knows the failure)",
+    "thesis_law": "thesis law (constraint-aware off)",
 }
+
+
+def thesis_law_loop(loop):
+    """``loop`` with the thesis law in place of its constraint-aware design (the option
+    removed: ``dataclasses.replace(loop.controller, constraint_aware=None)``)."""
+    return dataclasses.replace(
+        loop, controller=dataclasses.replace(loop.controller, constraint_aware=None)
+    )
+
+
+def _is_constraint_aware(sc: Scenario) -> bool:
+    return getattr(sc.loop.controller, "constraint_aware", None) is not None
 
 
 # ---------------------------------------------------------------------------- scenario set-up
@@ -155,9 +179,15 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
         sc = by_name[name]
         exact = variant in ("nominal-inverse", "oracle")  # one loop for both (oracle: a number)
         solver = baseline_solver(variant, sc.solver) if variant in _DESIGN_BASELINES else sc.solver
+        if variant == "thesis_law":
+            exact = None  # its own loop (the option removed)
         if (name, exact) not in memo:
             try:
-                loop = nominal_inverse(sc.loop) if exact else sc.loop
+                loop = sc.loop
+                if exact:
+                    loop = nominal_inverse(sc.loop)
+                elif exact is None:
+                    loop = thesis_law_loop(sc.loop)
                 text = generate(loop, sdot=solver.sdot_for(loop))[0]
             except Exception:  # noqa: BLE001 - the run itself will report it
                 text = f"{name}:{exact}"
@@ -215,6 +245,8 @@ def _variants(sc: Scenario, all_baselines: bool = False) -> list[str]:
         out.append("failure_free")
     if sc.loop.adapt and (_has_baseline_claim(sc) or (all_baselines and _failures_of(sc))):
         out += list(_DESIGN_BASELINES)
+    if _is_constraint_aware(sc):
+        out.append("thesis_law")
     return out
 
 
@@ -244,6 +276,10 @@ def _simulate_task(
                     # no such baseline exists; reported, not counted as an error
                     return {"result": None, "error": str(exc), "wall": 0.0, "skipped": True}
                 result = sc.stamp(simulate(loop, baseline_solver(variant, sc.solver)))
+            elif variant == "thesis_law":
+                from adaptive_ftc.sim.engine import simulate
+
+                result = sc.stamp(simulate(thesis_law_loop(sc.loop), sc.solver))
             else:
                 result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
         result.meta["variant"] = variant
@@ -380,6 +416,39 @@ _METRIC_FIELDS = [
     "best_fair_baseline",
     "error_ratio_oracle_over_adaptive",
 ]
+
+
+#: Columns of claims.csv: ``run`` says which run a verdict judges (``adaptive``: the scenario's
+#: design; ``thesis_law``: the thesis law beside a constraint-aware design).
+CLAIM_FIELDS = [
+    "scenario",
+    "section",
+    "run",
+    "kind",
+    "verdict",
+    "measured",
+    "threshold",
+    "unit",
+    "text",
+    "detail",
+    "finding",
+]
+
+
+def _claim_row(sc: Scenario, c: ClaimResult, run: str) -> dict[str, Any]:
+    return {
+        "scenario": sc.name,
+        "section": sc.section,
+        "run": run,
+        "kind": c.kind,
+        "verdict": c.verdict,
+        "measured": c.measured,
+        "threshold": c.threshold,
+        "unit": c.unit,
+        "text": " ".join(c.text.split()),
+        "detail": c.detail,
+        "finding": c.finding,
+    }
 
 
 def _write_csv(path: Path, fields: Sequence[str], rows: Sequence[dict[str, Any]]) -> Path:
@@ -566,7 +635,9 @@ def run_reproduction(
     dict
         ``n_scenarios``, ``n_runs``, ``n_claims``, ``n_pass``, ``n_fail``,
         ``n_not_evaluated``, ``n_not_reproduced``, ``n_finding`` (claims marked ``finding``
-        that the data show: never PASS, not counted as FAIL), ``n_errors``, ``wall_time_s``,
+        that the data show: never PASS, not counted as FAIL), ``n_thesis_law_finding`` (claims
+        the thesis law's companion run of a constraint-aware scenario does not meet: apart
+        from all the others), ``n_errors``, ``wall_time_s``,
         ``report``
         (path of report.html) and ``out_dir``.
 
@@ -659,6 +730,7 @@ def run_reproduction(
     # claims, metrics, report
     metric_rows, claim_rows, entries = [], [], []
     n_pass = n_fail = n_errors = n_not_evaluated = n_not_reproduced = n_finding = 0
+    n_thesis_finding = 0
     for sc in scenarios:
         adaptive = results[(sc.name, "adaptive")]["result"]
         frozen = results.get((sc.name, "frozen"), {}).get("result")
@@ -680,12 +752,18 @@ def run_reproduction(
             metric_rows.append(row)
             n_errors += rec["result"] is None and not rec.get("skipped")
         verdicts: list[ClaimResult] = []
+        thesis_verdicts: list[ClaimResult] = []
         claim_error = ""
+        thesis = results.get((sc.name, "thesis_law"), {}).get("result")
         if adaptive is not None:
             try:
                 verdicts = evaluate_claims(
                     sc.claims, adaptive, baselines=base_runs, duration=durations[sc.name]
                 )
+                if thesis is not None:
+                    thesis_verdicts = evaluate_thesis_law_claims(
+                        sc.claims, thesis, baselines=base_runs, duration=durations[sc.name]
+                    )
             except ClaimError as exc:
                 claim_error = f"{sc.name}: {exc}"
         elif sc.claims:
@@ -711,20 +789,12 @@ def run_reproduction(
             n_not_evaluated += c.status == NOT_EVALUATED
             n_not_reproduced += c.status == NOT_REPRODUCED
             n_finding += c.status == FINDING
-            claim_rows.append(
-                {
-                    "scenario": sc.name,
-                    "section": sc.section,
-                    "kind": c.kind,
-                    "verdict": c.verdict,
-                    "measured": c.measured,
-                    "threshold": c.threshold,
-                    "unit": c.unit,
-                    "text": " ".join(c.text.split()),
-                    "detail": c.detail,
-                    "finding": c.finding,
-                }
-            )
+            claim_rows.append(_claim_row(sc, c, "adaptive"))
+        for c in thesis_verdicts:
+            # the thesis law's companion: only PASS, FINDING or NOT EVALUATED, counted apart
+            # from the scenario's own verdicts
+            n_thesis_finding += c.status == FINDING
+            claim_rows.append(_claim_row(sc, c, "thesis_law"))
         for entry in figures[sc.name]:
             err = fig_errors.get((sc.name, entry.path.name), "")
             if err:
@@ -754,25 +824,11 @@ def run_reproduction(
                 error_ratio=ratio,
                 statuses=statuses,
                 baseline_ratios=base_ratios,
+                thesis_law_claims=thesis_verdicts,
             )
         )
     _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
-    _write_csv(
-        out / "claims.csv",
-        [
-            "scenario",
-            "section",
-            "kind",
-            "verdict",
-            "measured",
-            "threshold",
-            "unit",
-            "text",
-            "detail",
-            "finding",
-        ],
-        claim_rows,
-    )
+    _write_csv(out / "claims.csv", CLAIM_FIELDS, claim_rows)
     wall = time.perf_counter() - t_start
     report = write_report(
         out / "report.html",
@@ -791,6 +847,7 @@ def run_reproduction(
         "n_not_evaluated": n_not_evaluated,
         "n_not_reproduced": n_not_reproduced,
         "n_finding": n_finding,
+        "n_thesis_law_finding": n_thesis_finding,
         "n_errors": n_errors,
         "data_precision": "float32" if float32 else "float64",
         "data_decimation": decimate,
@@ -810,8 +867,10 @@ def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("p
     items = plan[sc.name] or _default_specs(sc, adaptive)
     baselines = {
         _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
-        for v in ("frozen", "failure_free", *_DESIGN_BASELINES)
-        if overlay and (sc.name, v) in results and results[(sc.name, v)]["result"] is not None
+        for v in ("frozen", "failure_free", *_DESIGN_BASELINES, "thesis_law")
+        if (overlay or v == "thesis_law")  # the thesis law's companion: always overlaid
+        and (sc.name, v) in results
+        and results[(sc.name, v)]["result"] is not None
     }
     new = []
     for spec, fname in items:

@@ -86,7 +86,7 @@ def replay_member(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DivergenceWarning)
         for d in designs:
-            res = simulate(member.design_loop(d), spec.base.solver)
+            res = simulate(member.design_loop(d), spec.solver)
             res.meta["scenario"] = f"{spec.name}[{index}]"
             res.meta["campaign_design"] = d
             results[d] = res

@@ -75,7 +75,10 @@ ACTIVITY_COLUMNS = (
 
 
 def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
-    """The outcome columns of one run: status, divergence time/signal, metrics, success."""
+    """The outcome columns of one run: status, divergence time/signal, metrics, success.
+
+    ``success``: ``tracking_ok`` (completed, final-window RMS error within the threshold) and,
+    when the spec judges it (:mod:`adaptive_ftc.campaigns.activity`), ``activity_ok``."""
     row: dict[str, Any] = {"status": str(result.status), "message": result.message}
     m = result.metrics(final_window=spec.final_window) if result.time.size else {}
     for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
@@ -87,6 +90,7 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
     for key in ACTIVITY_COLUMNS:
         value = m.get(key, math.nan)
         row[key] = bool(value) if key == "activity_record_ok" else float(value)
+    row["peak_command_final"] = float(m.get("peak_command_max", math.nan))
     reason = result.reason  # where and what stopped the run, never parsed from the message
     stopped = reason is not None and result.status != "completed"
     row["divergence_time"] = float(reason.time) if stopped and reason.time is not None else math.nan
@@ -96,9 +100,16 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
     rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []
     rms_after = [v for v in rms_after if not math.isnan(v)]
     row["worst_recovery_rms"] = max(rms_after) if rms_after else math.nan
-    row["success"] = bool(
+    row["tracking_ok"] = bool(
         result.status == "completed" and row["rms_error_final"] <= spec.success_rms
     )
+    if spec.activity is None:
+        row["activity_ok"], row["activity_why"] = True, ""
+    elif result.status != "completed":
+        row["activity_ok"], row["activity_why"] = False, "the run did not complete"
+    else:
+        row["activity_ok"], row["activity_why"] = spec.activity.judge(row, spec)
+    row["success"] = row["tracking_ok"] and row["activity_ok"]
     return row
 
 
@@ -119,7 +130,7 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
                 slots.append(None)
     with warnings.catch_warnings():  # a diverged run is a recorded outcome, not a warning
         warnings.simplefilter("ignore", DivergenceWarning)
-        outcomes = [outcome(r, spec) for r in iter_simulate(loops, spec.base.solver, jobs=jobs)]
+        outcomes = [outcome(r, spec) for r in iter_simulate(loops, spec.solver, jobs=jobs)]
     rows = []
     k = 0
     for mem in members:
@@ -184,6 +195,8 @@ def run_campaign(
 
     if not isinstance(spec, CampaignSpec):
         spec = load_campaign(spec)
+    if spec.activity is not None:  # the ideal run's references, before any chunk runs
+        spec.activity.thresholds(spec)
     out = store.prepare_folder(spec, out)
     done = store.finished_chunks(spec, out)
     pending = (c for c in range(spec.n_chunks) if c not in done)  # lazy: n_chunks may be large

@@ -21,6 +21,11 @@ from typing import Any
 import numpy as np
 
 from adaptive_ftc import _version
+from adaptive_ftc.campaigns.activity import (
+    ACTIVITY_SUCCESS_KEYS,
+    ActivityCriterion,
+    parse_activity,
+)
 from adaptive_ftc.campaigns.checks import (
     _PLACEHOLDER,
     MAX_CHUNK_SIZE,
@@ -63,7 +68,7 @@ _TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "d
 _TOP |= {"duration", "success", "failures", "ranges", "hardware"}
 _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
 _FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
-_SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance"}
+_SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance", *ACTIVITY_SUCCESS_KEYS}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
 _TEXT_KEYS = ("name", "title", "description")
 
@@ -72,12 +77,35 @@ class CampaignError(ScenarioError):
     """A campaign spec is invalid (the message lists every problem, one per line)."""
 
 
-#: Designs a campaign can compare, by name: a function of the base closed loop. Another module
-#: adds baselines with :func:`register_design`.
+def _constraint_aware(loop: ClosedLoop) -> ClosedLoop:
+    """The base design with its constraint-aware option derived from the member's hardware
+    (:meth:`~adaptive_ftc.controllers.ConstraintAware.from_loop`: the designer knows the
+    drawn lag, rate limit, travel, sample time and noise, not the failures)."""
+    from adaptive_ftc.controllers import ConstraintAware
+
+    ctrl = dataclasses.replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
+    return dataclasses.replace(loop, controller=ctrl)
+
+
+def _thesis_law(loop: ClosedLoop) -> ClosedLoop:
+    """The base design without any constraint-aware option (the thesis law)."""
+    ctrl = dataclasses.replace(loop.controller, constraint_aware=None)
+    return dataclasses.replace(loop, controller=ctrl)
+
+
+#: Designs a campaign can compare, by name: a function of the member's closed loop (base
+#: design, drawn failures and hardware). ``adaptive`` is the base scenario's design as it is;
+#: ``thesis-law`` and ``constraint-aware`` are that design without / with the constraint-aware
+#: option (derived from each member's drawn hardware). Another module adds baselines with
+#: :func:`register_design`.
 DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "adaptive": lambda loop: loop,
     "frozen": lambda loop: loop.frozen(),
+    "thesis-law": _thesis_law,
+    "constraint-aware": _constraint_aware,
 }
+#: Designs that need an adaptive base design with the ``constraint_aware`` option.
+_OPTION_DESIGNS = ("thesis-law", "constraint-aware")
 
 
 def register_design(name: str, make: Callable[[ClosedLoop], ClosedLoop]) -> None:
@@ -401,6 +429,37 @@ class CampaignSpec:
     recovery_tolerance: float
     data: dict[str, Any] = field(compare=False, repr=False)
     hardware: HardwareSpec | None = None
+    #: the activity part of the success criterion (``None``: tracking only)
+    activity: ActivityCriterion | None = None
+
+    @property
+    def solver(self):
+        """The solver every member runs with: the base scenario's, recording fine enough to
+        judge the activity (:func:`~adaptive_ftc.sim.activity.max_record_dt` of the smallest
+        sample time the campaign can draw) when the success criterion judges it."""
+        solver = self.base.solver
+        if self.activity is None:
+            return solver
+        from adaptive_ftc.sim.activity import max_record_dt
+
+        times = [self.base.loop.sample_time]
+        if self.hardware is not None and self.hardware.sample_time is not None:
+            times += [float(v) for v in self.hardware.sample_time.support()]
+        positive = [t for t in times if t > 0]
+        dt = max_record_dt(1.0, min(positive) if positive else 0.0)
+        if solver.record_dt is not None and solver.record_dt <= dt:
+            return solver
+        return dataclasses.replace(solver, record_dt=dt)
+
+    def success_text(self) -> str:
+        """The success criterion in words, with its numbers."""
+        text = (
+            f"completed and final-window ({self.final_window:g} s) RMS error <= "
+            f"{self.success_rms:g}"
+        )
+        if self.activity is not None:
+            text += "; " + self.activity.describe(self)
+        return text
 
     @property
     def loop(self) -> ClosedLoop:
@@ -572,6 +631,16 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
             problems.append(f"[success] `{key}` must be a positive number; got {v!r}.")
             v = 1.0
         succ[key] = float(v)
+    activity = parse_activity(st if isinstance(st, dict) else {}, problems)
+    bad_designs = [d for d in designs if d in _OPTION_DESIGNS]
+    if bad_designs and not any(
+        f.name == "constraint_aware" for f in dataclasses.fields(loop.controller)
+    ):
+        problems.append(
+            f"[top] design(s) {', '.join(bad_designs)} need an adaptive base design with the "
+            f"constraint-aware option; design '{loop.controller.design}' of the base has none. "
+            "Use 'adaptive' or a base scenario with an adaptive design."
+        )
     if succ["final_window"] >= t_final - loop.t0:
         problems.append(
             f"[success] `final_window` ({succ['final_window']:g} s) must be shorter than the run "
@@ -729,6 +798,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         recovery_tolerance=succ["recovery_tolerance"],
         data=saved,
         hardware=hardware,
+        activity=activity,
     )
 
 

@@ -64,6 +64,12 @@ OUTCOME_COLUMNS: dict[str, str] = {
     "rate_limited_fraction_max": "float64",
     "peak_command_travel_ratio_max": "float64",
     "activity_record_ok": "bool",
+    # the success criterion's parts (campaigns/activity.py): success = tracking_ok and
+    # activity_ok; activity_why says which activity threshold a run missed
+    "peak_command_final": "float64",
+    "tracking_ok": "bool",
+    "activity_ok": "bool",
+    "activity_why": "string",
 }
 
 
@@ -174,6 +180,7 @@ def column_units(spec: CampaignSpec) -> dict[str, str]:
         peak_rate_max=per_second(u),
         rate_limited_fraction_max="1",
         peak_command_travel_ratio_max="1",
+        peak_command_final=u,
     )
     return {k: udunits(v) for k, v in units.items()}
 

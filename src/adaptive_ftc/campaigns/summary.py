@@ -833,6 +833,8 @@ def write_summary(spec: CampaignSpec, out: str | Path) -> dict[str, Any]:
         f"completed, and final-window ({spec.final_window:g} s) RMS tracking error "
         f"≤ {spec.success_rms:g} {unit}".rstrip()
     )
+    if spec.activity is not None:  # and its command acceptable (campaigns/activity.py)
+        info["success_criterion"] += "; " + spec.activity.describe(spec)
     info["headline"] = headline(info)
     tested = [d for d in info["designs"] if role(d) == "tested"] or info["designs"][:1]
     focus = tested[0]
