@@ -94,6 +94,32 @@ def _count(low: int, high: int):
     return parse
 
 
+def _solver_methods() -> tuple[str, ...]:
+    """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
+    from adaptive_ftc.sim.engine import _METHODS
+
+    return tuple(_METHODS)
+
+
+def _add_figure_options(parser: argparse.ArgumentParser, default: str) -> None:
+    parser.add_argument(
+        "--formats",
+        default=default,
+        help=f"figure formats, comma-separated (png, pdf, svg; default {default})",
+    )
+    parser.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    formats = tuple(f.strip().lower() for f in text.split(",") if f.strip())
+    bad = [f for f in formats if f not in ("png", "pdf", "svg")]
+    if bad or not formats:
+        raise ConfigurationError(
+            f"--formats: unknown figure format(s) {', '.join(bad) or '(none)'}; use png, pdf, svg."
+        )
+    return formats
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="aftc",
@@ -104,16 +130,50 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"adaptive-ftc {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the thesis scenarios with their figures")
+    raw = argparse.RawDescriptionHelpFormatter  # keeps the exit-status epilog's lines
+    ls = sub.add_parser(
+        "list",
+        help="list the thesis scenarios with their figures",
+        description="List the catalogue scenarios: name, thesis section, figures and title "
+        "(fits 100 columns; --long: every figure, the full title, plant, design, duration).",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
+    ls.add_argument("--long", action="store_true", help="full titles and details")
     v = sub.add_parser(
-        "validate", help="check a scenario file (and its compensability)", epilog=_EPILOG
+        "validate",
+        help="check a scenario file (and its compensability)",
+        description="Load a scenario (catalogue name or .toml file), report every problem of "
+        "the file at once, and check that its failures leave the design compensable: the rank "
+        "condition (3.6) and, for designs that assume it, the known sign (2.16)/(4.6).",
+        epilog=_EPILOG,
+        formatter_class=raw,
     )
     v.add_argument("scenario", help="scenario name or path to a .toml file")
-    r = sub.add_parser("run", help="run one scenario; write data and figures", epilog=_EPILOG)
+    r = sub.add_parser(
+        "run",
+        help="run one scenario; write data and figures",
+        description="Run one scenario (catalogue name or .toml file) with its baselines "
+        "(frozen adaptation, failure-free, and the fair fixed-gain, nominal-inverse and oracle "
+        "designs), write data/*.nc, figures/, metrics.json and, when the file has "
+        "[[claims]], claims.csv; exit by the claims as 'aftc reproduce' does.",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
     r.add_argument("scenario", help="scenario name or path to a .toml file")
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
-    r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
-    r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
+    r.add_argument(
+        "--method",
+        choices=_solver_methods(),
+        metavar="METHOD",
+        help="override the solver: " + ", ".join(_solver_methods()) + " (docs/solvers.md)",
+    )
+    r.add_argument(
+        "--dt",
+        type=_positive_float,
+        help="override the step of the fixed-step rk4 method (s); an error with an "
+        "adaptive-step method, whose step is set by its tolerances",
+    )
     r.add_argument(
         "--no-baselines",
         action="store_true",
@@ -127,9 +187,22 @@ def _parser() -> argparse.ArgumentParser:
         default=1,
         help="keep every K-th recorded sample in the data files (default 1: all)",
     )
+    _add_figure_options(r, "png")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     rep = sub.add_parser(
-        "reproduce", help="reproduce every figure of the thesis with a report", epilog=_EPILOG
+        "reproduce",
+        help="reproduce every figure of the thesis with a report",
+        description="Run the thesis scenarios (all, or the NAMEs given) with their baselines, "
+        "write figures/, data/, metrics.csv, claims.csv and report.html, and judge every "
+        "[[claims]] table of the catalogue.",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
+    rep.add_argument(
+        "names",
+        nargs="*",
+        metavar="NAME",
+        help="scenarios to reproduce (default: the whole catalogue; see 'aftc list')",
     )
     rep.add_argument("--out", default="reproduction", help="output folder")
     rep.add_argument("--quick", action="store_true", help="shortened runs (for CI)")
@@ -146,13 +219,15 @@ def _parser() -> argparse.ArgumentParser:
         help="skip the fixed-gain, nominal-inverse and oracle runs (faster; baseline_ratio "
         "claims are then held against the frozen run alone, an unfair comparison)",
     )
-    rep.add_argument(
-        "--formats",
-        default="png,pdf",
-        help="figure formats, comma-separated (png, pdf, svg; default png,pdf)",
+    _add_figure_options(rep, "png,pdf")
+    s = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of scenario files (for editors)",
+        description="Print (or write with --out) the JSON Schema of scenario .toml files, for "
+        "editors that complete and check TOML against a schema.",
+        epilog=_EPILOG,
+        formatter_class=raw,
     )
-    rep.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
-    s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     s.add_argument("--out", help="write it to this file instead of printing it")
     try:
         from adaptive_ftc.campaigns import cli as campaign_cli
@@ -166,18 +241,55 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _cmd_list() -> int:
+#: Width of ``aftc list`` (without ``--long``): a terminal of 100 columns
+LIST_WIDTH = 100
+
+
+def _figure_ranges(figures) -> str:
+    """``3.9, 3.10, 3.11`` -> ``3.9-3.11``: consecutive figures of one chapter as a range."""
+    parts: list[list[str]] = []
+    for f in figures:
+        chap, _, num = str(f).partition(".")
+        if parts and num.isdigit():
+            last = parts[-1][-1]
+            lchap, _, lnum = last.partition(".")
+            if lchap == chap and lnum.isdigit() and int(lnum) + 1 == int(num):
+                parts[-1].append(str(f))
+                continue
+        parts.append([str(f)])
+    return ", ".join(p[0] if len(p) == 1 else f"{p[0]}-{p[-1]}" for p in parts)
+
+
+def _cmd_list(long: bool = False) -> int:
     from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
 
-    rows = []
-    for name in list_scenarios():
-        sc = load_scenario(name)
-        rows.append((name, f"§{sc.section}" if sc.section else "", ", ".join(sc.figures), sc.title))
+    scenarios = [load_scenario(name) for name in list_scenarios()]
+    if long:
+        for sc in scenarios:
+            loop = sc.loop
+            print(f"{sc.name}  (§{sc.section})" if sc.section else sc.name)
+            print(f"  {sc.title}")
+            if sc.figures:
+                print(f"  thesis figures: {', '.join(sc.figures)}")
+            print(
+                f"  {loop.plant.name} plant, '{loop.controller.design}' design, "
+                f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s), "
+                f"solver {sc.solver.method}"
+            )
+        return EXIT_OK
+    rows = [
+        (sc.name, f"§{sc.section}" if sc.section else "", _figure_ranges(sc.figures), sc.title)
+        for sc in scenarios
+    ]
     w0 = max([len(r[0]) for r in rows] + [8])
+    w1 = max([len(r[1]) for r in rows] + [6])
     w2 = max([len(r[2]) for r in rows] + [7])
-    print(f"{'scenario':<{w0}}  {'thesis':<7}  {'figures':<{w2}}  title")
+    room = max(10, LIST_WIDTH - (w0 + w1 + w2 + 6))
+    print(f"{'scenario':<{w0}}  {'thesis':<{w1}}  {'figures':<{w2}}  title")
     for name, sec, figs, title in rows:
-        print(f"{name:<{w0}}  {sec:<7}  {figs:<{w2}}  {title}")
+        title = title if len(title) <= room else title[: room - 3].rstrip() + "..."
+        print(f"{name:<{w0}}  {sec:<{w1}}  {figs:<{w2}}  {title}")
+    print("(full titles and details: aftc list --long)")
     return EXIT_OK
 
 
@@ -239,7 +351,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.method:
         solver = replace(solver, method=args.method)
     if args.dt:
+        if solver.compiled_method != "rk4":
+            raise ConfigurationError(
+                f"--dt {args.dt:g}: '{sc.name}' runs the adaptive-step method "
+                f"'{solver.method}', whose step is chosen by its tolerances (rtol "
+                f"{solver.rtol:g}), so a fixed step would be ignored. Add --method rk4 to run "
+                "fixed steps of --dt, or set max_step in the scenario's [solver] table to "
+                "bound the adaptive step."
+            )
         solver = replace(solver, dt=args.dt)
+    formats = _formats(args.formats)
     check_run_size(sc.loop, solver)
     out = check_output_dir(args.out)
     from adaptive_ftc import plots
@@ -256,13 +377,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     variants[name.replace("-", "_")] = baseline_loop(sc.loop, name, solver)
                 except ConfigurationError as exc:  # e.g. no healthy run to tune on
                     print(f"note: no {name} baseline: {exc}", file=sys.stderr)
-    from adaptive_ftc.sim.compose import is_compiled
+    from adaptive_ftc._feedback import compile_line, compile_plan
 
-    if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot_for(sc.loop)):
-        print(
-            "compiling this closed loop (first run of its structure only; a few seconds)...",
-            file=sys.stderr,
-        )
+    n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in variants.values())
+    if n_new and not args.quiet:
+        print(compile_line(n_new, seconds), file=sys.stderr, flush=True)
     stage = staging_dir(out)
     try:
         results = {}
@@ -288,8 +407,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
+        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
+        # what is being written, file by file (a figure takes a second or two)
+        writing = tqdm(
+            total=len(results) + len(specs), desc="writing", disable=args.quiet, unit="file"
+        )
         for key, res in results.items():
-            stem = base_stem if key == "adaptive" else f"{base_stem}_{key}"
+            # the variant's name as 'aftc reproduce' spells it: data/<name>_fixed-gain.nc
+            stem = base_stem if key == "adaptive" else f"{base_stem}_{_FILE_SUFFIX[key]}"
+            writing.set_postfix_str(f"data/{stem}.nc", refresh=True)
             res.meta["variant"] = key
             res.to_netcdf(
                 inside(stage, stage / "data" / f"{stem}.nc"),
@@ -299,20 +425,29 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
+            writing.update(1)
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
             if k in ("frozen", "failure_free") and v.time.size  # a run with no samples: none
         }
-        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
         for i, spec in enumerate(specs):
             name = f"fig_{spec.get('number', i + 1)}.png"
+            writing.set_postfix_str(f"figures/{name}", refresh=True)
             zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
             plots.save_figure(
-                main, spec, stage / "figures" / name, baselines=baselines or None, zoom_result=zoom
+                main,
+                spec,
+                stage / "figures" / name,
+                baselines=baselines or None,
+                zoom_result=zoom,
+                formats=formats,
+                dpi=args.dpi,
             )
-            figures.append(str(out / "figures" / name))
+            figures += [str(out / "figures" / Path(name).with_suffix(f".{f}")) for f in formats]
+            writing.update(1)
+        writing.close()
         verdicts = _run_claims(sc, results, args.no_baselines)
         if verdicts:
             _write_claims_csv(stage / "claims.csv", sc, verdicts)
@@ -374,6 +509,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"aftc run: {n_fail} claim(s) failed (see above).", file=sys.stderr)
         return EXIT_CLAIMS_FAILED
     return EXIT_OK
+
+
+#: File-name suffix of each 'aftc run' variant: the spelling of 'aftc reproduce'
+#: (reproduce.VARIANTS), so both write data/<name>_fixed-gain.nc
+_FILE_SUFFIX = {
+    "frozen": "frozen",
+    "failure_free": "failure_free",
+    "fixed_gain": "fixed-gain",
+    "nominal_inverse": "nominal-inverse",
+    "oracle": "oracle",
+}
 
 
 def _run_claims(sc, results: dict, no_baselines: bool) -> list:
@@ -454,12 +600,12 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
-    formats = tuple(f.strip().lower() for f in args.formats.split(",") if f.strip())
-    bad = [f for f in formats if f not in ("png", "pdf", "svg")]
-    if bad or not formats:
-        raise ConfigurationError(
-            f"--formats: unknown figure format(s) {', '.join(bad) or '(none)'}; use png, pdf, svg."
-        )
+    formats = _formats(args.formats)
+    if args.names:  # every name checked before the output folder is touched
+        from adaptive_ftc.scenarios.loader import load_scenario
+
+        for name in args.names:
+            load_scenario(name)
     check_output_dir(args.out)
     summary = run_reproduction(
         args.out,
@@ -470,6 +616,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         fair_baselines=False if args.no_fair_baselines else None,
         formats=formats,
         dpi=args.dpi,
+        names=args.names or None,
     )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
@@ -531,7 +678,7 @@ def main(argv: list[str] | None = None) -> int:
         previous = None
     try:
         if args.command == "list":
-            return _cmd_list()
+            return _cmd_list(args.long)
         if args.command == "validate":
             return _cmd_validate(args.scenario)
         if args.command == "run":

@@ -203,6 +203,30 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     return [tasks[i] for i in order]
 
 
+def _default_count(sc: Scenario) -> int:
+    """How many default figures (:func:`adaptive_ftc.plots.default_figure_specs`) a scenario
+    without [[figure]] tables gets, from its loop (before it runs)."""
+    loop = sc.loop
+    names = tuple(getattr(loop.plant, "state_names", ()))
+    n = 3 + any(str(n).startswith("eta") for n in names)
+    return n + (loop.controller.design in ("nussbaum", "sign"))
+
+
+def _task_loops(by_name: dict[str, Scenario], tasks: list[tuple[str, str]]):
+    """``(loop, sdot)`` of every structure the tasks compile (the variants of a scenario share
+    its loop's structure; the exact-inverse baselines have one of their own)."""
+    from adaptive_ftc.baselines import nominal_inverse
+
+    for name, variant in tasks:
+        sc = by_name[name]
+        solver = baseline_solver(variant, sc.solver) if variant in _DESIGN_BASELINES else sc.solver
+        try:
+            loop = nominal_inverse(sc.loop) if variant in ("nominal-inverse", "oracle") else sc.loop
+        except Exception:  # noqa: BLE001 - the run itself reports it
+            continue
+        yield loop, solver.sdot_for(loop)
+
+
 def _has_baseline_claim(sc: Scenario) -> bool:
     return any(c.get("baseline_ratio") is not None for c in sc.claims)
 
@@ -594,7 +618,24 @@ def run_reproduction(
         executor = cf.ProcessPoolExecutor(
             max_workers=jobs, mp_context=ctx, initializer=_worker_init
         )
-    bar = tqdm(total=len(sim_tasks), disable=not progress, desc="reproduce", unit="task")
+    # the bar's total is fixed up front: every run and every figure it will draw (a scenario
+    # without [[figure]] tables: its default figures, counted from its loop); corrected only
+    # if a run fails and draws fewer
+    expected = {sc.name: len(plan[sc.name]) or _default_count(sc) for sc in scenarios}
+    if progress:
+        from adaptive_ftc._feedback import compile_line, compile_plan
+
+        n_new, seconds = compile_plan(_task_loops(by_name, sim_tasks))
+        if n_new:
+            import sys
+
+            print(compile_line(n_new, seconds, jobs), file=sys.stderr, flush=True)
+    bar = tqdm(
+        total=len(sim_tasks) + sum(expected.values()),
+        disable=not progress,
+        desc="reproduce",
+        unit="task",
+    )
     with executor:
         pending: dict[cf.Future, tuple] = {
             executor.submit(_simulate_task, n, v, quick, str(out)): ("sim", n, v)
@@ -616,8 +657,9 @@ def run_reproduction(
                         for f, ftag, entry in new:
                             pending[f] = ftag
                             figures[name].append(entry)
-                        bar.total += len(new)
-                        bar.refresh()
+                        if len(new) != expected[name]:  # a failed run draws none
+                            bar.total += len(new) - expected[name]
+                            bar.refresh()
                 else:
                     _, name, fname = tag
                     fig_errors[(name, fname)] = fut.result()
