@@ -58,6 +58,7 @@ def test_list_ranges_consecutive_figures():
     assert _figure_ranges(["3.9", "3.10", "3.11", "3.13"]) == "3.9-3.11, 3.13"
     assert _figure_ranges(["2.5a"]) == "2.5a"
     assert _figure_ranges(["2.1", "3.2"]) == "2.1, 3.2"
+    assert _figure_ranges(["4.11", "4.12"]) == "4.11, 4.12"
 
 
 # ----------------------------------------------------------------------------- run options

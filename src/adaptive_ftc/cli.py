@@ -246,7 +246,8 @@ LIST_WIDTH = 100
 
 
 def _figure_ranges(figures) -> str:
-    """``3.9, 3.10, 3.11`` -> ``3.9-3.11``: consecutive figures of one chapter as a range."""
+    """``3.9, 3.10, 3.11`` -> ``3.9-3.11``: three or more consecutive figures of one chapter
+    as a range (two stay a pair: ``2.1, 2.2``)."""
     parts: list[list[str]] = []
     for f in figures:
         chap, _, num = str(f).partition(".")
@@ -257,7 +258,7 @@ def _figure_ranges(figures) -> str:
                 parts[-1].append(str(f))
                 continue
         parts.append([str(f)])
-    return ", ".join(p[0] if len(p) == 1 else f"{p[0]}-{p[-1]}" for p in parts)
+    return ", ".join(", ".join(p) if len(p) < 3 else f"{p[0]}-{p[-1]}" for p in parts)
 
 
 def _cmd_list(long: bool = False) -> int:
