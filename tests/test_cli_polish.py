@@ -140,15 +140,23 @@ def test_reproduce_a_chosen_subset_with_a_fixed_progress_total(tmp_path, capsys,
 
     monkeypatch.setattr(tqdm.auto, "tqdm", Recording)
     out = tmp_path / "r"
-    args = ["reproduce", "wingrock-free-1deg", "--out", str(out), "--quick", "--jobs", "1"]
-    assert main([*args, "--formats", "png"]) == 0
+    args = ["reproduce", "hypersonic-direct-s1", "--out", str(out), "--quick", "--jobs", "1"]
+    assert main(args) == 0
     stdout = capsys.readouterr().out
     assert "reproduced 1 scenarios" in stdout
     rows = (out / "metrics.csv").read_text().splitlines()[1:]
-    assert rows and all(r.startswith("wingrock-free-1deg,") for r in rows)
+    assert rows and all(r.startswith("hypersonic-direct-s1,") for r in rows)
     assert {t for _, t in totals} == {totals[0][1]}, totals  # the total never changes
     assert totals[-1][0] == totals[-1][1]  # and the bar ends at 100 %
-    assert totals[0][1] == 1 + 1  # one run (open loop: no variants), one figure (2.5a)
+    # quick mode: adaptive, frozen and failure-free runs (no fair baselines), and only the
+    # first of the scenario's two figures (2.1, 2.2), as PNG only
+    assert totals[0][1] == 3 + 1
+    assert [p.name for p in (out / "figures").iterdir()] == ["fig_2.1.png"]
+    # the output and the report say how many claims quick mode judged
+    claims = (out / "claims.csv").read_text().splitlines()[1:]
+    judged = sum(",NOT EVALUATED," not in row for row in claims)
+    assert f"quick mode judged {judged} of {len(claims)} claims" in stdout
+    assert f"it judged {judged} of {len(claims)} claims" in (out / "report.html").read_text()
 
 
 def test_reproduce_an_unknown_name_is_refused_before_writing(tmp_path, capsys):

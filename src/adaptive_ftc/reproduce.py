@@ -533,6 +533,7 @@ def run_reproduction(
     formats: Sequence[str] = ("png", "pdf"),
     dpi: int | None = None,
     fair_baselines: bool | None = None,
+    figure_limit: int | None = None,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -563,6 +564,9 @@ def run_reproduction(
         quick mode, whose shortened runs never reach a ``baseline_ratio`` claim's final window
         (those claims are NOT EVALUATED there) unless ``baselines=True``. ``False`` holds
         ``baseline_ratio`` claims against the frozen run alone, as before issue 14 (faster).
+    figure_limit
+        Draw only the first ``figure_limit`` figures of each scenario (``aftc reproduce
+        --quick``: 1); default: all.
 
     Returns
     -------
@@ -622,6 +626,8 @@ def run_reproduction(
     # without [[figure]] tables: its default figures, counted from its loop); corrected only
     # if a run fails and draws fewer
     expected = {sc.name: len(plan[sc.name]) or _default_count(sc) for sc in scenarios}
+    if figure_limit is not None:
+        expected = {k: min(figure_limit, v) for k, v in expected.items()}
     if progress:
         from adaptive_ftc._feedback import compile_line, compile_plan
 
@@ -652,7 +658,15 @@ def run_reproduction(
                     needed = [(name, v) for v in variants(by_name[name])]
                     if all(k in results for k in needed):
                         new = _submit_figures(
-                            executor, by_name[name], plan, results, out, baselines, formats, dpi
+                            executor,
+                            by_name[name],
+                            plan,
+                            results,
+                            out,
+                            baselines,
+                            formats,
+                            dpi,
+                            limit=figure_limit,
                         )
                         for f, ftag, entry in new:
                             pending[f] = ftag
@@ -800,14 +814,17 @@ def run_reproduction(
     }
 
 
-def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
-    """Submit the figure tasks of a scenario whose runs are all done."""
+def _submit_figures(
+    executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None, limit=None
+):
+    """Submit the figure tasks of a scenario whose runs are all done (``limit``: only the first
+    ``limit`` figures, quick mode)."""
     from adaptive_ftc.plots import dense_zoom
 
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
         return []
-    items = plan[sc.name] or _default_specs(sc, adaptive)
+    items = (plan[sc.name] or _default_specs(sc, adaptive))[:limit]
     baselines = {
         _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
         for v in ("frozen", "failure_free", *_DESIGN_BASELINES)
