@@ -159,6 +159,19 @@ def test_reproduce_a_chosen_subset_with_a_fixed_progress_total(tmp_path, capsys,
     assert f"it judged {judged} of {len(claims)} claims" in (out / "report.html").read_text()
 
 
+def test_reproduce_says_what_it_compiles_before_the_bar(tmp_path, capsys, monkeypatch):
+    from adaptive_ftc.sim import compose
+
+    monkeypatch.setattr(compose, "is_compiled", lambda loop, sdot="exact": False)
+    out = tmp_path / "r"
+    args = ["reproduce", "wingrock-free-1deg", "--out", str(out), "--quick", "--jobs", "1"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    line = re.search(r"compiling 1 loop structure \(first run only, ~\d+ s", err)
+    assert line, err
+    assert "reproduce:" not in err[: line.start()]  # before the bar starts
+
+
 def test_reproduce_an_unknown_name_is_refused_before_writing(tmp_path, capsys):
     out = tmp_path / "r"
     assert main(["reproduce", "wingrock-free-1dg", "--out", str(out)]) == 2
