@@ -99,7 +99,18 @@ def test_run_names_baselines_like_reproduce_writes_formats_and_says_what_it_does
     from adaptive_ftc.reproduce import _data_path
     from adaptive_ftc.sim import compose
 
+    from adaptive_ftc import _feedback, baselines
+
     monkeypatch.setattr(compose, "is_compiled", lambda loop, sdot="exact": False)
+    order: list[str] = []
+    for module, name in ((_feedback, "compile_plan"), (baselines, "baseline_loop")):
+        real = getattr(module, name)
+
+        def spy(*a, _real=real, _name=name, **k):
+            order.append(_name)
+            return _real(*a, **k)
+
+        monkeypatch.setattr(module, name, spy)
     src = tmp_path / "short.toml"
     src.write_text(
         'extends = "hypersonic-direct-s1"\nname = "short"\nfigures = ["2.1"]\nduration = 12.0\n'
@@ -111,6 +122,8 @@ def test_run_names_baselines_like_reproduce_writes_formats_and_says_what_it_does
     # adaptive, frozen, failure-free and fixed-gain share one structure; the exact inverse
     # (nominal-inverse and oracle) is another
     assert re.search(r"compiling 2 loop structures \(first run only, ~\d+ s", err), err
+    # the line comes before the fixed-gain baseline's tuning run, the first compile
+    assert order[0] == "compile_plan" and "baseline_loop" in order, order
     assert "writing" in err and "figures/fig_" in err
     data = sorted(p.name for p in (out / "data").iterdir())
     for variant in ("frozen", "failure_free", "fixed-gain", "nominal-inverse", "oracle"):

@@ -56,7 +56,11 @@ def compile_line(n: int, seconds: float, jobs: int = 1) -> str:
     """The line printed before the first compile (``jobs``: processes compiling at once)."""
     wall = seconds / max(1, min(jobs, n))
     word = "structure" if n == 1 else "structures"
+    shared = seconds > n * SECONDS_PER_STRUCTURE
+    how = f"{SECONDS_PER_STRUCTURE:g} s of CPU a structure" + (
+        f" + {SECONDS_SHARED:g} s once for the shared integrators" if shared else ""
+    )
     return (
-        f"compiling {n} loop {word} (first run only, ~{wall:.0f} s at "
-        f"{SECONDS_PER_STRUCTURE:g} s CPU a structure; longer on a busy machine)..."
+        f"compiling {n} loop {word} (first run only, ~{wall:.0f} s: {how}; longer on a busy "
+        "machine)..."
     )

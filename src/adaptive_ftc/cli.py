@@ -372,11 +372,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = check_output_dir(args.out)
     from adaptive_ftc import plots
 
+    fair = (
+        not args.no_baselines
+        and sc.loop.adapt
+        and sc.loop.controller.design not in ("nominal-inverse", "oracle")
+    )
+    if not args.quiet:  # before the fixed-gain baseline's tuning run compiles the loop
+        from adaptive_ftc._feedback import compile_line, compile_plan
+
+        loops = [sc.loop]
+        if not args.no_baselines:
+            loops += [sc.loop.frozen(), sc.loop.without_failures()]
+        if fair:
+            from adaptive_ftc.baselines import nominal_inverse
+
+            try:
+                loops.append(nominal_inverse(sc.loop))  # the oracle's structure too
+            except ConfigurationError:
+                pass  # no such baseline: reported below
+        n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in loops)
+        if n_new:
+            print(compile_line(n_new, seconds), file=sys.stderr, flush=True)
     variants = {"adaptive": sc.loop}
     if not args.no_baselines:
         variants["frozen"] = sc.loop.frozen()
         variants["failure_free"] = sc.loop.without_failures()
-        if sc.loop.adapt and sc.loop.controller.design not in ("nominal-inverse", "oracle"):
+        if fair:
             from adaptive_ftc.baselines import baseline_loop
 
             for name in ("fixed-gain", "nominal-inverse", "oracle"):  # the fair baselines
@@ -384,11 +405,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     variants[name.replace("-", "_")] = baseline_loop(sc.loop, name, solver)
                 except ConfigurationError as exc:  # e.g. no healthy run to tune on
                     print(f"note: no {name} baseline: {exc}", file=sys.stderr)
-    from adaptive_ftc._feedback import compile_line, compile_plan
-
-    n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in variants.values())
-    if n_new and not args.quiet:
-        print(compile_line(n_new, seconds), file=sys.stderr, flush=True)
     stage = staging_dir(out)
     try:
         results = {}
