@@ -96,10 +96,9 @@ def test_run_names_baselines_like_reproduce_writes_formats_and_says_what_it_does
 ):
     """One naming scheme (data/<name>_fixed-gain.nc as in reproduce), --formats/--dpi, a
     compiling line before the first compile and the files being written after the runs."""
+    from adaptive_ftc import _feedback, baselines
     from adaptive_ftc.reproduce import _data_path
     from adaptive_ftc.sim import compose
-
-    from adaptive_ftc import _feedback, baselines
 
     monkeypatch.setattr(compose, "is_compiled", lambda loop, sdot="exact": False)
     order: list[str] = []
