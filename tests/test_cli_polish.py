@@ -17,7 +17,7 @@ import pytest
 from adaptive_ftc.cli import LIST_WIDTH, main
 
 ROOT = Path(__file__).resolve().parents[1]
-SUBCOMMANDS = ("list", "validate", "run", "reproduce", "schema", "campaign")
+SUBCOMMANDS = ("list", "validate", "run", "reproduce", "schema", "campaign", "study")
 
 
 # ----------------------------------------------------------------------------- help texts
@@ -29,6 +29,7 @@ def test_every_subcommand_has_a_description_and_keeps_its_exit_status_lines(comm
     description = rest.split("\n\n")[0]
     assert not description.lstrip().startswith(("positional", "options")), out
     assert len(description.split()) >= 8, description
+    assert max(map(len, description.splitlines())) <= 100, description  # wrapped
     # the epilog's table, one code a line, not reflowed into a paragraph
     codes = re.findall(r"^  (\d+) +\S", out, flags=re.M)
     assert "exit status:" in out and "0" in codes and "2" in codes and len(codes) >= 3, out

@@ -94,6 +94,16 @@ def _count(low: int, high: int):
     return parse
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """Wraps a one-paragraph text (a description) to the terminal; keeps a text of several
+    lines (the exit-status table of an epilog) line by line."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text.strip():
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
 def _solver_methods() -> tuple[str, ...]:
     """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
     from adaptive_ftc.sim.engine import _METHODS
@@ -130,7 +140,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"adaptive-ftc {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    raw = argparse.RawDescriptionHelpFormatter  # keeps the exit-status epilog's lines
+    raw = _HelpFormatter  # keeps the exit-status epilog's lines, wraps the descriptions
     ls = sub.add_parser(
         "list",
         help="list the thesis scenarios with their figures",
@@ -243,7 +253,8 @@ def _parser() -> argparse.ArgumentParser:
         campaign_cli.add_parser(sub)
     from adaptive_ftc import studies
 
-    studies.add_parser(sub)
+    st = studies.add_parser(sub)
+    st.epilog, st.formatter_class = _EPILOG, raw  # the same exit status as every command
     return p
 
 

@@ -24,6 +24,12 @@ _EPILOG = """exit status:
 """
 
 
+def _formatter():
+    from adaptive_ftc.cli import _HelpFormatter  # descriptions wrapped, the epilog kept
+
+    return _HelpFormatter
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``campaign`` command to the ``aftc`` sub-parsers."""
     c = subparsers.add_parser(
@@ -34,7 +40,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "member: aftc campaign replay DIR INDEX. Shipped specs: aftc campaign list; print one: "
         "aftc campaign show NAME; copy one to edit: aftc campaign init NAME FILE.",
         epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=_formatter(),
     )
     c.add_argument(
         "target",
