@@ -190,6 +190,11 @@ def test_reproduce_an_unknown_name_is_refused_before_writing(tmp_path, capsys):
     assert main(["reproduce", "wingrock-free-1dg", "--out", str(out)]) == 2
     assert "wingrock-free-1deg" in capsys.readouterr().err  # did you mean
     assert not out.exists()
+    own = tmp_path / "own.toml"
+    own.write_text('extends = "wingrock-free-1deg"\nname = "own"\n')
+    assert main(["reproduce", str(own), "--out", str(out)]) == 2
+    assert "aftc run" in capsys.readouterr().err
+    assert not out.exists()
 
 
 # ----------------------------------------------------------------------------- campaigns

@@ -636,10 +636,16 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     formats = _formats(args.formats or ("png" if args.quick else "png,pdf"))
     if args.names:  # every name checked before the output folder is touched
-        from adaptive_ftc.scenarios.loader import load_scenario
+        from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
 
+        catalogue = set(list_scenarios())
         for name in args.names:
-            load_scenario(name)
+            if name not in catalogue and Path(name).suffix == ".toml":
+                raise ConfigurationError(
+                    f"aftc reproduce takes catalogue scenario names (aftc list); '{name}' is a "
+                    f"file: run it with aftc run {name}."
+                )
+            load_scenario(name)  # an unknown name: the error says which names exist
     check_output_dir(args.out)
     summary = run_reproduction(
         args.out,
