@@ -94,6 +94,42 @@ def _count(low: int, high: int):
     return parse
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """Wraps a one-paragraph text (a description) to the terminal; keeps a text of several
+    lines (the exit-status table of an epilog) line by line."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text.strip():
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+def _solver_methods() -> tuple[str, ...]:
+    """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
+    from adaptive_ftc.sim.engine import _METHODS
+
+    return tuple(_METHODS)
+
+
+def _add_figure_options(parser: argparse.ArgumentParser, default: str) -> None:
+    parser.add_argument(
+        "--formats",
+        default=None,
+        help=f"figure formats, comma-separated (png, pdf, svg; default {default})",
+    )
+    parser.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    formats = tuple(f.strip().lower() for f in text.split(",") if f.strip())
+    bad = [f for f in formats if f not in ("png", "pdf", "svg")]
+    if bad or not formats:
+        raise ConfigurationError(
+            f"--formats: unknown figure format(s) {', '.join(bad) or '(none)'}; use png, pdf, svg."
+        )
+    return formats
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="aftc",
@@ -104,16 +140,50 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"adaptive-ftc {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the thesis scenarios with their figures")
+    raw = _HelpFormatter  # keeps the exit-status epilog's lines, wraps the descriptions
+    ls = sub.add_parser(
+        "list",
+        help="list the thesis scenarios with their figures",
+        description="List the catalogue scenarios: name, thesis section, figures and title "
+        "(fits 100 columns; --long: every figure, the full title, plant, design, duration).",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
+    ls.add_argument("--long", action="store_true", help="full titles and details")
     v = sub.add_parser(
-        "validate", help="check a scenario file (and its compensability)", epilog=_EPILOG
+        "validate",
+        help="check a scenario file (and its compensability)",
+        description="Load a scenario (catalogue name or .toml file), report every problem of "
+        "the file at once, and check that its failures leave the design compensable: the rank "
+        "condition (3.6) and, for designs that assume it, the known sign (2.16)/(4.6).",
+        epilog=_EPILOG,
+        formatter_class=raw,
     )
     v.add_argument("scenario", help="scenario name or path to a .toml file")
-    r = sub.add_parser("run", help="run one scenario; write data and figures", epilog=_EPILOG)
+    r = sub.add_parser(
+        "run",
+        help="run one scenario; write data and figures",
+        description="Run one scenario (catalogue name or .toml file) with its baselines "
+        "(frozen adaptation, failure-free, and the fair fixed-gain, nominal-inverse and oracle "
+        "designs), write data/*.nc, figures/, metrics.json and, when the file has "
+        "[[claims]], claims.csv; exit by the claims as 'aftc reproduce' does.",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
     r.add_argument("scenario", help="scenario name or path to a .toml file")
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
-    r.add_argument("--method", choices=["rk4", "accurate"], help="override the solver")
-    r.add_argument("--dt", type=_positive_float, help="override the fixed step (s)")
+    r.add_argument(
+        "--method",
+        choices=_solver_methods(),
+        metavar="METHOD",
+        help="override the solver: " + ", ".join(_solver_methods()) + " (docs/solvers.md)",
+    )
+    r.add_argument(
+        "--dt",
+        type=_positive_float,
+        help="override the step of the fixed-step rk4 method (s); an error with an "
+        "adaptive-step method, whose step is set by its tolerances",
+    )
     r.add_argument(
         "--t-final",
         type=_positive_float,
@@ -135,12 +205,31 @@ def _parser() -> argparse.ArgumentParser:
         default=1,
         help="keep every K-th recorded sample in the data files (default 1: all)",
     )
+    _add_figure_options(r, "png")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     rep = sub.add_parser(
-        "reproduce", help="reproduce every figure of the thesis with a report", epilog=_EPILOG
+        "reproduce",
+        help="reproduce every figure of the thesis with a report",
+        description="Run the thesis scenarios (all, or the NAMEs given) with their baselines, "
+        "write figures/, data/, metrics.csv, claims.csv and report.html, and judge every "
+        "[[claims]] table of the catalogue.",
+        epilog=_EPILOG,
+        formatter_class=raw,
+    )
+    rep.add_argument(
+        "names",
+        nargs="*",
+        metavar="NAME",
+        help="scenarios to reproduce (default: the whole catalogue; see 'aftc list')",
     )
     rep.add_argument("--out", default="reproduction", help="output folder")
-    rep.add_argument("--quick", action="store_true", help="shortened runs (for CI)")
+    rep.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke test (for CI): shortened runs, no fair baselines, the first figure of "
+        "each scenario, PNG only; most claims are then NOT EVALUATED (the report says which "
+        "it judged)",
+    )
     rep.add_argument("--jobs", type=_count(1, 1024), default=None, help="parallel processes")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
     rep.add_argument(
@@ -154,12 +243,15 @@ def _parser() -> argparse.ArgumentParser:
         help="skip the fixed-gain, nominal-inverse and oracle runs (faster; baseline_ratio "
         "claims are then held against the frozen run alone, an unfair comparison)",
     )
-    rep.add_argument(
-        "--formats",
-        default="png,pdf",
-        help="figure formats, comma-separated (png, pdf, svg; default png,pdf)",
+    _add_figure_options(rep, "png,pdf; with --quick png")
+    s = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of scenario files (for editors)",
+        description="Print (or write with --out) the JSON Schema of scenario .toml files, for "
+        "editors that complete and check TOML against a schema.",
+        epilog=_EPILOG,
+        formatter_class=raw,
     )
-    rep.add_argument("--dpi", type=_count(30, 1200), default=None, help="PNG resolution")
     rep.add_argument(
         "--float32",
         action="store_true",
@@ -172,7 +264,6 @@ def _parser() -> argparse.ArgumentParser:
         default=1,
         help="keep every K-th recorded sample in the data files (default 1: all)",
     )
-    s = sub.add_parser("schema", help="print the JSON Schema of scenario files (for editors)")
     s.add_argument("--out", help="write it to this file instead of printing it")
     try:
         from adaptive_ftc.campaigns import cli as campaign_cli
@@ -182,22 +273,61 @@ def _parser() -> argparse.ArgumentParser:
         campaign_cli.add_parser(sub)
     from adaptive_ftc import studies
 
-    studies.add_parser(sub)
+    st = studies.add_parser(sub)
+    st.epilog, st.formatter_class = _EPILOG, raw  # the same exit status as every command
     return p
 
 
-def _cmd_list() -> int:
+#: Width of ``aftc list`` (without ``--long``): a terminal of 100 columns
+LIST_WIDTH = 100
+
+
+def _figure_ranges(figures) -> str:
+    """``3.9, 3.10, 3.11`` -> ``3.9-3.11``: three or more consecutive figures of one chapter
+    as a range (two stay a pair: ``2.1, 2.2``)."""
+    parts: list[list[str]] = []
+    for f in figures:
+        chap, _, num = str(f).partition(".")
+        if parts and num.isdigit():
+            last = parts[-1][-1]
+            lchap, _, lnum = last.partition(".")
+            if lchap == chap and lnum.isdigit() and int(lnum) + 1 == int(num):
+                parts[-1].append(str(f))
+                continue
+        parts.append([str(f)])
+    return ", ".join(", ".join(p) if len(p) < 3 else f"{p[0]}-{p[-1]}" for p in parts)
+
+
+def _cmd_list(long: bool = False) -> int:
     from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
 
-    rows = []
-    for name in list_scenarios():
-        sc = load_scenario(name)
-        rows.append((name, f"§{sc.section}" if sc.section else "", ", ".join(sc.figures), sc.title))
+    scenarios = [load_scenario(name) for name in list_scenarios()]
+    if long:
+        for sc in scenarios:
+            loop = sc.loop
+            print(f"{sc.name}  (§{sc.section})" if sc.section else sc.name)
+            print(f"  {sc.title}")
+            if sc.figures:
+                print(f"  thesis figures: {', '.join(sc.figures)}")
+            print(
+                f"  {loop.plant.name} plant, '{loop.controller.design}' design, "
+                f"{loop.t_final:g} s, {len(loop.failures.failures)} failure(s), "
+                f"solver {sc.solver.method}"
+            )
+        return EXIT_OK
+    rows = [
+        (sc.name, f"§{sc.section}" if sc.section else "", _figure_ranges(sc.figures), sc.title)
+        for sc in scenarios
+    ]
     w0 = max([len(r[0]) for r in rows] + [8])
+    w1 = max([len(r[1]) for r in rows] + [6])
     w2 = max([len(r[2]) for r in rows] + [7])
-    print(f"{'scenario':<{w0}}  {'thesis':<7}  {'figures':<{w2}}  title")
+    room = max(10, LIST_WIDTH - (w0 + w1 + w2 + 6))
+    print(f"{'scenario':<{w0}}  {'thesis':<{w1}}  {'figures':<{w2}}  title")
     for name, sec, figs, title in rows:
-        print(f"{name:<{w0}}  {sec:<7}  {figs:<{w2}}  {title}")
+        title = title if len(title) <= room else title[: room - 3].rstrip() + "..."
+        print(f"{name:<{w0}}  {sec:<{w1}}  {figs:<{w2}}  {title}")
+    print("(full titles and details: aftc list --long)")
     return EXIT_OK
 
 
@@ -269,16 +399,50 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.method:
         solver = replace(solver, method=args.method)
     if args.dt:
+        if solver.compiled_method != "rk4":
+            raise ConfigurationError(
+                f"--dt {args.dt:g}: '{sc.name}' runs the adaptive-step method "
+                f"'{solver.method}', whose step is chosen by its tolerances (rtol "
+                f"{solver.rtol:g}), so a fixed step would be ignored. Add --method rk4 to run "
+                "fixed steps of --dt, or set max_step in the scenario's [solver] table to "
+                "bound the adaptive step."
+            )
         solver = replace(solver, dt=args.dt)
+    formats = _formats(args.formats or "png")
     check_run_size(sc.loop, solver)
     out = check_output_dir(args.out)
     from adaptive_ftc import plots
 
+    fair = (
+        not args.no_baselines
+        and sc.loop.adapt
+        and sc.loop.controller.design not in ("nominal-inverse", "oracle")
+    )
+    if not args.quiet:  # before the fixed-gain baseline's tuning run compiles the loop
+        from adaptive_ftc._feedback import compile_line, compile_plan
+
+        loops = [sc.loop]
+        if not args.no_baselines:
+            loops += [sc.loop.frozen(), sc.loop.without_failures()]
+        if fair:
+            from adaptive_ftc.baselines import nominal_inverse
+
+            try:
+                loops.append(nominal_inverse(sc.loop))  # the oracle's structure too
+            except ConfigurationError:
+                pass  # no such baseline: reported below
+        if getattr(sc.loop.controller, "constraint_aware", None) is not None:
+            from adaptive_ftc.reproduce import thesis_law_loop
+
+            loops.append(thesis_law_loop(sc.loop))  # the thesis law's companion run
+        n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in loops)
+        if n_new:
+            print(compile_line(n_new, seconds), file=sys.stderr, flush=True)
     variants = {"adaptive": sc.loop}
     if not args.no_baselines:
         variants["frozen"] = sc.loop.frozen()
         variants["failure_free"] = sc.loop.without_failures()
-        if sc.loop.adapt and sc.loop.controller.design not in ("nominal-inverse", "oracle"):
+        if fair:
             from adaptive_ftc.baselines import baseline_loop
 
             for name in ("fixed-gain", "nominal-inverse", "oracle"):  # the fair baselines
@@ -292,13 +456,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
         # the thesis law beside the constraint-aware design, judged on the same claims (also
         # with --no-baselines: the scenario's claims name what it fails)
         variants["thesis_law"] = thesis_law_loop(sc.loop)
-    from adaptive_ftc.sim.compose import is_compiled
-
-    if not args.quiet and not is_compiled(sc.loop, sdot=solver.sdot_for(sc.loop)):
-        print(
-            "compiling this closed loop (first run of its structure only; a few seconds)...",
-            file=sys.stderr,
-        )
     stage = staging_dir(out)
     try:
         results = {}
@@ -324,8 +481,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
+        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
+        # what is being written, file by file (a figure takes a second or two)
+        writing = tqdm(
+            total=len(results) + len(specs), desc="writing", disable=args.quiet, unit="file"
+        )
         for key, res in results.items():
-            stem = base_stem if key == "adaptive" else f"{base_stem}_{key}"
+            # the variant's name as 'aftc reproduce' spells it: data/<name>_fixed-gain.nc
+            stem = base_stem if key == "adaptive" else f"{base_stem}_{_FILE_SUFFIX[key]}"
+            writing.set_postfix_str(f"data/{stem}.nc", refresh=True)
             res.meta["variant"] = key
             res.to_netcdf(
                 inside(stage, stage / "data" / f"{stem}.nc"),
@@ -335,21 +499,30 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
+            writing.update(1)
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
             # a run with no samples: none
             if k in ("frozen", "failure_free", "thesis_law") and v.time.size
         }
-        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         figures = []
         for i, spec in enumerate(specs):
             name = f"fig_{spec.get('number', i + 1)}.png"
+            writing.set_postfix_str(f"figures/{name}", refresh=True)
             zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
             plots.save_figure(
-                main, spec, stage / "figures" / name, baselines=baselines or None, zoom_result=zoom
+                main,
+                spec,
+                stage / "figures" / name,
+                baselines=baselines or None,
+                zoom_result=zoom,
+                formats=formats,
+                dpi=args.dpi,
             )
-            figures.append(str(out / "figures" / name))
+            figures += [str(out / "figures" / Path(name).with_suffix(f".{f}")) for f in formats]
+            writing.update(1)
+        writing.close()
         verdicts = _run_claims(sc, results, args.no_baselines)
         thesis_verdicts = _thesis_law_claims(sc, results)
         if verdicts:
@@ -416,6 +589,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"aftc run: {n_fail} claim(s) failed (see above).", file=sys.stderr)
         return EXIT_CLAIMS_FAILED
     return EXIT_OK
+
+
+#: File-name suffix of each 'aftc run' variant: the spelling of 'aftc reproduce'
+#: (reproduce.VARIANTS), so both write data/<name>_fixed-gain.nc
+_FILE_SUFFIX = {
+    "frozen": "frozen",
+    "failure_free": "failure_free",
+    "fixed_gain": "fixed-gain",
+    "nominal_inverse": "nominal-inverse",
+    "oracle": "oracle",
+}
 
 
 def _run_claims(sc, results: dict, no_baselines: bool) -> list:
@@ -512,12 +696,18 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
-    formats = tuple(f.strip().lower() for f in args.formats.split(",") if f.strip())
-    bad = [f for f in formats if f not in ("png", "pdf", "svg")]
-    if bad or not formats:
-        raise ConfigurationError(
-            f"--formats: unknown figure format(s) {', '.join(bad) or '(none)'}; use png, pdf, svg."
-        )
+    formats = _formats(args.formats or ("png" if args.quick else "png,pdf"))
+    if args.names:  # every name checked before the output folder is touched
+        from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
+
+        catalogue = set(list_scenarios())
+        for name in args.names:
+            if name not in catalogue and Path(name).suffix == ".toml":
+                raise ConfigurationError(
+                    f"aftc reproduce takes catalogue scenario names (aftc list); '{name}' is a "
+                    f"file: run it with aftc run {name}."
+                )
+            load_scenario(name)  # an unknown name: the error says which names exist
     check_output_dir(args.out)
     summary = run_reproduction(
         args.out,
@@ -530,6 +720,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         dpi=args.dpi,
         float32=args.float32,
         decimate=args.decimate,
+        names=args.names or None,
+        figure_limit=1 if args.quick else None,  # a smoke test: one figure a scenario
     )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
@@ -545,6 +737,14 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         )
         + f"; report: {summary['report']}"
     )
+    if args.quick:
+        n_claims = int(summary["n_claims"])
+        judged = n_claims - int(summary.get("n_not_evaluated", 0))
+        print(
+            f"quick mode judged {judged} of {n_claims} claims (the others' windows lie beyond "
+            "the shortened runs: NOT EVALUATED) and drew the first figure of each scenario; "
+            "run without --quick for the thesis check."
+        )
     n_fail = int(summary.get("n_fail", 0))
     n_errors = int(summary.get("n_errors", 0))
     if n_fail or n_errors:
@@ -597,7 +797,7 @@ def main(argv: list[str] | None = None) -> int:
         previous = None
     try:
         if args.command == "list":
-            return _cmd_list()
+            return _cmd_list(args.long)
         if args.command == "validate":
             return _cmd_validate(args.scenario)
         if args.command == "run":

@@ -29,7 +29,14 @@ from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["control_initial_state", "piecewise_response", "plant_to_control", "to_control"]
+__all__ = [
+    "control_initial_state",
+    "disturbance_input_names",
+    "piecewise_response",
+    "plant_to_control",
+    "reference_input_names",
+    "to_control",
+]
 
 
 def _control():
@@ -64,17 +71,51 @@ def _label(name: str) -> str:
     return str(name).replace(" ", "_") or "adaptive_ftc"
 
 
+_INPUTS = ("reference", "disturbance")
+
+
+def reference_input_names(loop: ClosedLoop) -> list[str]:
+    """Input names of the reference of ``to_control(loop, inputs=("reference",))``: per output
+    ``y``, ``yd_<y>``, ``yd_<y>_dot``, ``yd_<y>_ddot`` (the designs use y_d and its first two
+    derivatives, thesis (2.18)-(2.22))."""
+    return [f"yd_{y}{suffix}" for y in loop.plant.output_names for suffix in ("", "_dot", "_ddot")]
+
+
+def disturbance_input_names(loop: ClosedLoop) -> list[str]:
+    """Input names of the disturbance of ``to_control(loop, inputs=("disturbance",))``: one
+    per output ``y``, ``d_<y>``, added to the derivative of that output's velocity state."""
+    return [f"d_{y}" for y in loop.plant.output_names]
+
+
 def to_control(
-    loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01, name: str | None = None
+    loop: ClosedLoop,
+    *,
+    sdot: str = "exact",
+    filter_tau: float = 0.01,
+    name: str | None = None,
+    inputs: tuple[str, ...] | list[str] = (),
 ):
     """The closed loop as a :class:`control.NonlinearIOSystem`.
 
     States are the plant states followed by every adaptive state (in the order of
     ``SimResult.adaptive_names``; with ``sdot="filtered"`` the s-filter states come last), then
-    the actuator positions of a loop with actuator dynamics; the
-    system has no inputs (the reference ``y_d(t)`` and the failure schedule are part of the
-    loop) and its outputs are the plant outputs ``y`` (thesis (2.1)/(3.1)). The failure phase is
-    chosen from ``t``: phase ``k`` on ``[breakpoints[k], breakpoints[k+1])``.
+    the actuator positions of a loop with actuator dynamics; its outputs are the plant outputs
+    ``y`` (thesis (2.1)/(3.1)). The failure phase is chosen from ``t``: phase ``k`` on
+    ``[breakpoints[k], breakpoints[k+1])``.
+
+    By default the system has no inputs: the reference ``y_d(t)`` of the loop's ``reference``
+    expressions and the failure schedule are part of it. ``inputs`` opens it for
+    :func:`control.interconnect`:
+
+    ``"reference"``
+        the reference becomes inputs (:func:`reference_input_names`): per output ``y``, the
+        value ``yd_<y>`` and its first two derivatives ``yd_<y>_dot``, ``yd_<y>_ddot``, which
+        the designs use; the loop's own reference expressions are then ignored. Feed them
+        from a source system (e.g. a :class:`control.NonlinearIOSystem` with no inputs).
+    ``"disturbance"``
+        one input ``d_<y>`` per output, added to the derivative of that output's velocity
+        state (``plant.velocity_index``): an unmeasured generalised force or moment per unit
+        inertia, which the controller does not see.
 
     Parameters
     ----------
@@ -92,6 +133,13 @@ def to_control(
         :func:`piecewise_response` (python-control has no jump handling).
     """
     ct = _control()
+    chosen = tuple(inputs)
+    bad = [i for i in chosen if i not in _INPUTS]
+    if bad or len(set(chosen)) != len(chosen):
+        raise ConfigurationError(
+            f"to_control(inputs=...) takes 'reference' and/or 'disturbance', each once; got "
+            f"{list(chosen)!r}."
+        )
     asm = _assembled(loop, sdot, filter_tau)
     bps = np.asarray(asm.breakpoints, dtype=float)
     last = bps.size - 2
@@ -99,13 +147,37 @@ def to_control(
     work = asm.work()
     ny = asm.y0.size
     pos = list(loop.plant.position_index)
+    vel = list(loop.plant.velocity_index)
+    ref = asm.layout["w:ref"]
+    misc = asm.layout["w:misc"].start
+    use_ref = "reference" in chosen
+    use_dist = "disturbance" in chosen
+    n_ref = 3 * len(pos) if use_ref else 0
+    input_names = (reference_input_names(loop) if use_ref else []) + (
+        disturbance_input_names(loop) if use_dist else []
+    )
 
     def phase_of(t: float) -> int:
         return int(min(max(np.searchsorted(bps, t, side="right") - 1, 0), last))
 
     def updfcn(t, x, u, params):
         dy = np.zeros(ny)
-        rhs(float(t), np.ascontiguousarray(x, dtype=float), phase_of(float(t)), data, work, dy)
+        t = float(t)
+        x = np.ascontiguousarray(x, dtype=float)
+        ph = phase_of(t)
+        if use_ref:
+            # the compiled rhs keeps the reference of the last time in work[ref] and skips
+            # computing it again at the same t (misc[3] = valid, misc[4] = that t): one call
+            # fills the per-time values (e.g. the estimation design's basis), then the
+            # reference is replaced by the inputs and the derivative computed with them
+            work[misc + 3] = 0.0
+            rhs(t, x, ph, data, work, dy)
+            work[ref.start : ref.start + n_ref] = np.asarray(u, dtype=float)[:n_ref]
+        rhs(t, x, ph, data, work, dy)
+        if use_dist:
+            d = np.asarray(u, dtype=float)[n_ref:]
+            for i, k in enumerate(vel):
+                dy[k] += d[i]
         return dy
 
     def outfcn(t, x, u, params):
@@ -115,7 +187,7 @@ def to_control(
     sys = ct.NonlinearIOSystem(
         updfcn,
         outfcn,
-        inputs=0,
+        inputs=input_names or 0,
         outputs=list(loop.plant.output_names),
         states=states,
         name=_label(name if name is not None else loop.name),

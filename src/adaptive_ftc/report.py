@@ -421,8 +421,19 @@ def render_report(
         '<div class="banner"><b>Quick mode.</b> Every run was shortened (see '
         "<code>adaptive_ftc.reproduce</code>): claims whose window the shortened run does not "
         "reach are <b>not evaluated</b> (grey), which is not a failure; the others are a smoke "
-        "test, not the thesis check. Run <code>aftc reproduce</code> without "
-        "<code>--quick</code> for that.</div>"
+        f"test, not the thesis check: it judged {n - n_noteval} of {n} claims"
+        + (
+            " ("
+            + ", ".join(
+                f"{s.name}: {len(s.claims) - s.count(NOT_EVALUATED)}"
+                for s in entries
+                if len(s.claims) > s.count(NOT_EVALUATED)
+            )
+            + ")"
+            if n > n_noteval
+            else ""
+        )
+        + ". Run <code>aftc reproduce</code> without <code>--quick</code> for that.</div>"
         if quick
         else ""
     )

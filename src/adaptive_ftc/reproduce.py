@@ -233,6 +233,30 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     return [tasks[i] for i in order]
 
 
+def _default_count(sc: Scenario) -> int:
+    """How many default figures (:func:`adaptive_ftc.plots.default_figure_specs`) a scenario
+    without [[figure]] tables gets, from its loop (before it runs)."""
+    loop = sc.loop
+    names = tuple(getattr(loop.plant, "state_names", ()))
+    n = 3 + any(str(n).startswith("eta") for n in names)
+    return n + (loop.controller.design in ("nussbaum", "sign"))
+
+
+def _task_loops(by_name: dict[str, Scenario], tasks: list[tuple[str, str]]):
+    """``(loop, sdot)`` of every structure the tasks compile (the variants of a scenario share
+    its loop's structure; the exact-inverse baselines have one of their own)."""
+    from adaptive_ftc.baselines import nominal_inverse
+
+    for name, variant in tasks:
+        sc = by_name[name]
+        solver = baseline_solver(variant, sc.solver) if variant in _DESIGN_BASELINES else sc.solver
+        try:
+            loop = nominal_inverse(sc.loop) if variant in ("nominal-inverse", "oracle") else sc.loop
+        except Exception:  # noqa: BLE001 - the run itself reports it
+            continue
+        yield loop, solver.sdot_for(loop)
+
+
 def _has_baseline_claim(sc: Scenario) -> bool:
     return any(c.get("baseline_ratio") is not None for c in sc.claims)
 
@@ -594,6 +618,7 @@ def run_reproduction(
     fair_baselines: bool | None = None,
     float32: bool = False,
     decimate: int = 1,
+    figure_limit: int | None = None,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -629,6 +654,9 @@ def run_reproduction(
         last always). Default: double precision, every sample, so that every metric
         recomputed from a file equals ``metrics.csv``. The choice is recorded in each file's
         ``precision``, ``decimation`` and ``history`` attributes and stated in the report.
+    figure_limit
+        Draw only the first ``figure_limit`` figures of each scenario (``aftc reproduce
+        --quick``: 1); default: all.
 
     Returns
     -------
@@ -694,7 +722,26 @@ def run_reproduction(
         executor = cf.ProcessPoolExecutor(
             max_workers=jobs, mp_context=ctx, initializer=_worker_init
         )
-    bar = tqdm(total=len(sim_tasks), disable=not progress, desc="reproduce", unit="task")
+    # the bar's total is fixed up front: every run and every figure it will draw (a scenario
+    # without [[figure]] tables: its default figures, counted from its loop); corrected only
+    # if a run fails and draws fewer
+    expected = {sc.name: len(plan[sc.name]) or _default_count(sc) for sc in scenarios}
+    if figure_limit is not None:
+        expected = {k: min(figure_limit, v) for k, v in expected.items()}
+    if progress:
+        from adaptive_ftc._feedback import compile_line, compile_plan
+
+        n_new, seconds = compile_plan(_task_loops(by_name, sim_tasks))
+        if n_new:
+            import sys
+
+            print(compile_line(n_new, seconds, jobs), file=sys.stderr, flush=True)
+    bar = tqdm(
+        total=len(sim_tasks) + sum(expected.values()),
+        disable=not progress,
+        desc="reproduce",
+        unit="task",
+    )
     with executor:
         pending: dict[cf.Future, tuple] = {
             executor.submit(_simulate_task, n, v, quick, str(out), float32, decimate): (
@@ -715,13 +762,22 @@ def run_reproduction(
                     needed = [(name, v) for v in variants(by_name[name])]
                     if all(k in results for k in needed):
                         new = _submit_figures(
-                            executor, by_name[name], plan, results, out, baselines, formats, dpi
+                            executor,
+                            by_name[name],
+                            plan,
+                            results,
+                            out,
+                            baselines,
+                            formats,
+                            dpi,
+                            limit=figure_limit,
                         )
                         for f, ftag, entry in new:
                             pending[f] = ftag
                             figures[name].append(entry)
-                        bar.total += len(new)
-                        bar.refresh()
+                        if len(new) != expected[name]:  # a failed run draws none
+                            bar.total += len(new) - expected[name]
+                            bar.refresh()
                 else:
                     _, name, fname = tag
                     fig_errors[(name, fname)] = fut.result()
@@ -857,14 +913,17 @@ def run_reproduction(
     }
 
 
-def _submit_figures(executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None):
-    """Submit the figure tasks of a scenario whose runs are all done."""
+def _submit_figures(
+    executor, sc, plan, results, out, overlay=False, formats=("png",), dpi=None, limit=None
+):
+    """Submit the figure tasks of a scenario whose runs are all done (``limit``: only the first
+    ``limit`` figures, quick mode)."""
     from adaptive_ftc.plots import dense_zoom
 
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
         return []
-    items = plan[sc.name] or _default_specs(sc, adaptive)
+    items = (plan[sc.name] or _default_specs(sc, adaptive))[:limit]
     baselines = {
         _BASELINE_LABELS[v]: results[(sc.name, v)]["result"]
         for v in ("frozen", "failure_free", *_DESIGN_BASELINES, "thesis_law")

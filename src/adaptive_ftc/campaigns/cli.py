@@ -5,6 +5,8 @@ Usage::
     aftc campaign SPEC --out DIR [--jobs N] [--scheduler ADDRESS]   # run or resume
     aftc campaign replay DIR INDEX [--out REPLAY_DIR] [--design D]   # rerun one member
     aftc campaign list                                               # example specs
+    aftc campaign show NAME                                          # print a shipped spec
+    aftc campaign init NAME FILE                                     # copy it to edit
 """
 
 from __future__ import annotations
@@ -14,16 +16,37 @@ import sys
 
 __all__ = ["add_parser", "main"]
 
+_EPILOG = """exit status:
+  0    success (or an incomplete campaign: run the same command again to resume)
+  1    replay: a member's rerun differs from the results table
+  2    invalid input (spec, argument, folder) or a missing optional dependency
+  130  interrupted; finished chunks are kept (run the same command again to resume)
+"""
+
+
+def _formatter():
+    from adaptive_ftc.cli import _HelpFormatter  # descriptions wrapped, the epilog kept
+
+    return _HelpFormatter
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``campaign`` command to the ``aftc`` sub-parsers."""
     c = subparsers.add_parser(
         "campaign",
-        help="Monte Carlo fault campaign (run/resume), 'replay DIR INDEX', or 'list'",
+        help="Monte Carlo fault campaign (run/resume), 'replay DIR INDEX', 'list', 'show NAME', "
+        "'init NAME FILE'",
         description="Run or resume a fault campaign: aftc campaign SPEC --out DIR. Replay a "
-        "member: aftc campaign replay DIR INDEX. Example specs: aftc campaign list.",
+        "member: aftc campaign replay DIR INDEX. Shipped specs: aftc campaign list; print one: "
+        "aftc campaign show NAME; copy one to edit: aftc campaign init NAME FILE.",
+        epilog=_EPILOG,
+        formatter_class=_formatter(),
     )
-    c.add_argument("target", nargs="+", help="SPEC (name or .toml) | replay DIR INDEX | list")
+    c.add_argument(
+        "target",
+        nargs="+",
+        help="SPEC (name or .toml) | replay DIR INDEX | list | show NAME | init NAME FILE",
+    )
     c.add_argument("--out", help="results folder (run) or replay folder (replay)")
     c.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
     c.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
@@ -46,7 +69,10 @@ def _run(args: argparse.Namespace) -> int:
         raise CampaignError("Give the results folder: aftc campaign SPEC --out DIR.")
     if args.jobs is not None and args.jobs < 1:
         raise CampaignError(f"--jobs must be >= 1; got {args.jobs}.")
+    from adaptive_ftc.campaigns.store import require_pyarrow
+
     spec = load_campaign(args.target[0])  # every problem of the spec, before anything runs
+    require_pyarrow()  # before the results folder or the progress bar exist
     try:
         run = run_campaign(
             spec,
@@ -110,11 +136,53 @@ def _replay(args: argparse.Namespace) -> int:
     return 0 if all(v is not False for v in info["matches_table"].values()) else 1
 
 
+def _show(args: argparse.Namespace) -> int:
+    """``show NAME``: print a shipped spec; ``init NAME FILE``: copy it to FILE."""
+    from adaptive_ftc.campaigns.spec import EXAMPLES, CampaignError, list_campaigns
+
+    command = args.target[0]
+    want = 2 if command == "show" else 3
+    if len(args.target) != want:
+        usage = "show NAME" if command == "show" else "init NAME FILE"
+        raise CampaignError(
+            f"Usage: aftc campaign {usage} (NAME: one of {', '.join(list_campaigns())})."
+        )
+    name = args.target[1]
+    source = EXAMPLES / f"{name}.toml"
+    if name not in list_campaigns():
+        from adaptive_ftc.errors import did_you_mean
+
+        raise CampaignError(
+            f"No shipped campaign '{name}'.{did_you_mean(name, list_campaigns())} Shipped: "
+            f"{', '.join(list_campaigns())} (aftc campaign list)."
+        )
+    text = source.read_text(encoding="utf-8")
+    if command == "show":
+        sys.stdout.write(text)
+        return 0
+    from pathlib import Path
+
+    target = Path(args.target[2])
+    if target.is_dir():
+        target = target / source.name
+    if target.exists():
+        raise CampaignError(
+            f"'{target}' exists; init does not overwrite it. Give another FILE or remove it."
+        )
+    if not target.parent.is_dir():
+        raise CampaignError(f"Folder '{target.parent}' does not exist; create it first.")
+    target.write_text(text, encoding="utf-8")
+    print(f"wrote {target}; edit it and run: aftc campaign {target} --out DIR")
+    return 0
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the ``campaign`` command; returns the exit status."""
     first = args.target[0]
     if first == "replay":
         return _replay(args)
+    if first in ("show", "init"):
+        return _show(args)
     if first == "list" and len(args.target) == 1:
         from adaptive_ftc.campaigns.spec import EXAMPLES, list_campaigns, load_campaign
 

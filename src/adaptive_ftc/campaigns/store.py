@@ -73,14 +73,43 @@ OUTCOME_COLUMNS: dict[str, str] = {
 }
 
 
+def install_hint(extra: str = "campaigns", package: str = "pyarrow") -> str:
+    """How to install an optional dependency, for the way adaptive-ftc was installed: from a
+    clone (an editable install) or from a package index."""
+    clone = f'pip install -e ".[{extra}]"'
+    index = f'pip install "adaptive-ftc[{extra}]"'
+    editable = False
+    try:
+        import json
+        from importlib.metadata import distribution
+
+        direct = distribution("adaptive-ftc").read_text("direct_url.json")
+        editable = bool(direct and json.loads(direct).get("dir_info", {}).get("editable"))
+    except Exception:  # noqa: BLE001 - not installed (PYTHONPATH): a clone
+        editable = True
+    first, second = (clone, index) if editable else (index, clone)
+    where = (
+        ("in your clone", "installed from an index")
+        if editable
+        else ("installed from an index", "in a clone")
+    )
+    return f"{first} ({where[0]}), or {second} ({where[1]}), or just pip install {package}"
+
+
+def require_pyarrow() -> None:
+    """Raise :class:`CampaignError` with the install command when pyarrow is missing (checked
+    before a campaign writes anything)."""
+    _pa()
+
+
 def _pa():
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
-    except ImportError:  # pragma: no cover - installed by the `campaigns` extra
+    except ImportError:  # installed by the `campaigns` extra
         raise CampaignError(
-            "Campaign results are Parquet files and need pyarrow: "
-            "pip install 'adaptive-ftc[campaigns]'."
+            "Campaign results are Parquet files and need pyarrow, which is not installed: "
+            f"{install_hint()}."
         ) from None
     return pa, pq
 

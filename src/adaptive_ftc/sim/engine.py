@@ -174,7 +174,32 @@ def _record_times(t0: float, t1: float, dt: float) -> np.ndarray:
     return t
 
 
-def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult:
+def _user_times(loop: ClosedLoop, t_eval) -> np.ndarray:
+    """``t_eval`` checked: a strictly increasing 1-D grid of finite times inside the run."""
+    t = np.asarray(t_eval, dtype=float)
+    if t.ndim != 1 or t.size == 0:
+        raise ConfigurationError(
+            f"t_eval must be a non-empty 1-D sequence of times (s); got shape {t.shape}."
+        )
+    if not np.all(np.isfinite(t)):
+        raise ConfigurationError("t_eval has non-finite times; give finite times in seconds.")
+    if t.size > 1 and not np.all(np.diff(t) > 0):
+        i = int(np.argmax(np.diff(t) <= 0))
+        raise ConfigurationError(
+            f"t_eval must be strictly increasing; t_eval[{i + 1}] = {t[i + 1]:g} follows "
+            f"{t[i]:g}. Sort it and drop repeated times (np.unique)."
+        )
+    t0, t1 = float(loop.t0), float(loop.t_final)
+    tol = 1e-9 * max(1.0, abs(t1))
+    if t[0] < t0 - tol or t[-1] > t1 + tol:
+        raise ConfigurationError(
+            f"t_eval spans {t[0]:g} s to {t[-1]:g} s, outside the run's {t0:g} s to {t1:g} s; "
+            "keep it inside, or change the loop's t_final."
+        )
+    return np.clip(t, t0, t1)
+
+
+def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=None) -> SimResult:
     """Simulate a closed loop.
 
     Integration restarts exactly at every failure onset/recovery (each interval of fixed
@@ -186,6 +211,11 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
         The closed loop to run.
     solver
         Integration settings; defaults to compiled RK4 with ``dt = 1e-3``.
+    t_eval
+        Times (s) to record, strictly increasing, inside ``[loop.t0, loop.t_final]`` (like
+        scipy's ``t_eval`` and python-control's ``T``); default: every ``solver.record_dt``.
+        The integration itself (its steps) does not depend on it: between steps the state is
+        interpolated (cubic Hermite for RK4, the method's dense output for the adaptive ones).
 
     Returns
     -------
@@ -213,7 +243,9 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None) -> SimResult
     'completed'
     """
     solver = solver or SolverOptions()
-    asm, t_rec, Y, phases, nrec, outcome, wall, stats = _integrate(loop, solver, envelope=False)
+    asm, t_rec, Y, phases, nrec, outcome, wall, stats = _integrate(
+        loop, solver, envelope=False, t_eval=t_eval
+    )
     status, reason = outcome
     T = t_rec[:nrec]
     Y = Y[:nrec]
@@ -264,7 +296,7 @@ def integrate_only(loop: ClosedLoop, solver: SolverOptions | None = None):
     return t_rec[:nrec], Y[:nrec], phases[:nrec]
 
 
-def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True):
+def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True, t_eval=None):
     """Integrate ``loop``; ``envelope``: cut the records at the first one outside the plant's
     envelope (:func:`simulate` does it in the signals' pass instead)."""
     if not isinstance(loop, ClosedLoop):
@@ -273,7 +305,10 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
 
     check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
     asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau_for(loop))
-    t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
+    if t_eval is None:
+        t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
+    else:
+        t_rec = _user_times(loop, t_eval)
     bps = np.array(asm.breakpoints)
     n = asm.y0.size
     names = (
