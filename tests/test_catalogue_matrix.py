@@ -92,7 +92,7 @@ def test_aftc_run(name, tmp_path, capsys):
     # the baselines ran too (a fixed-gain baseline may be skipped with a note, not an error)
     expected = ["frozen", "failure_free"]
     if sc.loop.adapt and sc.loop.controller.design not in ("nominal-inverse", "oracle"):
-        expected += ["nominal_inverse", "oracle"]
+        expected += ["nominal-inverse", "oracle"]  # one naming scheme with reproduce
     for key in expected:
         assert (tmp_path / "data" / f"{sc.name}_{key}.nc").is_file(), key
 

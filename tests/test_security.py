@@ -210,7 +210,15 @@ def test_a_resumed_campaign_removes_the_temporary_files_of_a_killed_run(tmp_path
     from adaptive_ftc.campaigns.store import finished_chunks
 
     spec = load_campaign(
-        {**SPEC, "base": "wingrock-free-1deg", "runs": 2, "chunk_size": 1, "duration": 0.6}
+        {
+            **SPEC,
+            "base": "wingrock-free-1deg",
+            "runs": 2,
+            "chunk_size": 1,
+            "duration": 0.6,
+            # an open loop: no command whose activity could be judged
+            "success": {**SPEC["success"], "activity": False},
+        }
     )
     out = tmp_path / "c"
     run_campaign(spec, out, max_chunks=1, progress=False)

@@ -228,7 +228,11 @@ def test_campaign_row_takes_time_and_culprit_from_the_reason(tmp_path):
 
     sc = _scenario(tmp_path, "row", _stuck("log(t-1)"))
     r = _run(sc)
-    spec = type("Spec", (), {"final_window": 1.0, "recovery_tolerance": 0.1, "success_rms": 1})
+    spec = type(
+        "Spec",
+        (),
+        {"final_window": 1.0, "recovery_tolerance": 0.1, "success_rms": 1, "activity": None},
+    )  # activity None: the spec does not judge control activity
     row = outcome(r, spec())
     assert row["status"] == "nonfinite" and type(row["status"]) is str
     assert row["divergence_time"] == pytest.approx(0.5, abs=1e-6)

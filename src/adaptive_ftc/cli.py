@@ -599,6 +599,7 @@ _FILE_SUFFIX = {
     "fixed_gain": "fixed-gain",
     "nominal_inverse": "nominal-inverse",
     "oracle": "oracle",
+    "thesis_law": "thesis_law",
 }
 
 
