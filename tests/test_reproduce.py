@@ -175,7 +175,9 @@ def test_report_shows_not_reproduced_and_not_evaluated_apart_from_fail():
     assert 'badge fail">FAIL<' not in page
     assert "measured <b>2.7e-06 rad/s</b> vs threshold <b>0.00017 rad/s</b>" in page
     assert "measured <b>not measured</b> vs threshold <b>0.00087 rad</b>" in page
-    assert 'class="badge pass">1/1<' in page  # passed / judged in the summary table
+    # passed / judged in the summary table: the NOT REPRODUCED claim counts as judged (issue 28:
+    # "8/8" must not look fully passed), and the badge is not the PASS colour
+    assert 'class="badge warn">1/2<' in page and 'class="badge pass">1/1<' not in page
 
 
 def test_report_shows_a_failed_claim_with_its_number(tmp_path):
@@ -241,7 +243,9 @@ def test_ctrl_c_stops_a_reproduction_and_its_workers_at_once(tmp_path):
         text=True,
         start_new_session=True,
     )
-    deadline = time.time() + 60
+    # generous: a cold start loads and binds every scenario before the workers fork (5 s on a
+    # quiet 2-core machine, over a minute when the machine is shared and loaded)
+    deadline = time.time() + 150
     while time.time() < deadline and not list(out.glob(".aftc-tmp-*")):
         time.sleep(0.05)
     # the scenarios load before the workers fork (a constraint-aware one measures its loop

@@ -207,8 +207,10 @@ def _claims_cell(entry: ScenarioEntry) -> str:
     if not entry.claims:
         return "—"
     k = entry.n_pass
-    judged = k + entry.count(FAIL)
-    cls = "pass" if entry.count(FAIL) == 0 else "fail"
+    # judged: every claim with a verdict on the data (NOT REPRODUCED and FINDING included, so
+    # "8/8" never hides a claim the data contradict); NOT EVALUATED is left out
+    judged = k + sum(entry.count(v) for v in (FAIL, NOT_REPRODUCED, FINDING))
+    cls = "fail" if entry.count(FAIL) else ("pass" if judged == k else "warn")
     out = f'<span class="badge {cls}">{k}/{judged}</span>'
     for verdict in (FINDING, NOT_REPRODUCED, NOT_EVALUATED):
         if n := entry.count(verdict):
