@@ -388,7 +388,7 @@ def test_aftc_run_evaluates_claims_and_exits_4_on_fail(tmp_path, capsys):
     text = capsys.readouterr()
     assert "FAIL" in text.out and "1 claim(s) failed" in text.err
     rows = (out / "claims.csv").read_text().splitlines()
-    assert rows[0].startswith("scenario,run,kind,verdict") and ",activity,FAIL," in rows[1]
+    assert rows[0].startswith("scenario,section,run,kind,verdict") and ",activity,FAIL," in rows[1]
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["claims"][0]["verdict"] == "FAIL" and metrics["claims"][0]["measured"] > 1e-3
     assert metrics["runs"]["adaptive"]["activity_record_ok"] is True

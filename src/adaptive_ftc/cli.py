@@ -523,6 +523,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             figures += [str(out / "figures" / Path(name).with_suffix(f".{f}")) for f in formats]
             writing.update(1)
         writing.close()
+        from adaptive_ftc.reproduce import _claim_row  # reproduce's claims.csv rows
+
         verdicts = _run_claims(sc, results, args.no_baselines)
         thesis_verdicts = _thesis_law_claims(sc, results)
         if verdicts:
@@ -534,7 +536,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     "runs": summary,
                     "recovery": main.recovery(),
                     "figures": figures,
-                    "claims": [_claim_row(sc, c) for c in verdicts]
+                    "claims": [_claim_row(sc, c, "adaptive") for c in verdicts]
                     + [_claim_row(sc, c, "thesis_law") for c in thesis_verdicts],
                 },
                 indent=2,
@@ -650,25 +652,12 @@ def _thesis_law_claims(sc, results: dict) -> list:
     )
 
 
-def _claim_row(sc, c, run: str = "adaptive") -> dict:
-    return {
-        "scenario": sc.name,
-        "run": run,
-        "kind": c.kind,
-        "verdict": c.verdict,
-        "measured": c.measured,
-        "threshold": c.threshold,
-        "unit": c.unit,
-        "text": " ".join(c.text.split()),
-        "detail": c.detail,
-        "finding": c.finding,
-    }
-
-
 def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: list = ()) -> None:
     import csv
 
-    rows = [_claim_row(sc, c) for c in verdicts]
+    from adaptive_ftc.reproduce import _claim_row  # one row format with reproduce's claims.csv
+
+    rows = [_claim_row(sc, c, "adaptive") for c in verdicts]
     rows += [_claim_row(sc, c, "thesis_law") for c in thesis_verdicts]
     with path.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
