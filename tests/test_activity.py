@@ -504,3 +504,23 @@ def test_a_rate_limited_failure_on_ideal_actuators_is_measured_in_its_window(tmp
     # the fraction is of the whole window: no limit elsewhere counts as not at the limit
     assert_close(whole, during * 2.0 / 6.0, atol=2e-3)
     assert math.isnan(r.activity(2.0, 4.0)["delta_e2"].rate_limited_fraction)
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("max_fast_rms", "a"),
+        ("max_fast_rms", [0.1, -1.0]),
+        ("reference_peak_to_peak", []),
+        ("max_peak_command", True),
+        ("within_travel", "yes"),
+    ],
+)
+def test_activity_claim_thresholds_of_the_wrong_type_are_refused_at_validation(key, value):
+    # regression: `max_fast_rms = "a"` passed `aftc validate` (the per-actuator keys were not
+    # type-checked) and failed only when the claim was judged after the run
+    from adaptive_ftc.claims import ClaimError, _params
+
+    with pytest.raises(ClaimError, match=key):
+        _params({"kind": "activity", "text": "t", key: value})
+    assert _params({"kind": "activity", "text": "t", "max_fast_rms": [0.1, 0.2]})

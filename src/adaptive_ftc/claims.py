@@ -311,10 +311,30 @@ def _params(claim: Mapping[str, Any]) -> dict[str, Any]:
                 f"Key '{key}' of {_name(claim)} is a fraction of the window: it must be in "
                 f"[0, 1]; got {value!r}."
             )
+    for key in _PER_ACTUATOR:  # a positive number, or one per actuator
+        value = out.get(key)
+        if value is None:
+            continue
+        values = value if isinstance(value, (list, tuple)) else [value]
+        if not values or not all(
+            not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and v > 0
+            for v in values
+        ):
+            raise ClaimError(
+                f"Key '{key}' of {_name(claim)} must be a positive number or a list of positive "
+                f"numbers (one per actuator); got {value!r}."
+            )
+    if out.get("within_travel") is not None and not isinstance(out["within_travel"], bool):
+        raise ClaimError(
+            f"Key 'within_travel' of {_name(claim)} must be true or false; "
+            f"got {out['within_travel']!r}."
+        )
     return out
 
 
 _FRACTIONS = {"max_rate_limited_fraction", "max_travel_limited_fraction"}
+#: activity thresholds given as one number or one per actuator
+_PER_ACTUATOR = ("max_fast_rms", "reference_peak_to_peak", "max_peak_command")
 
 
 def _actuator_index(claim: Mapping[str, Any], key: str, value: Any, m: int) -> int:
