@@ -298,3 +298,28 @@ def test_simulation_interrupted_pickles_with_its_result_and_message():
     )
     assert isinstance(exc, KeyboardInterrupt)
     assert exc.result == {"partial": 1} and str(exc) == "Interrupted at t = 2 s"
+
+
+def test_ctrl_c_while_a_data_file_is_written_waits_for_the_write(tmp_path, monkeypatch):
+    """Regression: Ctrl-C arriving while ``to_netcdf`` wrote (``aftc run``'s writing phase)
+    raised inside HDF5 with xarray's file lock held, and closing the file then hung forever.
+    The interrupt now waits for the write and is raised right after it: the file is whole and
+    the next write does not block."""
+    import xarray as xr
+
+    r = _run(_scenario(tmp_path, "w", "", 1.0))
+    write = xr.Dataset.to_netcdf
+
+    def interrupted_write(self, *args, **kwargs):
+        _thread.interrupt_main()  # Ctrl-C in the middle of the write
+        return write(self, *args, **kwargs)
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", interrupted_write)
+    with pytest.raises(KeyboardInterrupt):
+        r.to_netcdf(tmp_path / "a.nc")
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", write)
+    from adaptive_ftc import SimResult
+
+    back = SimResult.from_netcdf(tmp_path / "a.nc")  # complete, and the lock was released
+    assert back.time.size == r.time.size
+    r.to_netcdf(tmp_path / "b.nc")

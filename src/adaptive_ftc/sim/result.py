@@ -693,7 +693,11 @@ class SimResult:
                 enc["dtype"] = "float32"
             encoding[str(name)] = enc
         path = Path(path)
-        with atomic_path(path) as tmp:
+        from adaptive_ftc._signals import sigint_deferred
+
+        # Ctrl-C waits for the write: raised inside HDF5 it left xarray's file lock taken and
+        # the process hung on the file's close
+        with sigint_deferred(), atomic_path(path) as tmp:
             ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         return path
 
