@@ -208,6 +208,21 @@ def _check_values(knob: str, values: Iterable[float]) -> list[float]:
     return out
 
 
+def _shortened(loop, duration, window):
+    """``loop`` ending ``duration`` s after its start (unchanged when None), after checking
+    that the judged final ``window`` fits in the run."""
+    if duration is not None:
+        if not duration > 0:
+            raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
+        loop = replace(loop, t_final=loop.t0 + float(duration))
+    span = loop.t_final - loop.t0
+    if not 0 < window <= span:
+        raise ConfigurationError(
+            f"`window` must be in (0, {span:g}] s (the run's length); got {window!r}."
+        )
+    return loop
+
+
 def _default_threshold(sc: Scenario) -> float:
     for claim in sc.claims:
         if claim.get("kind") == "tracking" and "threshold" in claim:
@@ -323,15 +338,7 @@ def robustness_sweep(
     loop, solver = sc.loop, sc.solver
     if record_dt is not None:
         solver = replace(solver, record_dt=record_dt)
-    if duration is not None:
-        if not duration > 0:
-            raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
-        loop = replace(loop, t_final=loop.t0 + float(duration))
-    span = loop.t_final - loop.t0
-    if not 0 < window <= span:
-        raise ConfigurationError(
-            f"`window` must be in (0, {span:g}] s (the run's length); got {window!r}."
-        )
+    loop = _shortened(loop, duration, window)
     thr = _default_threshold(sc) if threshold is None else float(threshold)
     runs = [(v, s) for v in vals for s in seeds]
     pairs = [_variant(loop, solver, knob, v, max(s, 0), noise_shape) for v, s in runs]
@@ -761,15 +768,7 @@ def delay_margin(
         solver = solver or sc.solver
         threshold = _default_threshold(sc) if threshold is None else threshold
         window = _tracking_window(sc, 20.0) if window is None else window
-    if duration is not None:
-        if not duration > 0:
-            raise ConfigurationError(f"`duration` must be > 0 s; got {duration!r}.")
-        loop = replace(loop, t_final=loop.t0 + float(duration))
-    span = loop.t_final - loop.t0
-    if not 0 < window <= span:
-        raise ConfigurationError(
-            f"`window` must be in (0, {span:g}] s (the run's length); got {window!r}."
-        )
+    loop = _shortened(loop, duration, window)
     if not 0 < resolution < 1:
         raise ConfigurationError(
             f"`resolution` is relative (upper - lower <= resolution * upper): in (0, 1); "
@@ -841,7 +840,7 @@ def delay_margin(
             ideal_rms_error=first.rms_error,
             threshold=float(threshold),
             window=float(window),
-            duration=float(span),
+            duration=float(loop.t_final - loop.t0),
             resolution=ts if ts > 0 else res,
         )
 
