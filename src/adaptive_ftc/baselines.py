@@ -356,16 +356,6 @@ def run_baselines(
     return out
 
 
-def _campaign_fixed_gain(loop: ClosedLoop) -> ClosedLoop:
+def campaign_fixed_gain(loop: ClosedLoop) -> ClosedLoop:
+    """The fixed-gain baseline of a campaign member (tuned with :data:`CAMPAIGN_SOLVER`)."""
     return fixed_gain(loop, CAMPAIGN_SOLVER)
-
-
-def _register() -> None:
-    from adaptive_ftc.campaigns.spec import register_design
-
-    register_design("fixed-gain", _campaign_fixed_gain)
-    register_design("nominal-inverse", nominal_inverse)
-    register_design("oracle", oracle)
-
-
-_register()

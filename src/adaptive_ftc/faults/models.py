@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 
 __all__ = [
     "Affine",
@@ -153,7 +153,7 @@ def _names_in(text: str) -> set[str]:
         tree = ast.parse(text, mode="eval")
     except SyntaxError:
         return set()
-    from adaptive_ftc.scenarios.expressions import FUNCTIONS
+    from adaptive_ftc.expressions import FUNCTIONS
 
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
     # only state-like names are tolerated before the plant is known

@@ -958,7 +958,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
 
 def _reference_checked(outputs: list[Any], plant: Any, ctx: _Ctx) -> list[Any] | None:
     """Parse every reference expression now (``None`` when one is bad, each recorded)."""
-    from adaptive_ftc.scenarios.expressions import Expression
+    from adaptive_ftc.expressions import Expression
 
     ok = True
     for i, text in enumerate(outputs):
