@@ -46,7 +46,7 @@ from adaptive_ftc.errors import (
     ScenarioError,
     did_you_mean,
 )
-from adaptive_ftc.faults import FAILURE_MODELS
+from adaptive_ftc.registry import FAILURE_MODELS
 from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop

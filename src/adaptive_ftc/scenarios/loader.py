@@ -17,12 +17,11 @@ from pathlib import Path
 from typing import Any
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
-from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
+from adaptive_ftc.controllers import DirectAdaptive, MimoDirectAdaptive
 from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
-from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.hardware import Actuators, Sensors
-from adaptive_ftc.plants import PLANTS
+from adaptive_ftc.registry import DESIGNS, FAILURE_MODELS, PLANTS
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.engine import SolverOptions, simulate
 from adaptive_ftc.sim.result import SimResult
