@@ -18,7 +18,7 @@ are not edges: a package's ``__init__`` only lists its public names.
 from __future__ import annotations
 
 import ast
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
 import pytest
@@ -100,6 +100,21 @@ def _targets(
     return out
 
 
+def _imports(
+    nodes: Iterable[ast.AST], in_function: bool
+) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    """Every import statement under ``nodes`` and whether it is inside a function (the
+    ``if TYPE_CHECKING:`` branches left out)."""
+    for child in nodes:
+        if isinstance(child, ast.If) and _is_type_checking(child):
+            yield from _imports(child.orelse, in_function)  # the runtime branch only
+            continue
+        if isinstance(child, ast.Import | ast.ImportFrom):
+            yield child, in_function
+        nested = isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+        yield from _imports(ast.iter_child_nodes(child), in_function or nested)
+
+
 def import_graph(root: Path = SRC, package: str = PACKAGE) -> tuple[dict, dict]:
     """``(module_level, deferred)``: each ``{module: set of modules it imports}``."""
     mods = _modules(root, package)
@@ -107,19 +122,10 @@ def import_graph(root: Path = SRC, package: str = PACKAGE) -> tuple[dict, dict]:
     deferred: dict[str, set[str]] = {m: set() for m in mods}
     for module, path in mods.items():
         is_pkg = path.name == "__init__.py"
-
-        def visit(nodes: Iterable[ast.AST], in_function: bool) -> None:
-            for child in nodes:
-                if isinstance(child, ast.If) and _is_type_checking(child):
-                    visit(child.orelse, in_function)  # the runtime branch only
-                    continue
-                if isinstance(child, ast.Import | ast.ImportFrom):
-                    edges = deferred if in_function else top
-                    edges[module] |= _targets(child, module, is_pkg, mods) - {module}
-                nested = isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
-                visit(ast.iter_child_nodes(child), in_function or nested)
-
-        visit(ast.parse(path.read_text(encoding="utf-8"), str(path)).body, False)
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        for node, in_function in _imports(tree.body, False):
+            edges = deferred if in_function else top
+            edges[module] |= _targets(node, module, is_pkg, mods) - {module}
     return top, deferred
 
 

@@ -325,7 +325,7 @@ def robustness_sweep(
 
     Examples
     --------
-    >>> df = robustness_sweep("hypersonic-direct-s1", "lag", [0.0, 0.05], duration=20.0)
+    >>> df = robustness_sweep("hypersonic-direct-s1", "lag", [0.0, 0.05])
     >>> df[["value", "status", "broken"]].values.tolist()
     [[0.0, 'completed', False], [0.05, 'completed', False]]
     """

@@ -31,6 +31,7 @@ from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["Member", "draw_member", "severity"]
 
+
 @dataclass(frozen=True)
 class Member:
     """One drawn member of a campaign: its failures, its closed loop and its table columns."""

@@ -203,11 +203,11 @@ class LossOfEffectiveness(Failure):
     def pattern(self) -> str:
         return f"{_paren(self.effectiveness)}*u"
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """``1 - effectiveness`` (``nan`` when the effectiveness is an expression)."""
         v = self.effectiveness
         return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
+
 
 @dataclass(frozen=True, kw_only=True)
 class Stuck(Failure):
@@ -220,10 +220,10 @@ class Stuck(Failure):
     def pattern(self) -> str:
         return _paren(self.value)
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """1: the actuator has no authority left, whatever the values."""
         return 1.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class ParameterisedStuck(Failure):
@@ -246,10 +246,10 @@ class ParameterisedStuck(Failure):
             f"{_paren(c)}*{_paren(b)}" for c, b in zip(self.coefficients, self.basis, strict=True)
         )
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """1: the actuator has no authority left, whatever the values."""
         return 1.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class Bias(Failure):
@@ -261,7 +261,6 @@ class Bias(Failure):
     def pattern(self) -> str:
         return f"u + {_paren(self.bias)}"
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """``|bias| / scales["bias"]`` (``nan`` without a scale or for an expression)."""
         if not scales or "bias" not in scales:
@@ -270,6 +269,7 @@ class Bias(Failure):
         if not isinstance(v, (int, float)):
             return math.nan
         return float(min(1.0, abs(v) / (scales["bias"] or 1.0)))
+
 
 @dataclass(frozen=True, kw_only=True)
 class Affine(Failure):
@@ -282,11 +282,11 @@ class Affine(Failure):
     def pattern(self) -> str:
         return f"{_paren(self.effectiveness)}*u + {_paren(self.bias)}"
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """``1 - effectiveness`` (``nan`` when the effectiveness is an expression)."""
         v = self.effectiveness
         return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
+
 
 @dataclass(frozen=True, kw_only=True)
 class NonAffine(Failure):
@@ -314,10 +314,10 @@ class Reversal(Failure):
     def pattern(self) -> str:
         return "-u"
 
-
     def severity(self, scales: Mapping[str, float] | None = None) -> float:
         """1: the actuator has no authority left, whatever the values."""
         return 1.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class PositionLimit(Failure):
