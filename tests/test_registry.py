@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from adaptive_ftc import baselines, controllers, faults, load_scenario, plants
+from adaptive_ftc._units import actuator_unit, display, state_unit
 from adaptive_ftc.controllers import DirectAdaptive
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.faults import Bias, LossOfEffectiveness, NonAffine, PositionLimit, Stuck
@@ -201,6 +202,17 @@ def test_check_design_reports_unnamed_numbers_and_a_missing_name():
         check_design(bad, loop)
     text = str(info.value)
     assert "non-empty class attribute `design`" in text and "typing.NamedTuple" in text
+
+
+@pytest.mark.parametrize("name", sorted(set(PLANTS) - {"equations"}))
+def test_display_units_are_the_plants_own_units(name):
+    """Regression: _units.py spelled units apart from the plants (the pendulum had none, the
+    spacecraft's modal states disagreed once); every state's displayed unit is the plant's."""
+    plant = _plant(name)
+    assert len(plant.units) == plant.n_states
+    for state, unit in zip(plant.state_names, plant.units, strict=True):
+        assert state_unit({"plant": name}, state) == display(unit), state
+    assert actuator_unit({"plant": name}) == display(plant.actuator_units)
 
 
 # ----------------------------------------------------------------------- severity

@@ -1,5 +1,7 @@
-"""Simulation engine: restarts exactly at every failure time; fast fixed-step RK4 (compiled)
-or an accurate variable-step scipy path."""
+"""Simulation engine: integrates a closed loop's compiled module with the method of its
+:class:`SolverOptions` (fixed-step RK4, adaptive DOPRI5, RODASP, Rodas5P or automatic
+stiffness switching, all compiled; or a ``scipy.integrate.solve_ivp`` method), restarting
+exactly at every failure time, and returns a :class:`~adaptive_ftc.sim.result.SimResult`."""
 
 from __future__ import annotations
 
