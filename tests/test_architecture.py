@@ -232,6 +232,19 @@ def test_lower_layers_never_import_higher_ones():
     assert not bad, "imports from a higher layer:\n" + "\n".join(bad)
 
 
+def test_docs_architecture_lists_the_layers_of_this_test():
+    """docs/architecture.md draws the layers; its table must say what LAYERS says."""
+    text = (SRC.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    for layer, heads in LAYERS.items():
+        if layer == "api":
+            continue
+        row = next((ln for ln in text.splitlines() if ln.startswith(f"| {layer} |")), "")
+        listed = (
+            set(row.split("|")[2].replace("`", "").replace(" ", "").split(",")) if row else set()
+        )
+        assert listed == set(heads), f"docs/architecture.md, layer {layer}: {sorted(listed)}"
+
+
 # ------------------------------------------------------------- the checker against a truth
 
 
