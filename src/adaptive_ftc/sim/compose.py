@@ -20,14 +20,16 @@ import re
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim import codegen
-from adaptive_ftc.sim.system import ClosedLoop
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["Assembled", "Generator", "LoopData", "assemble", "generate", "source_of"]
 
@@ -1573,7 +1575,7 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
             f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
-    from adaptive_ftc.sim.engine import clear_compile_errors
+    from adaptive_ftc.sim.compile_errors import clear_compile_errors
 
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
         addresses = loaded.get("addresses")

@@ -48,7 +48,8 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
     ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
     the caller. The rows allocate nothing, so they run without reference counting. The table
     at ``D.i[I_SIGT]``: ``P, SIG, REF, XDOT, Q, U0, U, UF, MISC, LAM, RMAT`` then the ``P``
-    position and the ``P`` rate indices of the outputs (``compose._signal_table``)."""
+    position and the ``P`` rate indices of the outputs (``sig_table``, written by
+    ``compose._structure``)."""
     c = D.c
     s = D.i[I_SIGT]
     P = D.i[s]
