@@ -4,10 +4,12 @@ sample on the simulator's own digital-control loop (``adaptive_ftc.sim.stepper``
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import warnings
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +26,8 @@ from adaptive_ftc.campaigns import draw_member, load_campaign  # noqa: E402
 from adaptive_ftc.gym import CATALOGUE_IDS, ScenarioEnv  # noqa: E402
 from adaptive_ftc.scenarios import list_scenarios, load_scenario  # noqa: E402
 from adaptive_ftc.sim.stepper import DigitalStepper  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _episode(env: ScenarioEnv, policy, *, seed: int = 0, options=None):
@@ -281,3 +285,16 @@ def test_stepper_refuses_a_continuous_loop_and_out_of_order_calls():
         st.sample()
     with pytest.raises(ConfigurationError, match="one value per actuator"):
         st.advance([1.0])
+
+
+# ------------------------------------------------------------------------------- the docs page
+def test_deploying_page_examples_print_what_the_page_says(capsys):
+    page = (ROOT / "docs" / "deploying.md").read_text(encoding="utf-8")
+    parts = re.split(r"```python\n(.*?)```", page, flags=re.S)
+    assert len(parts) >= 9  # four examples
+    namespace = {"__name__": "deploying"}
+    for code, after in zip(parts[1::2], parts[2::2], strict=True):
+        exec(compile(code, "docs/deploying.md", "exec"), namespace)  # noqa: S102
+        said = re.match(r"\s*prints `([^`]*)`", after)
+        assert said, f"no 'prints `...`' after the example:\n{code}"
+        assert capsys.readouterr().out.strip() == said.group(1)
