@@ -298,3 +298,12 @@ def test_deploying_page_examples_print_what_the_page_says(capsys):
         said = re.match(r"\s*prints `([^`]*)`", after)
         assert said, f"no 'prints `...`' after the example:\n{code}"
         assert capsys.readouterr().out.strip() == said.group(1)
+
+
+@pytest.mark.parametrize("module", ["adaptive_ftc.gym", "adaptive_ftc.sim.stepper"])
+def test_docstring_examples(module):
+    import doctest
+    import importlib
+
+    failures, tried = doctest.testmod(importlib.import_module(module))
+    assert tried and failures == 0
