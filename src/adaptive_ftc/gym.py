@@ -13,7 +13,7 @@ registers nothing. Any scenario (catalogue name, TOML file or
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample() * 0)
 
 The environment is the simulator's digital-control run (:mod:`adaptive_ftc.hardware`), advanced
-one controller sample at a time by :class:`~adaptive_ftc.sim.stepper.DigitalStepper`: the same
+one controller sample at a time by :class:`~adaptive_ftc.sim.DigitalStepper`: the same
 compiled loop, its plant integrated between samples by the scenario's solver under the
 zero-order-held command. One step is one control period (the scenario's ``sample_time``, or
 ``dt``).

@@ -29,11 +29,11 @@ from adaptive_ftc.sim.engine import SolverOptions
 from adaptive_ftc.sim.status import RunStatus, StatusReason
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["DigitalStepper", "Sample"]
+__all__ = ["ControllerSample", "DigitalStepper"]
 
 
 @dataclass(frozen=True)
-class Sample:
+class ControllerSample:
     """What a digital controller sees at one sample instant, and what the design commands.
 
     Attributes
@@ -150,7 +150,7 @@ class DigitalStepper:
         """The command held until the next sample (a copy)."""
         return self.Y[self._held].copy()
 
-    def sample(self) -> Sample:
+    def sample(self) -> ControllerSample:
         """The controller's sample at the current time: the design's command computed and
         held (the loop's own update at this instant); returns what the controller sees."""
         if self.done:
@@ -166,7 +166,7 @@ class DigitalStepper:
         self._sampled = True
         nx = asm.n_x
         asm.module.reference_at(self.time, asm.data.c, self._ref)
-        return Sample(
+        return ControllerSample(
             time=self.time,
             state=self.Y[:nx].copy(),
             measured=self.Y[:nx] + self._meas[ph],
