@@ -380,21 +380,15 @@ class ScenarioEnv(gymnasium.Env):
 
     def _observe(self) -> np.ndarray:
         st = self._running()
-        asm, nx = st.asm, st.asm.n_x
-        ph = min(st.phase, st.breakpoints.size - 2)  # at t_final: the last sample's noise
-        measured = st.Y[:nx] + asm.data.meas[ph]
-        ref = np.zeros(3 * self.loop.plant.n_outputs)
-        asm.module.reference_at(st.time, asm.data.c, ref)
-        p = self.loop.plant.n_outputs
-        parts = [measured]
-        for i in range(p):
+        ref = st.reference()
+        parts = [st.measured()]
+        for i in range(self.loop.plant.n_outputs):
             parts.append(ref[3 * i : 3 * i + self._n_ref])
-        return np.concatenate(parts).astype(np.float64)
+        return np.concatenate(parts)
 
     def _tracking_error(self) -> np.ndarray:
         st = self._running()
-        ref = np.zeros(3 * self.loop.plant.n_outputs)
-        st.asm.module.reference_at(st.time, st.asm.data.c, ref)
+        ref = st.reference()
         pos = self.loop.plant.position_index
         return np.array([ref[3 * i] - st.Y[pos[i]] for i in range(len(pos))])
 

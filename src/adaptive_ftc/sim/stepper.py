@@ -145,6 +145,17 @@ class DigitalStepper:
         """The whole state vector of the loop (plant, controller, held values), a copy."""
         return self.Y.copy()
 
+    def measured(self) -> np.ndarray:
+        """The measured plant state now: the true state plus the sensors' bias and noise of
+        the current sample (at ``t_final``: of the last one)."""
+        ph = min(self.phase, self.breakpoints.size - 2)
+        return self.Y[: self.asm.n_x] + self._meas[ph]
+
+    def reference(self) -> np.ndarray:
+        """``y_d, y_d', y_d''`` per output now (``3 p`` values, output by output)."""
+        self.asm.module.reference_at(self.time, self.asm.data.c, self._ref)
+        return self._ref.copy()
+
     @property
     def held_command(self) -> np.ndarray:
         """The command held until the next sample (a copy)."""
@@ -164,13 +175,11 @@ class DigitalStepper:
         asm, ph = self.asm, self.phase
         asm.module.jump(self.time, self.Y, ph, asm.data, self.W)
         self._sampled = True
-        nx = asm.n_x
-        asm.module.reference_at(self.time, asm.data.c, self._ref)
         return ControllerSample(
             time=self.time,
-            state=self.Y[:nx].copy(),
-            measured=self.Y[:nx] + self._meas[ph],
-            reference=self._ref.copy(),
+            state=self.Y[: asm.n_x].copy(),
+            measured=self.measured(),
+            reference=self.reference(),
             command=self.Y[self._held].copy(),
         )
 
