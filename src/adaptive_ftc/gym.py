@@ -291,7 +291,9 @@ class ScenarioEnv(gymnasium.Env):
         return loop
 
     # ------------------------------------------------------------------ the Gymnasium API
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(
+        self, *, seed: int | None = None, options: dict | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode: draw its noise seed (and campaign member) from the seed."""
         super().reset(seed=seed)
         options = dict(options or {})
@@ -318,7 +320,7 @@ class ScenarioEnv(gymnasium.Env):
         info = {"time": self._stepper.time, "member": self.member, "noise_seed": noise_seed}
         return self._observe(), info
 
-    def step(self, action):
+    def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Hold the action's command for one control period (see the module docstring)."""
         st = self._stepper
         if st is None:
