@@ -106,9 +106,14 @@ def test_zero_residual_reproduces_the_digital_run_bit_for_bit_across_failures():
         np.testing.assert_array_equal(info["command"], info["design_command"])
 
 
-def test_zero_residual_reproduces_noisy_and_mimo_digital_runs_bit_for_bit():
-    # rk4 with seeded sensor noise; a MIMO plant with four actuators; 2 ms and 5 ms periods
-    for name, dt in (("hypersonic-direct-s1-noise", 0.002), ("twomass-mimo", 0.005)):
+def test_zero_residual_reproduces_noisy_mimo_and_rosenbrock_digital_runs_bit_for_bit():
+    # rk4 with seeded sensor noise; a MIMO plant with four actuators (rk4); the wing rock with
+    # rodas5p (recorded at the samples only); 2 ms and 5 ms periods
+    for name, dt in (
+        ("hypersonic-direct-s1-noise", 0.002),
+        ("twomass-mimo", 0.005),
+        ("wingrock-direct-s1", 0.002),
+    ):
         env = ScenarioEnv(name, mode="residual", dt=dt, t_final=2.0)
         m = env.action_space.shape[0]
         times, states, commands, _ = _episode(env, lambda obs, m=m: np.zeros(m), seed=3)
