@@ -88,13 +88,16 @@ class LoopData(NamedTuple):
 # (0 for a continuous loop: none) and the plant's ``control_gain`` that the shared integrators
 # and ``signals`` call (``sim/fptr.py``; set by :func:`assemble`) and where the table of
 # ``signals`` starts (``templates/record.py``: the places of the signal buffers, then the
-# outputs' position and velocity states, then where the plant's numbers start in ``c``)
+# outputs' position and velocity states, then where the plant's numbers start in ``c``), then
+# the interval of the loop where a call of the shared integrators starts (``PH0``: 0 for a
+# whole run; :class:`~adaptive_ftc.sim.stepper.DigitalStepper` integrates one interval at a
+# time, its ``t_breaks[0]`` being the loop's interval ``PH0``)
 _HEADER = (
     *("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"),
-    *("ENV", "NENV", "RHS", "JUMP", "GAIN", "SIGT"),
+    *("ENV", "NENV", "RHS", "JUMP", "GAIN", "SIGT", "PH0"),
 )
 _I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = range(8)
-_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT = range(8, 14)
+_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT, _I_PH0 = range(8, 15)
 _I_HEAD = len(_HEADER)  # the failure instance per (interval, actuator) starts here in ``i``
 
 
@@ -263,7 +266,9 @@ class Assembled:
     adaptive_names: tuple[str, ...]
     theta_slices: tuple[slice, ...]
     n_x: int
-    layout: dict[str, slice]  # named places: "c:<setting>" in data.c, "w:<buffer>" in work
+    #: named places: "c:<setting>" in data.c, "w:<buffer>" in work, "y:<states>" in the state
+    #: vector ("y:held_command": a digital controller's held command)
+    layout: dict[str, slice]
     source: str = field(repr=False, default="")
     #: names of the states after the controller's: actuator positions, held command and held
     #: controller derivatives (digital control)
@@ -375,15 +380,16 @@ if not DISABLE_JIT:
     # allocate), the arrays passed would be counted at every call (measured: DOPRI5 30 % slower)
     @hot
     def rhs(t, Y, ph, D, W, dY):
-        """The loop's right-hand side, compiled in the loop's own module."""
-        call_rhs(D.i[I_RHS], t, Y, ph, D, W, dY)
+        """The loop's right-hand side, compiled in the loop's own module (``ph``: the
+        interval of this call, the loop's interval ``ph + D.i[I_PH0]``)."""
+        call_rhs(D.i[I_RHS], t, Y, ph + D.i[I_PH0], D, W, dY)
 
     @hot
     def jump(t, Y, ph, D, W):
         """The loop's state update at the start of interval ``ph`` (address 0: a continuous
-        loop, which has none)."""
+        loop, which has none, or a caller that runs the updates itself)."""
         if D.i[I_JUMP] != 0:
-            call_jump(D.i[I_JUMP], t, Y, ph, D, W)
+            call_jump(D.i[I_JUMP], t, Y, ph + D.i[I_PH0], D, W)
 
     @hot
     def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
@@ -393,11 +399,11 @@ if not DISABLE_JIT:
 else:  # NUMBA_DISABLE_JIT=1: the same calls, in Python, to the loop's Python functions
 
     def rhs(t, Y, ph, D, W, dY):
-        python_function(D.i[I_RHS])(t, Y, ph, D, W, dY)
+        python_function(D.i[I_RHS])(t, Y, ph + D.i[I_PH0], D, W, dY)
 
     def jump(t, Y, ph, D, W):
         if D.i[I_JUMP] != 0:
-            python_function(D.i[I_JUMP])(t, Y, ph, D, W)
+            python_function(D.i[I_JUMP])(t, Y, ph + D.i[I_PH0], D, W)
 
     def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
         return python_function(D.i[I_GAIN])(t, Y, ph, D, W, unit, x0dot, x1dot)
@@ -1400,6 +1406,8 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     if has_delay:
         what = "delayed command" if sampled else "delay state"
         extra += [f"{what} {q + 1} of {a}" for a in plant.actuator_names for q in range(n_dl)]
+    if sampled:  # the states an outside controller sets (sim/stepper.py)
+        layout["y:held_command"] = slice(at_hu, at_hu + m)
     layout.update(
         ny=ny,
         ny_all=ny_all,
@@ -1452,7 +1460,7 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     samp_flags = (samp if st.sampled else np.zeros(nph, dtype=np.int64)).ravel()
     sigt_at = samp_at + samp_flags.size
     # the addresses are written by assemble()
-    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at]
+    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at, 0]
     ints = np.concatenate(
         [
             np.array(header, dtype=np.int64),
