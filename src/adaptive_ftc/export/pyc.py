@@ -124,6 +124,7 @@ class Translator:
         self.order: list[str] = []  # C function definitions, callees first
         self.protos: list[str] = []
         self.fields_used: set[str] = set()
+        self.busy: set[tuple] = set()
 
     # ---------------------------------------------------------------- entry points
     def function(self, src: Source, arg_types: list[str], name: str | None = None) -> str:
@@ -170,8 +171,10 @@ class Translator:
                 cname = f"{base}_{n}"
                 n += 1
         fn = _Fn(src, dict(zip(names, arg_types, strict=True)), names)
-        self.done[key] = (cname, None)  # recursion is refused by the check below
+        self.done[key] = (cname, None)
+        self.busy.add(key)  # a call back into it is recursion (refused in _call_user)
         body = self._block(fn, node.body, 1)
+        self.busy.discard(key)
         ret = self._return_type(fn, node)
         self.done[key] = (cname, ret)
         decls = []
@@ -642,13 +645,10 @@ class Translator:
             texts.append(_strip(t))
             types.append(ty)
         key = (id(src.node), tuple(types))
-        if key in self.done and self.done[key][1] is None and key not in self._finished():
+        if key in self.busy:
             raise self._refuse(fn, node, f"a recursive call of {name!r}")
         cname, ret = self._function(src, tuple(types), None)
         return cname, ret, texts
-
-    def _finished(self) -> set:
-        return {k for k, v in self.done.items() if v[1] is not None}
 
 
 _BINOPS = {
