@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.export.pyc import DOUBLE, PARAMS, PTR, Field, Source, Translator
+from adaptive_ftc.export.pyc import DOUBLE, PARAMS, PTR, Field, Source, Translator, c_float
 
 __all__ = ["ExportedC", "export_c", "controller_loop"]
 
@@ -410,14 +410,14 @@ class _Library:
         vals = self.values
 
         def arr(v) -> str:
-            return "{" + ", ".join(repr(float(x)) for x in v) + "}"
+            return "{" + ", ".join(c_float(float(x)) for x in v) + "}"
 
         init = []
         for f in fields:
             v = vals[f.start : f.start + f.size]
-            init.append(f"    {repr(float(v[0])) if f.scalar else arr(v)}, /* {f.name} */")
-        init.append(f"    {{{', '.join(repr(v) for v in self.gain_values)}}}, /* gains */")
-        init.append(f"    {float(self.loop.sample_time)!r}, /* sample_time */")
+            init.append(f"    {c_float(float(v[0])) if f.scalar else arr(v)}, /* {f.name} */")
+        init.append(f"    {arr(self.gain_values)}, /* gains */")
+        init.append(f"    {c_float(float(self.loop.sample_time))}, /* sample_time */")
         init.append(f"    {arr(self._initial())} /* initial */")
         ref_at = lay["w:ref"].start
         u_at = lay["w:u"].start

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from adaptive_ftc.errors import ConfigurationError
 
-__all__ = ["Field", "Source", "Translator"]
+__all__ = ["Field", "Source", "Translator", "c_float"]
 
 DOUBLE, LONG, PTR, PARAMS = "double", "long", "double *", "params"
 #: ``math`` functions and their C99 names (libm): all take and return doubles
@@ -410,7 +410,7 @@ class Translator:
             if isinstance(v, int):
                 return str(v), LONG
             if isinstance(v, float):
-                return _float(v), DOUBLE
+                return c_float(v), DOUBLE
             raise self._refuse(fn, node, f"the constant {v!r}")
         if isinstance(node, ast.Name):
             name = node.id
@@ -420,7 +420,7 @@ class Translator:
                 return _c_name(name), fn.types[name]
             if name in fn.src.constants:
                 v = fn.src.constants[name]
-                return (str(v), LONG) if isinstance(v, int) else (_float(v), DOUBLE)
+                return (str(v), LONG) if isinstance(v, int) else (c_float(v), DOUBLE)
             if name in ("True", "False"):
                 return ("1" if name == "True" else "0"), LONG
             raise self._refuse(fn, node, f"the name {name!r}, not defined before it is used")
@@ -680,7 +680,8 @@ def _c_name(name: str) -> str:
     return f"{name}_" if name in _C_KEYWORDS else name
 
 
-def _float(v: float) -> str:
+def c_float(v: float) -> str:
+    """A C literal of ``v`` that reads back as the same double (INFINITY, NAN)."""
     if v != v:
         return "NAN"
     if v in (float("inf"), float("-inf")):
