@@ -1,12 +1,20 @@
-"""Software-in-the-loop check of an exported C controller.
+"""Software-in-the-loop checks of an exported C controller.
 
-:func:`verify` exports a loop's controller (:func:`~adaptive_ftc.export.export_c`), compiles
-it with the system C compiler (``cc -O2 -Wall -Wextra -Werror -std=c99``), loads it with
-ctypes and closes the loop with the project's plant integrated as the simulator's digital mode
-integrates it (RK4 steps of ``dt`` landing on every sample and failure time, the command held
-between samples, the same right-hand side for the plant, its failures and sensors), then
-compares the commands, the plant states and the controller states at every sample with the
-project's own simulation of the digital loop.
+Both checks export a loop's controller (:func:`~adaptive_ftc.export.export_c`), compile it
+with the system C compiler (``cc -O2 -Wall -Wextra -Werror -std=c99``), load it with ctypes
+and compare it with the project's own simulation of the digital loop (RK4 steps of ``dt``
+landing on every sample and failure time, the command and the controller's derivatives held
+between samples):
+
+* :func:`verify` closes the loop: the C computes every command, the project's plant (its
+  right-hand side, failures and sensors) is integrated between samples exactly as the
+  simulator integrates it, and commands, plant states and controller states are compared at
+  every sample. Rounding differences (the C moves its states by ``sample_time * derivative``,
+  the simulator by the sum of its RK4 steps) grow as the closed loop amplifies them: a
+  sensitive loop is compared over a short window.
+* :func:`replay` feeds the C, at every sample of the whole run, the simulator's own
+  measurement and controller states, and compares its command and next states: the
+  controller's equivalence without the loop's amplification.
 """
 
 from __future__ import annotations
@@ -26,16 +34,16 @@ import numpy as np
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export.c import controller_loop, export_c
 
-__all__ = ["CFLAGS", "SilReport", "compile_library", "verify"]
+__all__ = ["CFLAGS", "CompiledController", "SilReport", "compile_library", "replay", "verify"]
 
-#: the flags of the check (warnings are errors: the exported C compiles clean)
+#: the flags of the checks (warnings are errors: the exported C compiles clean)
 CFLAGS = ("-O2", "-Wall", "-Wextra", "-Werror", "-std=c99", "-shared", "-fPIC")
 
 
 @dataclass(frozen=True)
 class SilReport:
-    """The largest differences between the exported C in the loop and the simulator, each
-    relative to the signal's largest magnitude over the run (per command, state, controller
+    """The largest differences between the exported C and the simulator, each relative to
+    the signal's largest magnitude over the run (taken per command, plant state and controller
     state), and the number of samples compared."""
 
     samples: int
@@ -46,11 +54,13 @@ class SilReport:
 
     @property
     def worst(self) -> float:
+        """The largest of the three differences."""
         return max(self.command, self.plant_state, self.controller_state)
 
 
 def compile_library(source: Path, out: Path, cc: str | None = None) -> Path:
-    """Compile ``source`` (an exported ``.c``) into the shared library ``out``."""
+    """Compile ``source`` (an exported ``.c``) into the shared library ``out`` with
+    :data:`CFLAGS`; ``cc``: the compiler (default: ``$CC`` or ``cc``)."""
     cc = cc or os.environ.get("CC", "cc")
     if shutil.which(cc) is None:
         raise ConfigurationError(
@@ -65,21 +75,61 @@ def compile_library(source: Path, out: Path, cc: str | None = None) -> Path:
     return out
 
 
-def verify(
-    scenario,
-    *,
-    sample_time: float | None = None,
-    t_final: float | None = None,
-    dt: float | None = None,
-    workdir=None,
-    cc: str | None = None,
-) -> SilReport:
-    """Run the exported C controller of ``scenario`` in the loop and compare it with the
-    simulator's digital run (see the module docstring).
+class CompiledController:
+    """An exported controller compiled and loaded with ctypes: ``step(y, r, t) -> u``, its
+    states (:attr:`states`, a writable view) and ``init()``."""
 
-    ``t_final``: end the comparison earlier; ``dt``: the RK4 step of both runs (default: the
-    sample time split into steps of at most 1 ms).
-    """
+    def __init__(self, library: Path, n_y: int, n_s: int, n_u: int, n_work: int, prefix="aftc"):
+        self.library = library
+        self.lib = ctypes.CDLL(str(library))
+        dbl = ctypes.POINTER(ctypes.c_double)
+        self._dbl = dbl
+        self._step = getattr(self.lib, f"{prefix}_step")
+        self._step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, dbl, dbl, ctypes.c_double, dbl]
+        self._init = getattr(self.lib, f"{prefix}_init")
+        self._init.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        self.params = ctypes.addressof(ctypes.c_char.in_dll(self.lib, f"{prefix}_default_params"))
+        n = n_y + n_s
+        self._started_at = 8 * (2 * n + n_work)  # the layout of <prefix>_state
+        self.state = ctypes.create_string_buffer(self._started_at + 64)
+        buf = np.frombuffer(self.state, dtype=np.float64, count=2 * n + n_work)
+        self.n_y = n_y
+        self.states = buf[n_y:n]  # the controller's states (state.Y[NY:])
+        self.u = np.zeros(n_u)
+        self.init()
+
+    def init(self) -> None:
+        self._init(self.state, self.params)
+
+    def set_started(self) -> None:
+        """Mark the state started (the filters are not started again at the next step)."""
+        ctypes.c_int.from_buffer(self.state, self._started_at).value = 1
+
+    def step(self, y: np.ndarray, r: np.ndarray, t: float) -> np.ndarray:
+        y = np.ascontiguousarray(y, dtype=float)
+        r = np.ascontiguousarray(r, dtype=float)
+        self._step(
+            self.state,
+            self.params,
+            y.ctypes.data_as(self._dbl),
+            r.ctypes.data_as(self._dbl),
+            float(t),
+            self.u.ctypes.data_as(self._dbl),
+        )
+        return self.u.copy()
+
+
+@dataclass
+class _Setup:
+    loop: object
+    asm: object
+    result: object  # the simulator's digital run, recorded at every sample
+    ctrl: CompiledController
+    dt: float
+    ny: int
+
+
+def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
     from adaptive_ftc.sim.compose import assemble
     from adaptive_ftc.sim.engine import SolverOptions, simulate
 
@@ -94,59 +144,74 @@ def verify(
     T = float(loop.sample_time)
     if dt is None:
         dt = T / max(1, math.ceil(T / 1e-3 - 1e-9))
-    solver = SolverOptions(method="rk4", dt=dt, sdot="filtered", filter_tau=tau, record_dt=T)
     tmp = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="aftc-sil-"))
     exported = export_c(loop, tmp, prefix="aftc")
-    lib_path = compile_library(exported.source, tmp / "libaftc.so", cc)
-
+    lib = compile_library(exported.source, tmp / "libaftc.so", cc)
     asm = assemble(loop, sdot="filtered", filter_tau=tau)
-    data, mod = asm.data, asm.module
-    bps = asm.breakpoints
-    samp = data.samp
-    meas = data.meas
-    nx, m = asm.n_x, loop.plant.n_actuators
-    ny = nx + len(asm.adaptive_names)
-    at_hu = ny  # held commands, then held derivatives (no actuator states: checked above)
+    bps, samp = asm.breakpoints, asm.data.samp
     grid = np.array([bps[k] for k in range(len(bps) - 1) if samp[k]])
-    ref_sim = simulate(loop, solver, t_eval=grid)
-    if ref_sim.status != "completed":
+    solver = SolverOptions(method="rk4", dt=dt, sdot="filtered", filter_tau=tau, record_dt=T)
+    result = simulate(loop, solver, t_eval=grid)
+    if result.status != "completed":
         raise ConfigurationError(
-            f"The simulator's digital run did not complete ({ref_sim.message}); shorten it "
-            "with t_final or check the scenario."
+            f"The simulator's digital run did not complete ({result.message}); shorten it "
+            "with t_final, sample faster, or check the scenario."
         )
+    ny = asm.n_x + len(asm.adaptive_names)
+    ctrl = CompiledController(
+        lib, asm.n_x, ny - asm.n_x, loop.plant.n_actuators, asm.layout["w:size"].stop
+    )
+    return _Setup(loop, asm, result, ctrl, dt, ny)
 
-    lib = ctypes.CDLL(str(lib_path))
-    dbl = ctypes.POINTER(ctypes.c_double)
-    lib.aftc_step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, dbl, dbl, ctypes.c_double, dbl]
-    lib.aftc_init.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
-    params = ctypes.addressof(ctypes.c_char.in_dll(lib, "aftc_default_params"))
-    n_state = 8 * (2 * ny + asm.layout["w:size"].stop) + 64
-    state = ctypes.create_string_buffer(n_state)
-    lib.aftc_init(state, params)
-    c_states = np.frombuffer(state, dtype=np.float64, count=ny)  # Y of the C state
 
+def verify(
+    scenario,
+    *,
+    sample_time: float | None = None,
+    t_final: float | None = None,
+    dt: float | None = None,
+    workdir=None,
+    cc: str | None = None,
+) -> SilReport:
+    """Close the loop with the exported C controller and compare it with the simulator's
+    digital run at every sample (see the module docstring).
+
+    Parameters
+    ----------
+    scenario
+        A scenario (object, catalogue name or file) or a closed loop.
+    sample_time
+        The controller's period (s); default: the scenario's.
+    t_final
+        End the comparison earlier (s).
+    dt
+        The RK4 step of both runs (default: the sample period split into steps of at most
+        1 ms).
+    workdir
+        Where the C and the library are written (default: a new temporary folder).
+    cc
+        The C compiler (default: ``$CC`` or ``cc``).
+    """
+    s = _setup(scenario, sample_time, t_final, dt, workdir, cc)
+    asm, data, mod, ctrl = s.asm, s.asm.data, s.asm.module, s.ctrl
+    bps, samp, meas = asm.breakpoints, data.samp, data.meas
+    nx, m, ny = asm.n_x, s.loop.plant.n_actuators, s.ny
     Y = asm.y0.copy()
     W = asm.work()
     k1, k2, k3, k4 = (np.zeros_like(Y) for _ in range(4))
-    ref = np.zeros(3 * loop.plant.n_outputs)
-    u = np.zeros(m)
-    cmds, plant, ctrl = [], [], []
-
-    def ptr(a):
-        return a.ctypes.data_as(dbl)
-
+    ref = np.zeros(3 * s.loop.plant.n_outputs)
+    cmds, plant, states = [], [], []
     for ph in range(len(bps) - 1):
         a, b = bps[ph], bps[ph + 1]
         if samp[ph]:
-            y = np.ascontiguousarray(Y[:nx] + meas[ph])
             mod.reference_at(a, data.c, ref)
             plant.append(Y[:nx].copy())
-            lib.aftc_step(state, params, ptr(y), ptr(ref), a, ptr(u))
-            ctrl.append(c_states[nx:ny].copy())  # the states at the next sample
-            cmds.append(u.copy())
-            Y[at_hu : at_hu + m] = u
-            Y[at_hu + m :] = 0.0  # the controller's states are the C's: none move here
-        nsteps = max(1, int(math.ceil((b - a) / dt - 1e-9)))
+            u = ctrl.step(Y[:nx] + meas[ph], ref, a)
+            cmds.append(u)
+            states.append(ctrl.states.copy())  # the controller's states at the next sample
+            Y[ny : ny + m] = u  # the held command (no actuator states: checked in _setup)
+            Y[ny + m :] = 0.0  # held derivatives: the controller's states are the C's
+        nsteps = max(1, int(math.ceil((b - a) / s.dt - 1e-9)))
         h = (b - a) / nsteps
         for st in range(nsteps):  # templates/rk4.py, step for step
             t = a + st * h
@@ -157,14 +222,48 @@ def verify(
             mod.rhs(t + 0.5 * hh, Y + 0.5 * hh * k2, ph, data, W, k3)
             mod.rhs(t1, Y + hh * k3, ph, data, W, k4)
             Y = Y + hh / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-
-    n = min(len(cmds), ref_sim.time.size)
+    res = s.result
+    n = min(len(cmds), res.time.size)
     return SilReport(
         samples=n,
-        command=_rel(np.array(cmds)[:n], ref_sim.u_cmd[:n]),
-        plant_state=_rel(np.array(plant)[:n], ref_sim.states[:n]),
-        controller_state=_rel(np.array(ctrl)[: n - 1], ref_sim.adaptive[1:n]),
-        library=lib_path,
+        command=_rel(np.array(cmds)[:n], res.u_cmd[:n]),
+        plant_state=_rel(np.array(plant)[:n], res.states[:n]),
+        controller_state=_rel(np.array(states)[: n - 1], res.adaptive[1:n]),
+        library=ctrl.library,
+    )
+
+
+def replay(
+    scenario,
+    *,
+    sample_time: float | None = None,
+    t_final: float | None = None,
+    dt: float | None = None,
+    workdir=None,
+    cc: str | None = None,
+) -> SilReport:
+    """Give the exported C, at every sample of the simulator's digital run, that run's
+    measurement and controller states, and compare its command and next states with the
+    run's (the arguments as :func:`verify`'s; ``plant_state`` is 0: the plant is the run's)."""
+    s = _setup(scenario, sample_time, t_final, dt, workdir, cc)
+    asm, data, ctrl, res = s.asm, s.asm.data, s.ctrl, s.result
+    ref = np.zeros(3 * s.loop.plant.n_outputs)
+    rows = [k for k in range(len(asm.breakpoints) - 1) if data.samp[k]]
+    n = min(len(rows), res.time.size)
+    cmds, states = [], []
+    for k in range(n):
+        t = float(res.time[k])
+        asm.module.reference_at(t, data.c, ref)
+        ctrl.states[:] = res.adaptive[k]
+        ctrl.set_started()
+        cmds.append(ctrl.step(res.states[k] + data.meas[rows[k]], ref, t))
+        states.append(ctrl.states.copy())
+    return SilReport(
+        samples=n,
+        command=_rel(np.array(cmds), res.u_cmd[:n]),
+        plant_state=0.0,
+        controller_state=_rel(np.array(states)[: n - 1], res.adaptive[1:n]),
+        library=ctrl.library,
     )
 
 
