@@ -299,7 +299,7 @@ class _Library:
             rs += [
                 f" *   r[{3 * i}] = desired {name}{unit(u0)}",
                 f" *   r[{3 * i + 1}] = its first derivative{unit(u1)}",
-                f" *   r[{3 * i + 2}] = its second derivative{unit(u1 + ' s-1' if u1 else '')}",
+                f" *   r[{3 * i + 2}] = its second derivative{unit(_per_second(u1))}",
             ]
         us = [f" *   u[{j}] = command of {a}{unit(plant.actuator_units)}"
               for j, a in enumerate(plant.actuator_names)]  # fmt: skip
@@ -485,6 +485,17 @@ void {pfx}_reference(const {pfx}_params *params, double t, double r[])
 }}
 """
         return body
+
+
+def _per_second(unit: str) -> str:
+    """``unit`` divided by seconds (``rad s-1`` -> ``rad s-2``, ``m/s`` -> ``m/s^2``)."""
+    if not unit:
+        return ""
+    if unit.endswith(" s-1"):
+        return unit[:-4] + " s-2"
+    if unit.endswith("/s"):
+        return unit + "^2"
+    return f"{unit} s-1"
 
 
 # ----------------------------------------------------------------------------- slicing

@@ -1,0 +1,60 @@
+"""``aftc export``: the controller of a scenario as C (``aftc export c``)."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["add_parser", "main"]
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds (a number > 0); got {text!r}") from None
+    if not v > 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected seconds (a number > 0); got {text!r}")
+    return v
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Add ``export`` (with its ``c`` command) to the ``aftc`` subcommands ``sub``."""
+    ex = sub.add_parser(
+        "export",
+        help="export a scenario's controller (C99 library)",
+        description="Export the digital controller of a scenario beyond Python.",
+    )
+    kinds = ex.add_subparsers(dest="export_kind", required=True)
+    c = kinds.add_parser(
+        "c",
+        help="the digital controller as a self-contained C99 library",
+        description="Write <prefix>.h and <prefix>.c: the scenario's digital controller "
+        "(measurement and reference in, actuator commands out; adaptive laws, regressor, s' "
+        "filter, allocation), generated from the code the simulator compiles. No heap, libm "
+        "only; the scenario's numbers are a const params struct (retune without "
+        "regenerating). See docs/deploying.md.",
+    )
+    c.add_argument("scenario", help="scenario name or path to a .toml file")
+    c.add_argument("--out", required=True, help="folder to write the .h and .c into")
+    c.add_argument(
+        "--sample-time",
+        type=_positive,
+        metavar="SECONDS",
+        help="the controller's period (default: the scenario's [digital] sample_time; "
+        "needed for a continuous scenario)",
+    )
+    c.add_argument("--prefix", default="aftc", help="prefix of every C name (default: aftc)")
+    return ex
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``aftc export``; returns the exit status."""
+    from adaptive_ftc.export.c import export_c
+
+    out = export_c(args.scenario, args.out, sample_time=args.sample_time, prefix=args.prefix)
+    print(
+        f"wrote {out.header} and {out.source}: {out.n_y} measurements, {out.n_r} reference "
+        f"values, {out.n_u} commands, {out.n_states} controller states, every "
+        f"{out.sample_time:g} s"
+    )
+    return 0
