@@ -36,7 +36,7 @@ HZ256, HZ1024, HZ4096 = 2.0**-8, 2.0**-10, 2.0**-12
 CLOSED_LOOP = [
     ("hypersonic-direct-s1", HZ256, 42.0),  # §2.3, elevator failure at 40 s
     ("hypersonic-direct-s1-digital", None, 42.0),  # §2.3 constraint-aware, 200 Hz
-    ("hypersonic-estimation-s1", HZ256, 42.0),  # §2.4 on the hypersonic plant
+    ("hypersonic-estimation-s1", HZ1024, 42.0),  # §2.4 on the hypersonic plant
     ("wingrock-direct-s1", HZ256, 7.0),  # wing rock, failures at 3 s and 6 s
     ("manipulator-mimo-s1", HZ1024, 10.0),  # ch. 3, failure at 8 s
     ("spacecraft-mimo-s1", HZ256, 22.0),  # ch. 3, failures at 0 s and 20 s
@@ -64,7 +64,9 @@ SENSITIVE = [
 ]
 
 
-@pytest.mark.parametrize(("name", "ts", "t_loop", "t_replay"), SENSITIVE, ids=[c[0] for c in SENSITIVE])
+@pytest.mark.parametrize(
+    ("name", "ts", "t_loop", "t_replay"), SENSITIVE, ids=[c[0] for c in SENSITIVE]
+)
 def test_sensitive_loops_short_window_and_replay(name, ts, t_loop, t_replay, tmp_path):
     report = verify(name, sample_time=ts, t_final=t_loop, workdir=tmp_path / "loop")
     assert report.worst <= TOL, report
@@ -74,11 +76,13 @@ def test_sensitive_loops_short_window_and_replay(name, ts, t_loop, t_replay, tmp
 
 
 def test_replay_of_a_whole_run_gives_the_simulators_commands_bit_for_bit(tmp_path):
-    # the C's arithmetic is the simulator's: fed the same states it computes the same command
+    # the C's arithmetic is the simulator's: fed the same states it computes the same command.
+    # Its next states differ by rounding: at 200 Hz the simulator's sample intervals are
+    # differences of rounded times (0.005 within 1e-15 s at t = 100 s), the C's is 0.005
     report = replay("hypersonic-direct-s1-digital", workdir=tmp_path)
     assert report.samples == 24000  # 120 s at 200 Hz
     assert report.command == 0.0
-    assert report.controller_state <= 1e-14
+    assert report.controller_state <= TOL
 
 
 def test_the_c_compiles_clean_under_the_strict_flags_and_is_self_contained(tmp_path):
@@ -178,7 +182,7 @@ def test_untranslatable_python_is_refused_naming_construct_file_and_line():
 def test_translation_keeps_python_semantics():
     # true division of integers, floor division and modulo toward minus infinity, min/max
     # ties, tuple returns as out-pointers: compiled and run against Python's answers
-    code = '''
+    code = """
 def parts(a, b):
     return a // b, a % b
 
@@ -190,7 +194,7 @@ def f(x, n, m, out):
     out[3] = min(x, -x, 0.5)
     out[4] = max(abs(x), 2.0) ** 2
     out[5] = x if n > m else -x
-'''
+"""
     tree = ast.parse(code)
     defs = {n.name: Source(n, "<test>") for n in tree.body}
     tr = Translator(defs.get, [], (), "t")
@@ -218,10 +222,16 @@ def f(x, n, m, out):
 
 def test_cli_export_c(tmp_path, capsys):
     out = tmp_path / "c"
-    assert main(["export", "c", "hypersonic-direct-s1", "--sample-time", "0.005", "--out", str(out)]) == 0
+    assert (
+        main(["export", "c", "hypersonic-direct-s1", "--sample-time", "0.005", "--out", str(out)])
+        == 0
+    )
     assert (out / "aftc.h").exists() and (out / "aftc.c").exists()
     assert "26 controller states" in capsys.readouterr().out
     assert main(["export", "c", "hypersonic-direct-s1", "--out", str(out)]) == 2
     assert "--sample-time" in capsys.readouterr().err
-    assert main(["export", "c", "hypersonic-direct-s1-digital", "--out", str(out), "--prefix", "ca"]) == 0
+    assert (
+        main(["export", "c", "hypersonic-direct-s1-digital", "--out", str(out), "--prefix", "ca"])
+        == 0
+    )
     assert (out / "ca.c").exists()

@@ -161,8 +161,7 @@ def export_c(
     """
     if not (isinstance(prefix, str) and prefix.isidentifier() and prefix.isascii()):
         raise ConfigurationError(
-            f"`prefix` of the C export must be a C identifier (letters, digits, _); got "
-            f"{prefix!r}."
+            f"`prefix` of the C export must be a C identifier (letters, digits, _); got {prefix!r}."
         )
     loop, tau = controller_loop(scenario, sample_time)
     lib = _Library(loop, tau, prefix)
@@ -348,8 +347,7 @@ class _Library:
             *[f"    double {n};" for n in self.gain_names],
             f"}} {pfx}_gains;",
             "",
-            "/* the numbers of the controller (the scenario's in "
-            f"{pfx}_default_params) */",
+            f"/* the numbers of the controller (the scenario's in {pfx}_default_params) */",
             "typedef struct {",
         ]
         for f in fields:
@@ -422,11 +420,12 @@ class _Library:
         ref_at = lay["w:ref"].start
         u_at = lay["w:u"].start
         names = self.g.adaptive_names
+        pos, vel = plant.position_index, plant.velocity_index
         start = [
-            f"        /* the s' filter starts at s = e' + lambda e of the first measurement */",
+            "        /* the s' filter starts at s = e' + lambda e of the first measurement */",
             *[
-                f"        state->Y[{self.filt + i}] = (r[{3 * i + 1}] - y[{plant.velocity_index[i]}])"
-                f" + params->lam[{i}] * (r[{3 * i}] - y[{plant.position_index[i]}]);"
+                f"        state->Y[{self.filt + i}] = (r[{3 * i + 1}] - y[{vel[i]}])"
+                f" + params->lam[{i}] * (r[{3 * i}] - y[{pos[i]}]);"
                 for i in range(p)
             ],
         ]

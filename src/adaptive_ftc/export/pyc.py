@@ -268,8 +268,11 @@ class Translator:
             if st.orelse:
                 raise self._refuse(fn, st, "while ... else")
             test, _ = self._expr(fn, st.test)
-            return [f"{ind}while ({_strip(test)}) {{", *self._block(fn, st.body, depth + 1),
-                    f"{ind}}}"]
+            return [
+                f"{ind}while ({_strip(test)}) {{",
+                *self._block(fn, st.body, depth + 1),
+                f"{ind}}}",
+            ]
         if isinstance(st, ast.For):
             return self._for(fn, st, depth)
         raise self._refuse(fn, st, f"the statement {type(st).__name__}")
@@ -593,10 +596,10 @@ class Translator:
         f = node.func
         if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "math":
             if f.attr == "isfinite":
-                (a, _), = [self._expr(fn, x) for x in node.args]
+                ((a, _),) = [self._expr(fn, x) for x in node.args]
                 return f"(isfinite({_strip(a)}) != 0)", LONG
             if f.attr in ("isnan", "isinf"):
-                (a, _), = [self._expr(fn, x) for x in node.args]
+                ((a, _),) = [self._expr(fn, x) for x in node.args]
                 return f"({f.attr}({_strip(a)}) != 0)", LONG
             cf = MATH.get(f.attr)
             if cf is None:
