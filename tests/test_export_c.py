@@ -235,3 +235,5 @@ def test_cli_export_c(tmp_path, capsys):
         == 0
     )
     assert (out / "ca.c").exists()
+    assert main(["export", "c", "--help"]) == 0
+    assert "exit status:" in capsys.readouterr().out

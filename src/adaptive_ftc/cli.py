@@ -277,8 +277,7 @@ def _parser() -> argparse.ArgumentParser:
     st.epilog, st.formatter_class = _EPILOG, raw  # the same exit status as every command
     from adaptive_ftc.export import cli as export_cli
 
-    ex = export_cli.add_parser(sub)
-    ex.epilog, ex.formatter_class = _EPILOG, raw
+    export_cli.add_parser(sub, epilog=_EPILOG, formatter_class=raw)
     return p
 
 

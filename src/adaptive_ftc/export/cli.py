@@ -17,12 +17,15 @@ def _positive(text: str) -> float:
     return v
 
 
-def add_parser(sub) -> argparse.ArgumentParser:
-    """Add ``export`` (with its ``c`` command) to the ``aftc`` subcommands ``sub``."""
+def add_parser(sub, **common) -> argparse.ArgumentParser:
+    """Add ``export`` (with its ``c`` command) to the ``aftc`` subcommands ``sub``;
+    ``common``: keyword arguments of every parser (the exit-status epilog)."""
     ex = sub.add_parser(
         "export",
         help="export a scenario's controller (C99 library)",
-        description="Export the digital controller of a scenario beyond Python.",
+        description="Export the digital controller of a scenario beyond Python: 'aftc export "
+        "c' writes it as a C99 library.",
+        **common,
     )
     kinds = ex.add_subparsers(dest="export_kind", required=True)
     c = kinds.add_parser(
@@ -33,6 +36,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "filter, allocation), generated from the code the simulator compiles. No heap, libm "
         "only; the scenario's numbers are a const params struct (retune without "
         "regenerating). See docs/deploying.md.",
+        **common,
     )
     c.add_argument("scenario", help="scenario name or path to a .toml file")
     c.add_argument("--out", required=True, help="folder to write the .h and .c into")
