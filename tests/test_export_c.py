@@ -32,7 +32,8 @@ TOL = 1e-12
 HZ256, HZ1024, HZ4096 = 2.0**-8, 2.0**-10, 2.0**-12
 
 # (scenario, sample time (None: its own), end of the window (s)): every design of the thesis,
-# the constraint-aware §2.3 law at its own 200 Hz, and a user plant written in a scenario file
+# the constraint-aware §2.3 law at its own 200 Hz, a user plant written in a scenario file,
+# and loops with actuator dynamics and sensor noise
 CLOSED_LOOP = [
     ("hypersonic-direct-s1", HZ256, 42.0),  # §2.3, elevator failure at 40 s
     ("hypersonic-direct-s1-digital", None, 42.0),  # §2.3 constraint-aware, 200 Hz
@@ -44,6 +45,9 @@ CLOSED_LOOP = [
     ("pendulum-nussbaum-reversed", HZ1024, 12.0),  # §4.3, reversed direction at 10 s
     ("pendulum-sign-reversed", HZ256, 12.0),  # §4.4, reversed direction at 10 s
     ("examples/own_plant.toml", HZ256, 22.0),  # user plant (equations in the file), 10/20 s
+    # beyond the thesis: the plant side the C never sees, integrated by the simulator's jump
+    ("hypersonic-direct-s1-actuators", HZ256, 42.0),  # actuator lag, rate and travel limits
+    ("hypersonic-direct-s1-noise", HZ256, 12.0),  # sensor noise and bias (y = x + offset)
 ]
 
 

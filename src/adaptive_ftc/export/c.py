@@ -498,8 +498,13 @@ def _per_second(unit: str) -> str:
 
 
 # ----------------------------------------------------------------------------- slicing
-def _slice(stmts: list, ny: int) -> list:
-    """The controller's statements of a generated ``rhs`` body (see the module docstring)."""
+def _slice(stmts: list, ny: int, tainted: set | None = None) -> list:
+    """The controller's statements of a generated ``rhs`` body (see the module docstring).
+
+    A statement that uses a name of the plant side is dropped, and the names it assigns join
+    the plant side for the statements after it (``tau = act(...)`` then ``if tau > 0``).
+    """
+    tainted = set(_PLANT_SIDE) if tainted is None else tainted
     out = []
     for st in stmts:
         st = _Fold().visit(st)
@@ -507,14 +512,15 @@ def _slice(stmts: list, ny: int) -> list:
             continue
         if isinstance(st, ast.If):
             if isinstance(st.test, ast.Constant):  # folded: misc[5] (at a sample) is 1
-                out += _slice(st.body if st.test.value else st.orelse, ny)
+                out += _slice(st.body if st.test.value else st.orelse, ny, tainted)
                 continue
             if _calls(st, "reference"):  # the reference cache: r is an input (in W)
-                out += _slice(st.body, ny)
+                out += _slice(st.body, ny, tainted)
                 continue
-            if _uses(st.test, _PLANT_SIDE):
+            if _uses(st.test, tainted):
+                _drop(st, tainted)
                 continue
-            body, orelse = _slice(st.body, ny), _slice(st.orelse, ny)
+            body, orelse = _slice(st.body, ny, tainted), _slice(st.orelse, ny, tainted)
             if not body and not orelse:
                 continue
             st.body, st.orelse = body or [ast.Pass()], orelse
@@ -523,9 +529,10 @@ def _slice(stmts: list, ny: int) -> list:
         if isinstance(st, ast.For):
             if _writes_only_beyond(st, ny):  # held states of the simulator: not the controller's
                 continue
-            if _uses(st.iter, _PLANT_SIDE):
+            if _uses(st.iter, tainted):
+                _drop(st, tainted)
                 continue
-            body = _slice(st.body, ny)
+            body = _slice(st.body, ny, tainted)
             if not body:
                 continue
             st.body = body
@@ -533,13 +540,46 @@ def _slice(stmts: list, ny: int) -> list:
             continue
         if isinstance(st, ast.Expr) and _calls(st, "reference"):
             continue
-        if _uses(st, _PLANT_SIDE):
+        if _uses(st, tainted):
+            _drop(st, tainted)
             continue
-        if isinstance(st, ast.Assign) and _is_view(st, "W"):
-            out.append(st)
-            continue
+        for name in _assigned(st):  # assigned by the controller again: its own value
+            tainted.discard(name)
         out.append(st)
     return out
+
+
+#: the controller's signals: a plant-side statement must not write them
+_CONTROLLER_SIGNALS = frozenset({"u", "u0", "q", "sig", "phi", "mu", "wb", "ref"})
+
+
+def _drop(st, tainted: set) -> None:
+    """Drop the plant-side statement ``st``: what it assigns is plant side from here on."""
+    for node in ast.walk(st):
+        if isinstance(node, (ast.Assign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for t in targets:
+                if (
+                    isinstance(t, ast.Subscript)
+                    and isinstance(t.value, ast.Name)
+                    and t.value.id in _CONTROLLER_SIGNALS
+                ):
+                    raise ConfigurationError(
+                        f"Cannot export to C: the controller's signal `{t.value.id}` is written "
+                        f"from the plant side in `{ast.unparse(node)[:80]}` (generated loop "
+                        f"module, line {getattr(node, 'lineno', '?')}); the controller would "
+                        "need the plant's model or its failures."
+                    )
+    tainted.update(_assigned(st))
+
+
+def _assigned(st) -> set[str]:
+    """Plain names assigned anywhere in ``st``."""
+    names = set()
+    for node in ast.walk(st):
+        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+    return names
 
 
 class _Fold(ast.NodeTransformer):

@@ -136,11 +136,6 @@ def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
     loop, tau = controller_loop(scenario, sample_time)
     if t_final is not None:
         loop = dataclasses.replace(loop, t_final=float(t_final))
-    if loop.has_actuator_dynamics or (loop.actuators is not None and loop.actuators.has_delay):
-        raise ConfigurationError(
-            "The SIL check integrates ideal actuators only; this loop has actuator dynamics "
-            "or an input delay (the exported controller itself does not depend on them)."
-        )
     T = float(loop.sample_time)
     if dt is None:
         dt = T / max(1, math.ceil(T / 1e-3 - 1e-9))
@@ -195,22 +190,35 @@ def verify(
     s = _setup(scenario, sample_time, t_final, dt, workdir, cc)
     asm, data, mod, ctrl = s.asm, s.asm.data, s.asm.module, s.ctrl
     bps, samp, meas = asm.breakpoints, data.samp, data.meas
-    nx, m, ny = asm.n_x, s.loop.plant.n_actuators, s.ny
+    nx, ny = asm.n_x, s.ny
+    plant_names = s.loop.plant.actuator_names
+    held = ny + asm.extra_names.index(f"held command of {plant_names[0]}")
+    m = len(plant_names)
     Y = asm.y0.copy()
     W = asm.work()
     k1, k2, k3, k4 = (np.zeros_like(Y) for _ in range(4))
     ref = np.zeros(3 * s.loop.plant.n_outputs)
     cmds, plant, states = [], [], []
+    if s.loop.sensors is not None:
+        # the simulator starts the s' filter from the true initial state, the C from its first
+        # measurement (bias, noise): the C is started where the simulator starts
+        ctrl.states[:] = Y[nx:ny]
+        ctrl.set_started()
     for ph in range(len(bps) - 1):
         a, b = bps[ph], bps[ph + 1]
         if samp[ph]:
             mod.reference_at(a, data.c, ref)
             plant.append(Y[:nx].copy())
+            if cmds:  # the simulator's controller states: the C's (after its first step)
+                Y[nx:ny] = ctrl.states
+        # the simulator's interval update (templates/rk4.py): the actuators, the input delay
+        # and, at a sample, the held command (replaced below by the C's)
+        mod.jump(a, Y, ph, data, W)
+        if samp[ph]:
             u = ctrl.step(Y[:nx] + meas[ph], ref, a)
             cmds.append(u)
             states.append(ctrl.states.copy())  # the controller's states at the next sample
-            Y[ny : ny + m] = u  # the held command (no actuator states: checked in _setup)
-            Y[ny + m :] = 0.0  # held derivatives: the controller's states are the C's
+            Y[held : held + m] = u
         nsteps = max(1, int(math.ceil((b - a) / s.dt - 1e-9)))
         h = (b - a) / nsteps
         for st in range(nsteps):  # templates/rk4.py, step for step
