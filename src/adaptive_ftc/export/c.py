@@ -268,6 +268,7 @@ class _Library:
         ref = tr.function(self.resolve("reference"), [DOUBLE, PARAMS, PTR], f"{pfx}__reference")
         used = tr.fields_used | {"lam", "k", "k0", "R", "eps0", "filter_tau", "adapt"}
         fields = [f for f in self.fields() if f.name in used]
+        self.last_fields = fields  # the params struct's fields (the FMU's parameters)
         return self._header(fields), self._source(tr, fields, cname, ref)
 
     # -------------------------------------------------------------- text
@@ -325,7 +326,9 @@ class _Library:
             "sample, as the",
             " * simulator's digital mode does). The first step after init/reset starts the "
             "s' filter (and",
-            " * any measurement filter) at the first measurement.",
+            " * any measurement filter) at the first measurement (params.start_filters = 1, "
+            "the default;",
+            " * 0: they start at params.initial).",
             " *",
             f" * Inputs y[{P}_NY]: the measured plant states",
             *ys,
@@ -357,6 +360,8 @@ class _Library:
         lines += [
             f"    {pfx}_gains gains;",
             f"    double {'sample_time;':<21} /* controller period [s] */",
+            f"    double {'start_filters;':<21} /* 1: the first step after init/reset starts the "
+            "filters at the first measurement; 0: at initial[] */",
             f"    double initial[{P}_NS];{'':<{max(0, 8 - len(P))}} /* controller states at "
             "init/reset */",
             f"}} {pfx}_params;",
@@ -416,6 +421,7 @@ class _Library:
             init.append(f"    {c_float(float(v[0])) if f.scalar else arr(v)}, /* {f.name} */")
         init.append(f"    {arr(self.gain_values)}, /* gains */")
         init.append(f"    {c_float(float(self.loop.sample_time))}, /* sample_time */")
+        init.append("    1.0, /* start_filters */")
         init.append(f"    {arr(self._initial())} /* initial */")
         ref_at = lay["w:ref"].start
         u_at = lay["w:u"].start
@@ -467,10 +473,10 @@ void {pfx}_step({pfx}_state *state, const {pfx}_params *params, const double y[]
     int i;
     for (i = 0; i < {P}_NY; i++) state->Y[i] = y[i];
     for (i = 0; i < {P}_NR; i++) state->W[{ref_at} + i] = r[i];
-    if (!state->started) {{
+    if (!state->started && params->start_filters != 0.0) {{
 {chr(10).join(start)}
-        state->started = 1;
     }}
+    state->started = 1;
     for (i = 0; i < {P}_NY + {P}_NS; i++) state->dY[i] = 0.0;
     {cname}(t, state->Y, params, state->W, state->dY);
     for (i = 0; i < {P}_NU; i++) u[i] = state->W[{u_at} + i];
