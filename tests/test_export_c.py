@@ -25,6 +25,7 @@ from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export import export_c
 from adaptive_ftc.export.pyc import DOUBLE, Source, Translator
 from adaptive_ftc.export.sil import CFLAGS, replay, verify
+from adaptive_ftc.scenarios.loader import list_scenarios
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 
@@ -142,6 +143,24 @@ def test_prefix_names_every_symbol(tmp_path):
     assert not re.search(r"\baftc_", text)
     with pytest.raises(ConfigurationError, match="prefix"):
         export_c("hypersonic-direct-s1", tmp_path, sample_time=0.005, prefix="1x")
+
+
+@pytest.mark.parametrize("name", list_scenarios())
+def test_every_catalogue_scenario_exports_and_compiles_clean(name, tmp_path):
+    out = export_c(name, tmp_path, sample_time=0.005)
+    subprocess.run(
+        ["cc", *CFLAGS, str(out.source), "-o", str(tmp_path / "a.so"), "-lm"], check=True
+    )
+
+
+def test_a_design_that_needs_the_plant_model_is_refused(tmp_path):
+    from adaptive_ftc.baselines import fixed_gain, nominal_inverse
+    from adaptive_ftc.scenarios.loader import load_scenario
+
+    loop = load_scenario("hypersonic-direct-s1").loop
+    with pytest.raises(ConfigurationError, match="plant's model or its failures"):
+        export_c(nominal_inverse(loop), tmp_path, sample_time=0.005)
+    assert export_c(fixed_gain(loop), tmp_path, sample_time=0.005).n_states == 26
 
 
 def test_a_continuous_controller_needs_a_sample_time(tmp_path):

@@ -573,8 +573,10 @@ def _drop(st, tainted: set) -> None:
                     raise ConfigurationError(
                         f"Cannot export to C: the controller's signal `{t.value.id}` is written "
                         f"from the plant side in `{ast.unparse(node)[:80]}` (generated loop "
-                        f"module, line {getattr(node, 'lineno', '?')}); the controller would "
-                        "need the plant's model or its failures."
+                        f"module, line {getattr(node, 'lineno', '?')}): the controller would "
+                        "need the plant's model or its failures, which a deployed controller "
+                        "does not have (designs that invert the plant's model, such as the "
+                        "nominal-inverse and oracle baselines, are not exported)."
                     )
     tainted.update(_assigned(st))
 
