@@ -288,25 +288,21 @@ def _model_description(lib: _Library, name: str, guid: str, xml_vars, names) -> 
 
 
 # ----------------------------------------------------------------------------- wrapper
-_WRAPPER = r"""/* FMI 2.0 co-simulation wrapper of the exported controller (adaptive-ftc). */
+_HEAD = r"""/* FMI 2.0 co-simulation wrapper (written by adaptive-ftc). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
-#include "aftc.h"
+@INCLUDES@
 
 #define GUID "@GUID@"
-#define NVARS @NVARS@
 #define NIN @NIN@   /* inputs: value references [0, NIN) */
 #define NOUT @NOUT@ /* outputs: [NIN, NIN + NOUT); parameters after */
 
 typedef struct {
-    aftc_state s;
-    aftc_params p;
-    double y[AFTC_NY], r[AFTC_NR], u[AFTC_NU];
+@FIELDS@
     double t0;
-    long k;          /* the next sample is t0 + k sample_time */
     int initialized;
     fmi2CallbackFunctions cb;
     char name[64];
@@ -328,7 +324,10 @@ static void logmsg(Instance *c, fmi2Status st, const char *msg)
     if (c && c->cb.logger)
         c->cb.logger(c->cb.componentEnvironment, c->name, st, "logStatusError", msg);
 }
+"""
 
+#: the controller's part: the sample at t0 + k sample_time from the inputs set for it
+_CONTROLLER_PART = r"""
 /* the sample at time t, if one is due (within rounding) */
 static void sample(Instance *c, double t)
 {
@@ -340,6 +339,41 @@ static void sample(Instance *c, double t)
     }
 }
 
+static void part_init(Instance *c)
+{
+    c->p = aftc_default_params;
+    aftc_init(&c->s, &c->p);
+    memset(c->y, 0, sizeof(c->y));
+    memset(c->r, 0, sizeof(c->r));
+    memset(c->u, 0, sizeof(c->u));
+    c->k = 0;
+}
+
+static fmi2Status part_start(Instance *c)
+{
+    if (!(c->p.sample_time > 0.0)) {
+        logmsg(c, fmi2Error, "sample_time must be > 0");
+        return fmi2Error;
+    }
+    aftc_init(&c->s, &c->p);  /* the parameters as set */
+    c->k = 0;
+    sample(c, c->t0);
+    return fmi2OK;
+}
+
+static fmi2Status part_step(Instance *c, double t, double h)
+{
+    double tol = 1e-9 * (fabs(t) > 1.0 ? fabs(t) : 1.0);
+    if (h > c->p.sample_time + tol) {
+        logmsg(c, fmi2Error, "the communication step is longer than the sample time");
+        return fmi2Error;
+    }
+    sample(c, t);
+    return fmi2OK;
+}
+"""
+
+_COMMON = r"""
 FMI2_Export const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 FMI2_Export const char *fmi2GetVersion(void) { return fmi2Version; }
 FMI2_Export fmi2Status fmi2SetDebugLogging(Comp c, fmi2Boolean on, size_t n,
@@ -366,8 +400,7 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2St
     memset(c, 0, sizeof(*c));
     c->cb = *cb;
     if (name) strncpy(c->name, name, sizeof(c->name) - 1);
-    c->p = aftc_default_params;
-    aftc_init(&c->s, &c->p);
+    part_init(c);
     return c;
 }
 
@@ -395,15 +428,9 @@ FMI2_Export fmi2Status fmi2EnterInitializationMode(Comp comp)
 FMI2_Export fmi2Status fmi2ExitInitializationMode(Comp comp)
 {
     Instance *c = (Instance *)comp;
-    if (!(c->p.sample_time > 0.0)) {
-        logmsg(c, fmi2Error, "sample_time must be > 0");
-        return fmi2Error;
-    }
-    aftc_init(&c->s, &c->p);  /* the parameters as set */
-    c->k = 0;
-    sample(c, c->t0);
-    c->initialized = 1;
-    return fmi2OK;
+    fmi2Status st = part_start(c);
+    if (st == fmi2OK) c->initialized = 1;
+    return st;
 }
 
 FMI2_Export fmi2Status fmi2Terminate(Comp comp)
@@ -415,12 +442,7 @@ FMI2_Export fmi2Status fmi2Terminate(Comp comp)
 FMI2_Export fmi2Status fmi2Reset(Comp comp)
 {
     Instance *c = (Instance *)comp;
-    c->p = aftc_default_params;
-    aftc_init(&c->s, &c->p);
-    memset(c->y, 0, sizeof(c->y));
-    memset(c->r, 0, sizeof(c->r));
-    memset(c->u, 0, sizeof(c->u));
-    c->k = 0;
+    part_init(c);
     c->initialized = 0;
     return fmi2OK;
 }
@@ -501,15 +523,8 @@ FMI2_Export fmi2Status fmi2GetRealOutputDerivatives(Comp c, VRs vr, size_t n,
 
 FMI2_Export fmi2Status fmi2DoStep(Comp comp, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior)
 {
-    Instance *c = (Instance *)comp;
-    double tol = 1e-9 * (fabs(t) > 1.0 ? fabs(t) : 1.0);
     (void)noSetPrior;
-    if (h > c->p.sample_time + tol) {
-        logmsg(c, fmi2Error, "the communication step is longer than the sample time");
-        return fmi2Error;
-    }
-    sample(c, t);
-    return fmi2OK;
+    return part_step((Instance *)comp, t, h);
 }
 
 FMI2_Export fmi2Status fmi2CancelStep(Comp c) { UNSUPPORTED(c); }
@@ -525,12 +540,33 @@ FMI2_Export fmi2Status fmi2GetStringStatus(Comp c, const fmi2StatusKind k, fmi2S
 { (void)k; (void)v; UNSUPPORTED(c); }
 """
 
+_CONTROLLER_FIELDS = """    aftc_state s;
+    aftc_params p;
+    double y[AFTC_NY], r[AFTC_NR], u[AFTC_NU];
+    long k; /* the next sample is t0 + k sample_time */"""
+
+
+def wrapper(
+    *, guid: str, refs: list[str], n_in: int, n_out: int, includes: str, fields: str, part: str
+) -> str:
+    """The FMI 2.0 co-simulation wrapper: the head (``Instance`` with ``fields``, the value
+    references ``refs``), the part (``part_init``, ``part_start``, ``part_step``) and the FMI
+    functions."""
+    cases = "\n".join(f"    case {vr}: return &{r};" for vr, r in enumerate(refs))
+    head = _HEAD
+    for key, value in (("GUID", guid), ("NIN", n_in), ("NOUT", n_out), ("INCLUDES", includes)):
+        head = head.replace(f"@{key}@", str(value))
+    head = head.replace("@FIELDS@", fields).replace("@CASES@", cases)
+    return head + part + _COMMON
+
 
 def _wrapper(lib: _Library, guid: str, refs: list[str], nvars: int) -> str:
-    n_in = lib.nx + 3 * lib.p
-    n_out = lib.m + (lib.ny - lib.nx)
-    cases = "\n".join(f"    case {vr}: return &{r};" for vr, r in enumerate(refs))
-    text = _WRAPPER
-    for key, value in (("GUID", guid), ("NVARS", nvars), ("NIN", n_in), ("NOUT", n_out)):
-        text = text.replace(f"@{key}@", str(value))
-    return text.replace("@CASES@", cases)
+    return wrapper(
+        guid=guid,
+        refs=refs,
+        n_in=lib.nx + 3 * lib.p,
+        n_out=lib.m + (lib.ny - lib.nx),
+        includes='#include "aftc.h"',
+        fields=_CONTROLLER_FIELDS,
+        part=_CONTROLLER_PART,
+    )

@@ -24,6 +24,31 @@ from adaptive_ftc.errors import ConfigurationError
 __all__ = ["Field", "Source", "Translator", "c_float"]
 
 DOUBLE, LONG, PTR, PARAMS = "double", "long", "double *", "params"
+LPTR, DATA = "long *", "data"  # an integer array; a closed loop's data (D.c, D.i), flat
+
+
+def _ptr(ty) -> bool:
+    """A float array (of unknown or known size ``double *#n``) or a NamedTuple's numbers."""
+    return isinstance(ty, str) and (ty.startswith("double *") or ty.startswith("nt:"))
+
+
+def _lptr(ty) -> bool:
+    return isinstance(ty, str) and ty.startswith("long *")
+
+
+def _arr(ty) -> bool:
+    return _ptr(ty) or _lptr(ty)
+
+
+def _size(ty) -> int | None:
+    """The known size of an array type (``double *#3``), else ``None``."""
+    if isinstance(ty, str) and "#" in ty:
+        return int(ty.split("#")[1])
+    return None
+
+
+def _sized(base: str, n: int | None) -> str:
+    return base if n is None else f"{base}#{n}"
 #: ``math`` functions and their C99 names (libm): all take and return doubles
 MATH = {
     "sin": "sin",
@@ -115,8 +140,13 @@ class Translator:
         fields: list[Field],
         gains: tuple[str, ...],
         prefix: str,
+        *,
+        classes: dict | None = None,
+        gains_at: int | None = None,
     ):
         self.resolve = resolve
+        self.classes = classes or {}  # NamedTuple aliases -> their field names
+        self.gains_at = gains_at  # where the gains start in D.c (a flat loop's data)
         self.fields = sorted(fields, key=lambda f: f.start)
         self.gains = gains
         self.prefix = prefix
@@ -181,7 +211,7 @@ class Translator:
         for name, ty in fn.types.items():
             if name in fn.params or ty == PARAMS or ty is None:
                 continue
-            decls.append(f"    {'double *' if ty == PTR else ty + ' '}{_c_name(name)} = 0;")
+            decls.append(f"    {self._decl(ty, _c_name(name))} = 0;")
         # every argument and local marked used: a part may ignore one (-Wunused under -Werror)
         used = [f"(void){_c_name(n)};" for n, ty in fn.types.items() if ty not in (PARAMS, None)]
         used += [f"(void){n};" for n in names if fn.types[n] == PARAMS]
@@ -191,7 +221,7 @@ class Translator:
         args = [self._decl(fn.types[a], a) for a in names]
         if isinstance(ret, tuple):
             args += [f"{t} *ret{k}" for k, t in enumerate(ret)]
-        rtype = "void" if ret is None or isinstance(ret, tuple) else ret
+        rtype = "void" if ret is None or isinstance(ret, tuple) else self._decl(ret, "").strip()
         sig = f"static {rtype} {cname}({', '.join(args) or 'void'})"
         doc = ast.get_docstring(node)
         head = [f"/* {src.node.name} ({src.filename}:{node.lineno + src.line_offset})"]
@@ -205,8 +235,12 @@ class Translator:
     def _decl(self, ty: str, name: str) -> str:
         if ty == PARAMS:
             return f"const {self.prefix}_params *{name}"
-        if ty == PTR:
+        if ty == DATA:
+            return f"const {self.prefix}_data *{name}"
+        if _ptr(ty):
             return f"double *{name}"
+        if _lptr(ty):
+            return f"long *{name}"
         return f"{ty} {name}"
 
     def _return_type(self, fn: _Fn, node):
@@ -217,6 +251,11 @@ class Translator:
             return fn.tuple_types
         if None in kinds:
             raise self._refuse(fn, node, "a function that returns a value only on some paths")
+        arrays = {k for k in kinds if _arr(k)}
+        if arrays:
+            if len(kinds) > 1:
+                raise self._refuse(fn, node, "a function returning an array or a number")
+            return arrays.pop()
         return DOUBLE if DOUBLE in kinds else LONG
 
     # ---------------------------------------------------------------- statements
@@ -301,8 +340,8 @@ class Translator:
                 out.append(f"{ind}*ret{k} = {_strip(text)};")
             return [*out, f"{ind}return;"]
         text, ty = self._expr(fn, st.value)
-        if ty not in (DOUBLE, LONG):
-            raise self._refuse(fn, st, "a returned array")
+        if ty not in (DOUBLE, LONG) and not _arr(ty):
+            raise self._refuse(fn, st, "a returned value of this kind")
         fn.returns.add(ty)
         return [f"{ind}return {_strip(text)};"]
 
@@ -327,6 +366,10 @@ class Translator:
             elif old != ty:
                 if {old, ty} == {DOUBLE, LONG}:
                     fn.types[name] = DOUBLE
+                elif _ptr(old) and _ptr(ty):
+                    fn.types[name] = PTR  # views of different sizes: the size is unknown
+                elif _lptr(old) and _lptr(ty):
+                    fn.types[name] = LPTR
                 else:
                     raise self._refuse(fn, st, f"a name ({name}) holding an array and a number")
             return [f"{ind}{_c_name(name)} = {_strip(text)};"]
@@ -434,6 +477,17 @@ class Translator:
             gain = self._gain(fn, node)
             if gain is not None:
                 return gain, DOUBLE
+            if isinstance(node.value, ast.Name):
+                vty = fn.types.get(node.value.id)
+                base = _c_name(node.value.id)
+                if vty == DATA and node.attr in ("c", "i"):
+                    return f"{base}->{node.attr}", (PTR if node.attr == "c" else LPTR)
+                if _arr(vty) and node.attr == "size" and _size(vty) is not None:
+                    return str(_size(vty)), LONG
+                if isinstance(vty, str) and vty.startswith("nt:"):
+                    fields = self.classes.get(vty[3:], ())
+                    if node.attr in fields:
+                        return f"{base}[{fields.index(node.attr)}]", DOUBLE
             raise self._refuse(fn, node, f"the attribute .{node.attr}")
         if isinstance(node, ast.Subscript):
             return self._subscript(fn, node, store=False)
@@ -461,7 +515,7 @@ class Translator:
                     raise self._refuse(fn, node, f"the comparison {type(op).__name__}")
                 lt, lty = self._expr(fn, left)
                 rt, rty = self._expr(fn, right)
-                if PTR in (lty, rty) or PARAMS in (lty, rty):
+                if _arr(lty) or _arr(rty) or PARAMS in (lty, rty):
                     raise self._refuse(fn, node, "a comparison of arrays")
                 parts.append(f"{lt} {cop} {rt}")
                 left = right
@@ -470,17 +524,49 @@ class Translator:
             test, _ = self._expr(fn, node.test)
             a, at = self._expr(fn, node.body)
             b, bt = self._expr(fn, node.orelse)
-            if PTR in (at, bt):
+            if _arr(at) or _arr(bt):
                 raise self._refuse(fn, node, "a conditional expression of arrays")
             ty = DOUBLE if DOUBLE in (at, bt) else LONG
             return f"({test} ? {a} : {b})", ty
         if isinstance(node, ast.Call):
             return self._call(fn, node, statement)
+        if isinstance(node, ast.Tuple):
+            return self._numbers(fn, node, node.elts, f"double *#{len(node.elts)}")
         raise self._refuse(fn, node, f"the expression {type(node).__name__}")
 
+    def _numbers(self, fn: _Fn, node, elts, ty: str) -> tuple[str, str]:
+        """A tuple (or NamedTuple) of consecutive numbers of one array, ``a[B + 0], a[B + 1],
+        ...``: a pointer to the first (the callee reads them in place)."""
+        first = None
+        for k, e in enumerate(elts):
+            if not (isinstance(e, ast.Subscript) and isinstance(e.value, ast.Name)):
+                raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
+            const, rest = self._split(fn, e.slice)
+            if first is None:
+                first = (e.value.id, const, rest)
+            elif (e.value.id, const - k, rest) != first:
+                raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
+        if first is None or not _ptr(fn.types.get(first[0])):
+            raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
+        name, const, rest = first
+        idx = str(const) if rest is None else f"{const} + {rest}"
+        return f"({_c_name(name)} + {idx})", ty
+
     def _gain(self, fn: _Fn, node: ast.Attribute) -> str | None:
-        """``gains(D).name`` -> ``D->gains.name``."""
+        """``gains(D).name`` -> ``D->gains.name`` (``D->c[GAINS + k]`` of a flat loop's data)."""
         v = node.value
+        if (
+            isinstance(v, ast.Call)
+            and isinstance(v.func, ast.Name)
+            and v.func.id == "gains"
+            and len(v.args) == 1
+            and isinstance(v.args[0], ast.Name)
+            and fn.types.get(v.args[0].id) == DATA
+            and self.gains_at is not None
+        ):
+            if node.attr not in self.gains:
+                raise self._refuse(fn, node, f"an unknown gain {node.attr!r}")
+            return f"{_c_name(v.args[0].id)}->c[{self.gains_at + self.gains.index(node.attr)}]"
         if (
             isinstance(v, ast.Call)
             and isinstance(v.func, ast.Name)
@@ -524,18 +610,25 @@ class Translator:
 
     def _subscript(self, fn: _Fn, node: ast.Subscript, store: bool) -> tuple[str, str]:
         base = node.value
-        if not isinstance(base, ast.Name) and not self._is_params_attr(fn, base):
+        if (
+            isinstance(base, ast.Attribute)
+            and isinstance(base.value, ast.Name)
+            and fn.types.get(base.value.id) == DATA
+        ):
+            btext, bty = self._expr(fn, base)  # D.c, D.i of a flat loop's data
+        elif isinstance(base, ast.Name) or self._is_params_attr(fn, base):
+            bname = base.id if isinstance(base, ast.Name) else base.value.id
+            bty = fn.types.get(bname)
+            if bty == PARAMS:
+                if store:
+                    raise self._refuse(fn, node, "a write to the parameters")
+                return self._param(fn, fn.params_name(bname), node)
+            btext = _c_name(bname)
+        else:
             raise self._refuse(fn, node, "indexing something other than a named array")
-        bname = "D" if not isinstance(base, ast.Name) else base.id
-        if isinstance(base, ast.Attribute):
-            bname = base.value.id
-        bty = fn.types.get(bname)
-        if bty == PARAMS:
-            if store:
-                raise self._refuse(fn, node, "a write to the parameters")
-            return self._param(fn, fn.params_name(bname), node)
-        if bty != PTR:
-            raise self._refuse(fn, node, f"indexing {bname!r}, which is not an array")
+        if not _arr(bty):
+            raise self._refuse(fn, node, "indexing something that is not an array")
+        elem = LONG if _lptr(bty) else DOUBLE
         sl = node.slice
         if isinstance(sl, ast.Slice):
             if store or sl.step is not None or sl.lower is None:
@@ -543,11 +636,17 @@ class Translator:
             lo, lty = self._expr(fn, sl.lower)
             if lty != LONG:
                 raise self._refuse(fn, node, "a slice bound that is not an integer")
-            return f"({_c_name(bname)} + {_strip(lo)})", PTR
+            n = None
+            if sl.upper is not None:
+                a, ra = self._split(fn, sl.lower)
+                b, rb = self._split(fn, sl.upper)
+                if ra is None and rb is None:
+                    n = b - a
+            return f"({btext} + {_strip(lo)})", _sized(LPTR if _lptr(bty) else PTR, n)
         idx, ity = self._expr(fn, sl)
         if ity != LONG:
             raise self._refuse(fn, node, "an index that is not an integer")
-        return f"{_c_name(bname)}[{_strip(idx)}]", DOUBLE
+        return f"{btext}[{_strip(idx)}]", elem
 
     def _param(self, fn: _Fn, pname: str, node: ast.Subscript) -> tuple[str, str]:
         """``c[PLACE + i]`` -> the field of the params struct that holds ``PLACE``."""
@@ -630,6 +729,8 @@ class Translator:
         if name == "int" and len(node.args) == 1:
             a, ty = self._expr(fn, node.args[0])
             return f"((long){a})", LONG
+        if name in self.classes:
+            return self._numbers(fn, node, node.args, f"nt:{name}")
         cname, ret, args = self._call_user(fn, node)
         if isinstance(ret, tuple):
             raise self._refuse(fn, node, "a call returning a tuple outside `a, b = f(...)`")
