@@ -94,11 +94,8 @@ def export_fmu(
         what :func:`~adaptive_ftc.export.export_c` refuses.
     """
     if part not in ("controller", "loop"):
-        raise ConfigurationError(f"`part` of the FMU export must be 'controller'; got {part!r}.")
-    if part == "loop":
         raise ConfigurationError(
-            "The FMU of the closed loop (--part loop) is not available yet: export the "
-            "controller (--part controller) and close the loop with your plant's FMU or model."
+            f"`part` of the FMU export must be 'controller' or 'loop'; got {part!r}."
         )
     loop, tau = controller_loop(scenario, sample_time)
     if name is None:
@@ -108,7 +105,7 @@ def export_fmu(
         name = re.sub(r"\W", "_", str(base))
         if not name or name[0].isdigit():
             name = "m_" + name
-        name += "_controller"
+        name += f"_{part}"
     if not (name.isidentifier() and name.isascii()):
         raise ConfigurationError(f"`name` of the FMU must be a C identifier; got {name!r}.")
     cc = cc or os.environ.get("CC", "cc")
@@ -123,25 +120,46 @@ def export_fmu(
 
     lib = _Library(loop, tau, "aftc")
     header, source = lib.render()
-    fields = lib.last_fields
-    variables, xml_vars, refs = _variables(lib, fields)
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
-        (header + source + name).encode()).hexdigest())) + "}"  # fmt: skip
-    md = _model_description(lib, name, guid, xml_vars, variables)
-    wrapper = _wrapper(lib, guid, refs, len(variables))
+    files = {"aftc.h": header, "aftc.c": source}
+    if part == "loop":
+        from adaptive_ftc.export.loop import loop_source
+
+        loop_c, info = loop_source(lib)
+        files["loop.h"], files["loop.c"] = info["header"], loop_c
+        variables, xml_vars, refs = _loop_variables(lib)
+    else:
+        variables, xml_vars, refs = _variables(lib, lib.last_fields)
+    text = "".join(files.values()) + name
+    digest = hashlib.sha256(text.encode()).hexdigest()
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, digest)) + "}"
+    sources = ["fmu.c", *[f for f in files if f.endswith(".c")]]
+    md = _model_description(lib, name, guid, xml_vars, variables, part, sources)
+    if part == "loop":
+        wrapper_text = wrapper(
+            guid=guid,
+            refs=refs,
+            n_in=0,
+            n_out=len(refs),
+            includes='#include "aftc.h"\n#include "loop.h"',
+            fields=_LOOP_FIELDS,
+            part=_LOOP_PART,
+        )
+    else:
+        wrapper_text = _wrapper(lib, guid, refs, len(variables))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         t = Path(tmp)
         (t / "sources").mkdir()
         (t / "binaries" / "linux64").mkdir(parents=True)
-        (t / "sources" / "aftc.h").write_text(header)
-        (t / "sources" / "aftc.c").write_text(source)
-        (t / "sources" / "fmu.c").write_text(wrapper)
+        for fname, ftext in files.items():
+            (t / "sources" / fname).write_text(ftext)
+        (t / "sources" / "fmu.c").write_text(wrapper_text)
         (t / "modelDescription.xml").write_text(md)
         so = t / "binaries" / "linux64" / f"{name}.so"
         cmd = [cc, "-O2", "-std=c99", "-shared", "-fPIC", "-fvisibility=hidden", f"-I{headers}"]
-        cmd += [str(t / "sources" / "fmu.c"), str(t / "sources" / "aftc.c"), "-o", str(so)]
+        cmd += [str(t / "sources" / f) for f in sources]
+        cmd += ["-o", str(so)]
         done = subprocess.run([*cmd, "-lm"], capture_output=True, text=True, check=False)
         if done.returncode != 0:
             raise ConfigurationError(f"The FMU's binary did not build:\n{done.stderr.strip()}")
@@ -236,14 +254,80 @@ def _variables(lib: _Library, fields):
     return names, xml, refs
 
 
-def _model_description(lib: _Library, name: str, guid: str, xml_vars, names) -> str:
+def _loop_variables(lib: _Library):
+    """The loop FMU's outputs: plant states, commands and the controller's states, all at
+    the last communication point (a break time of the loop)."""
+    plant = lib.loop.plant
+    units = tuple(plant.units) + ("",) * plant.n_states
+    names, xml, refs = [], [], []
+
+    def add(name, variability, ref, unit, desc):
+        vr = len(names)
+        names.append(name)
+        refs.append(ref)
+        attrs = f'name={quoteattr(name)} valueReference="{vr}" description={quoteattr(desc)}'
+        real = f"<Real unit={quoteattr(unit)}/>" if unit else "<Real/>"
+        xml.append(
+            f'    <ScalarVariable {attrs} causality="output" variability="{variability}">\n'
+            f"      {real}\n    </ScalarVariable>"
+        )
+
+    for i, n in enumerate(plant.state_names):
+        add(f"x.{n}", "continuous", f"c->L.Y[{i}]", units[i], f"plant state {n}")
+    for j, a in enumerate(plant.actuator_names):
+        add(f"u.{a}", "discrete", f"c->L.u[{j}]", plant.actuator_units,
+            f"command of {a} (the exported controller's, held between samples)")  # fmt: skip
+    for k, n in enumerate(lib.g.adaptive_names):
+        add(f"xc.{n}", "discrete", f"c->L.Y[{lib.nx + k}]", "",
+            f"controller state {n} at the last sample")  # fmt: skip
+    return names, xml, refs
+
+
+_LOOP_FIELDS = """    loop_state L;
+    aftc_params p;"""
+
+#: the loop's part: the scenario's closed loop from t0, advanced from break time to break time
+_LOOP_PART = r"""
+static void part_init(Instance *c)
+{
+    c->p = aftc_default_params;
+    loop_init(&c->L, &c->p);
+}
+
+static fmi2Status part_start(Instance *c)
+{
+    loop_init(&c->L, &c->p);
+    if (fabs(c->t0 - loop_time(&c->L)) > 1e-9 * (fabs(c->t0) > 1.0 ? fabs(c->t0) : 1.0)) {
+        logmsg(c, fmi2Error, "the loop starts at the scenario's t0 only");
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+static fmi2Status part_step(Instance *c, double t, double h)
+{
+    (void)t;
+    if (loop_advance(&c->L, &c->p, t + h) != 0) {
+        logmsg(c, fmi2Error, "communication points must be break times of the loop (its "
+                             "samples and failure times) within the scenario's run");
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+"""
+
+
+def _model_description(
+    lib: _Library, name: str, guid: str, xml_vars, names, part: str, sources
+) -> str:
     from adaptive_ftc import __version__
 
     units = sorted({u for u in re.findall(r'unit="([^"]+)"', "\n".join(xml_vars))})
     outputs = [k + 1 for k, x in enumerate(xml_vars) if 'causality="output"' in x]
     plant, ctrl = lib.loop.plant, lib.loop.controller
+    what = "Digital controller" if part == "controller" else "Closed loop, digital controller"
     desc = (
-        f"Digital controller ({ctrl.design!r} {ctrl.equation}) of plant {plant.name!r}, "
+        f"{what} ({ctrl.design!r} {ctrl.equation}) of plant {plant.name!r}, "
         f"sampled every {lib.loop.sample_time:g} s; exported by adaptive-ftc {__version__}"
     )
     return "\n".join(
@@ -260,8 +344,7 @@ def _model_description(lib: _Library, name: str, guid: str, xml_vars, names) -> 
             f'  <CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize='
             '"true" canGetAndSetFMUstate="false" canSerializeFMUstate="false">',
             "    <SourceFiles>",
-            '      <File name="fmu.c"/>',
-            '      <File name="aftc.c"/>',
+            *[f"      <File name={quoteattr(f)}/>" for f in sources],
             "    </SourceFiles>",
             "  </CoSimulation>",
             *(["  <UnitDefinitions>"] if units else []),

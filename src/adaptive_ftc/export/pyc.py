@@ -49,6 +49,8 @@ def _size(ty) -> int | None:
 
 def _sized(base: str, n: int | None) -> str:
     return base if n is None else f"{base}#{n}"
+
+
 #: ``math`` functions and their C99 names (libm): all take and return doubles
 MATH = {
     "sin": "sin",
@@ -147,6 +149,7 @@ class Translator:
         self.resolve = resolve
         self.classes = classes or {}  # NamedTuple aliases -> their field names
         self.gains_at = gains_at  # where the gains start in D.c (a flat loop's data)
+        self.nt_places: dict[str, list] = {}  # NamedTuple alias -> (offset, size) per field
         self.fields = sorted(fields, key=lambda f: f.start)
         self.gains = gains
         self.prefix = prefix
@@ -321,6 +324,13 @@ class Translator:
             fn.returns.add(None)
             return [f"{ind}return;"]
         if isinstance(st.value, ast.Tuple):
+            try:  # a tuple of consecutive numbers: a pointer to them
+                text, ty = self._numbers(fn, st.value, st.value.elts, "double *#0")
+            except ConfigurationError:
+                pass
+            else:
+                fn.returns.add(ty)
+                return [f"{ind}return {_strip(text)};"]
             parts = [self._expr(fn, e) for e in st.value.elts]
             types = tuple(DOUBLE if t == DOUBLE else LONG for _, t in parts)
             if any(t not in (DOUBLE, LONG) for _, t in parts):
@@ -379,6 +389,21 @@ class Translator:
         raise self._refuse(fn, st, "an assignment to this target")
 
     def _unpack(self, fn: _Fn, target: ast.Tuple, value, ind: str, st) -> list[str]:
+        if isinstance(value, ast.Tuple) and len(value.elts) == len(target.elts):
+            # every value before any name is assigned (a, b = b, a)
+            out, temps = [], []
+            for e in value.elts:
+                text, ty = self._expr(fn, e)
+                if ty not in (DOUBLE, LONG):
+                    raise self._refuse(fn, st, "unpacking a tuple of arrays")
+                fn.temps += 1
+                tmp = f"_tup{fn.temps}"
+                fn.types[tmp] = ty
+                out.append(f"{ind}{tmp} = {_strip(text)};")
+                temps.append(tmp)
+            for tgt, tmp in zip(target.elts, temps, strict=True):
+                out += self._assign(fn, tgt, ast.Name(id=tmp, ctx=ast.Load()), ind, st)
+            return out
         if not isinstance(value, ast.Call):
             raise self._refuse(fn, st, "tuple unpacking of something other than a call")
         cname, ret, args = self._call_user(fn, value)
@@ -487,7 +512,12 @@ class Translator:
                 if isinstance(vty, str) and vty.startswith("nt:"):
                     fields = self.classes.get(vty[3:], ())
                     if node.attr in fields:
-                        return f"{base}[{fields.index(node.attr)}]", DOUBLE
+                        k = fields.index(node.attr)
+                        places = self.nt_places.get(vty[3:])
+                        off, size = places[k] if places else (k, None)
+                        if size is None:
+                            return f"{base}[{off}]", DOUBLE
+                        return f"({base} + {off})", f"double *#{size}"
             raise self._refuse(fn, node, f"the attribute .{node.attr}")
         if isinstance(node, ast.Subscript):
             return self._subscript(fn, node, store=False)
@@ -536,9 +566,15 @@ class Translator:
 
     def _numbers(self, fn: _Fn, node, elts, ty: str) -> tuple[str, str]:
         """A tuple (or NamedTuple) of consecutive numbers of one array, ``a[B + 0], a[B + 1],
-        ...``: a pointer to the first (the callee reads them in place)."""
+        ...`` (a field may be a tuple of them too): a pointer to the first (the callee reads
+        them in place). A NamedTuple's field places are remembered for ``p.field``."""
+        flat, places = [], []
+        for e in elts:
+            inner = e.elts if isinstance(e, ast.Tuple) else None
+            places.append((len(flat), None if inner is None else len(inner)))
+            flat += inner if inner is not None else [e]
         first = None
-        for k, e in enumerate(elts):
+        for k, e in enumerate(flat):
             if not (isinstance(e, ast.Subscript) and isinstance(e.value, ast.Name)):
                 raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
             const, rest = self._split(fn, e.slice)
@@ -548,6 +584,10 @@ class Translator:
                 raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
         if first is None or not _ptr(fn.types.get(first[0])):
             raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
+        if ty.startswith("nt:"):
+            self.nt_places[ty[3:]] = places
+        elif ty.startswith("double *#"):
+            ty = f"double *#{len(flat)}"
         name, const, rest = first
         idx = str(const) if rest is None else f"{const} + {rest}"
         return f"({_c_name(name)} + {idx})", ty
@@ -624,6 +664,8 @@ class Translator:
                     raise self._refuse(fn, node, "a write to the parameters")
                 return self._param(fn, fn.params_name(bname), node)
             btext = _c_name(bname)
+        elif isinstance(base, ast.Attribute):  # a NamedTuple's tuple field: p.b[j]
+            btext, bty = self._expr(fn, base)
         else:
             raise self._refuse(fn, node, "indexing something other than a named array")
         if not _arr(bty):
