@@ -51,11 +51,11 @@ def add_parser(sub, **common) -> argparse.ArgumentParser:
     c.add_argument("--prefix", default="aftc", help="prefix of every C name (default: aftc)")
     f = kinds.add_parser(
         "fmu",
-        help="the digital controller as an FMI 2.0 co-simulation FMU",
+        help="the digital controller or the closed loop as an FMI 2.0 co-simulation FMU",
         description="Write <name>.fmu: an FMI 2.0 co-simulation FMU of the scenario's digital "
-        "controller, built from the exported C (its sources and a linux64 binary built with "
-        "the system C compiler; no Python inside). Needs FMPy's FMI headers (pip install "
-        "fmpy). See docs/deploying.md.",
+        "controller (--part controller) or of its closed loop (--part loop), built from the "
+        "exported C (its sources and a linux64 binary built with the system C compiler; no "
+        "Python inside). Needs FMPy's FMI headers (pip install fmpy). See docs/deploying.md.",
         **common,
     )
     f.add_argument("scenario", help="scenario name or path to a .toml file")
@@ -64,8 +64,9 @@ def add_parser(sub, **common) -> argparse.ArgumentParser:
         "--part",
         choices=("controller", "loop"),
         default="controller",
-        help="what the FMU holds: the controller (default); 'loop' (the closed loop) is not "
-        "available yet",
+        help="what the FMU holds: the controller (default: inputs y and r, outputs u), or the "
+        "scenario's closed loop (plant, failures, actuators, sensors and the controller; no "
+        "inputs)",
     )
     f.add_argument(
         "--sample-time",
@@ -73,7 +74,7 @@ def add_parser(sub, **common) -> argparse.ArgumentParser:
         metavar="SECONDS",
         help="the controller's period (default: the scenario's [digital] sample_time)",
     )
-    f.add_argument("--name", help="model identifier (default: <scenario>_controller)")
+    f.add_argument("--name", help="model identifier (default: <scenario>_<part>)")
     return ex
 
 

@@ -1,4 +1,4 @@
-"""Export the digital controller of a loop as an FMI 2.0 co-simulation FMU.
+"""Export the digital controller of a loop, or the closed loop, as an FMI 2.0 co-simulation FMU.
 
 The FMU wraps the C of :func:`~adaptive_ftc.export.export_c` (no Python inside): its sources
 (``sources/``: the controller, its header and the FMI wrapper ``fmu.c``) and a binary for this
@@ -79,7 +79,11 @@ def export_fmu(
     out_dir
         Folder to write the ``.fmu`` into (created if needed).
     part
-        ``"controller"`` (the only part exported today).
+        ``"controller"``: the controller alone (inputs ``y.*`` and ``r.*``, outputs ``u.*``
+        and ``xc.*``, parameters: the params struct). ``"loop"``: the scenario's closed loop
+        (:mod:`adaptive_ftc.export.loop`: the plant side of the simulator with the exported
+        controller; no inputs, outputs ``x.*``, ``u.*``, ``xc.*``); its communication points
+        must be break times of the loop (the samples, the failure times).
     sample_time
         The controller's period (s); default: the scenario's ``[digital] sample_time``.
     name
@@ -90,8 +94,9 @@ def export_fmu(
     Raises
     ------
     ConfigurationError
-        ``part="loop"`` (not available yet), no FMI headers (install fmpy), no compiler, or
-        what :func:`~adaptive_ftc.export.export_c` refuses.
+        An unknown ``part``, no FMI headers (install fmpy), no compiler, or what
+        :func:`~adaptive_ftc.export.export_c` refuses (for the loop: a plant whose Python the
+        translator does not take).
     """
     if part not in ("controller", "loop"):
         raise ConfigurationError(
