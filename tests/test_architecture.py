@@ -49,7 +49,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "sim",
     ),
     "catalogue": ("_feedback", "claims", "report", "reproduce", "scenarios"),
-    "applications": ("campaigns", "cli", "gym", "interop", "studies", "study_cli", "study_plots"),
+    "applications": ("campaigns", "cli", "export", "gym", "interop", "studies", "study_cli", "study_plots"),
     "api": ("",),  # adaptive_ftc/__init__.py
 }
 ORDER = tuple(LAYERS)

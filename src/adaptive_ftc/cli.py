@@ -275,6 +275,9 @@ def _parser() -> argparse.ArgumentParser:
 
     st = study_cli.add_parser(sub)
     st.epilog, st.formatter_class = _EPILOG, raw  # the same exit status as every command
+    from adaptive_ftc.export import cli as export_cli
+
+    export_cli.add_parser(sub, epilog=_EPILOG, formatter_class=raw)
     return p
 
 
@@ -802,6 +805,10 @@ def main(argv: list[str] | None = None) -> int:
             from adaptive_ftc import study_cli
 
             return study_cli.cli_main(args)
+        if args.command == "export":
+            from adaptive_ftc.export import cli as export_cli
+
+            return export_cli.main(args)
         return _cmd_reproduce(args)
     except (ScenarioError, ConfigurationError, ExpressionError, ClaimError) as exc:
         print(f"error: {exc}", file=sys.stderr)
