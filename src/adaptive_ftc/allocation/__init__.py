@@ -9,6 +9,12 @@ from adaptive_ftc.allocation.allocators import (
     WeightedLeastSquares,
     allocator_from_spec,
 )
+from adaptive_ftc.allocation.reachability import (
+    Reachability,
+    ReachabilityEvent,
+    reachability,
+    reachability_timeline,
+)
 
 __all__ = [
     "ALLOCATORS",
@@ -16,6 +22,10 @@ __all__ = [
     "Allocator",
     "FixedAllocation",
     "PseudoInverse",
+    "Reachability",
+    "ReachabilityEvent",
     "WeightedLeastSquares",
     "allocator_from_spec",
+    "reachability",
+    "reachability_timeline",
 ]
