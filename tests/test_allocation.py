@@ -122,7 +122,7 @@ def test_fixed_allocation_is_the_thesis_distribution():
 def test_adaptive_estimate_converges_to_true_effectiveness_under_persistent_excitation():
     R = np.array([[1.0, 0, 0, 1, 0, 0], [0, 1, 0, 0, 1, 0], [0, 0, 1, 0, 0, 1]])
     rho_true = np.array([0.3, 1.0, 0.6, 0.8, 0.0, 0.5])
-    alloc = AdaptiveAllocation(gain=20.0)
+    alloc = AdaptiveAllocation(gain=20.0, lower=0.0)
     rho = np.ones(6)
     dt = 1e-3
     freqs = np.array([1.0, 1.7, 2.3, 3.1, 3.7, 4.3])

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from adaptive_ftc.allocation import PseudoInverse
-from adaptive_ftc.allocation.reachability import reachability, reachability_timeline
+from adaptive_ftc.allocation.reachable import reachability, reachability_timeline
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.faults import LossOfEffectiveness, Stuck
 from adaptive_ftc.scenarios.loader import load_scenario

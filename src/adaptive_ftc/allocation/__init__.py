@@ -9,7 +9,8 @@ from adaptive_ftc.allocation.allocators import (
     WeightedLeastSquares,
     allocator_from_spec,
 )
-from adaptive_ftc.allocation.reachability import (
+from adaptive_ftc.allocation.inloop import Annunciation
+from adaptive_ftc.allocation.reachable import (
     Reachability,
     ReachabilityEvent,
     reachability,
@@ -20,6 +21,7 @@ __all__ = [
     "ALLOCATORS",
     "AdaptiveAllocation",
     "Allocator",
+    "Annunciation",
     "FixedAllocation",
     "PseudoInverse",
     "Reachability",

@@ -155,7 +155,7 @@ class PseudoInverse(Allocator):
     The conditioning guard: a direction of ``W^-1/2 B`` whose singular value is below
     ``sigma_max / max_condition`` is not inverted (it gets no command), so a nearly singular
     ``B`` (two opposing rotors lost) cannot produce huge gains of random sign; such an axis is
-    reported by :func:`~adaptive_ftc.allocation.reachability.reachability`.
+    reported by :func:`~adaptive_ftc.allocation.reachable.reachability`.
 
     Examples
     --------
@@ -246,11 +246,17 @@ class AdaptiveAllocation(Allocator):
     through the estimated ``B`` (by ``inner``: weighted least squares with the limits, or the
     guarded pseudo-inverse).
 
-    The estimate follows :meth:`rate` (a gradient law on the prediction error of the achieved
-    virtual control, with projection: Tohidi, Yildiz & Kolmanovsky, Automatica 2020, eq. of
+    ``measured`` says what the estimate learns from: ``"actuator"`` (default), each actuator's
+    delivered output ``u^f_j`` (wheel torque from wheel speed), so every estimate is
+    identifiable on its own; ``"axis"``, only the achieved virtual control ``R u^f``, where two
+    actuators of one axis that get equal commands stay indistinguishable (only their sum is
+    learnt). The estimate follows :meth:`rate` (a gradient law on the prediction error, with
+    projection: Tohidi, Yildiz & Kolmanovsky, Automatica 2020, eq. of
     the adaptive allocation with element-wise projection); :meth:`allocate` takes the
     *estimated* ``B`` (``R diag(rho_hat)``, see :meth:`estimated`). In a closed loop the
-    estimate is a state integrated with the plant.
+    estimate is a state integrated with the plant. The floor ``lower`` (default 0.1) keeps
+    every actuator in use: an estimate at 0 would get no command, hence no excitation, and
+    could never recover.
 
     Examples
     --------
@@ -261,9 +267,10 @@ class AdaptiveAllocation(Allocator):
 
     kind: ClassVar[str] = "adaptive"
     gain: float = 1.0
-    lower: float = 0.0
+    lower: float = 0.1
     upper: float = 1.0
     inner: str = "wls"
+    measured: str = "actuator"
     max_condition: float = 1e3
     gamma: float = 1e6
     max_iterations: int = 100
@@ -288,6 +295,13 @@ class AdaptiveAllocation(Allocator):
             raise ConfigurationError(
                 f"Unknown `inner` allocator '{self.inner}' of AdaptiveAllocation."
                 f"{did_you_mean(self.inner, ('wls', 'pinv'))} Use 'wls' or 'pinv'."
+            )
+        if self.measured not in ("actuator", "axis"):
+            raise ConfigurationError(
+                f"Unknown `measured` '{self.measured}' of AdaptiveAllocation."
+                f"{did_you_mean(self.measured, ('actuator', 'axis'))} Use 'actuator' (each "
+                "actuator's delivered output is measured) or 'axis' (only the achieved "
+                "virtual control R u^f)."
             )
         self._inner_allocator()  # validates max_condition, gamma, max_iterations
 

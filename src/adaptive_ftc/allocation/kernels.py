@@ -18,6 +18,7 @@ from numba import njit
 _helper = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
 
 __all__ = [
+    "actuator_effectiveness_rate",
     "adaptive_effectiveness_rate",
     "pinv_allocate",
     "pinv_work_size",
@@ -298,6 +299,23 @@ def adaptive_effectiveness_rate(R, rho, u, achieved, gain, lower, upper, p, m, r
                 pred += R[i * m + k] * rho[k] * u[k]
             acc += R[i * m + j] * (achieved[i] - pred)
         d = gain[j] * u[j] * acc
+        if (rho[j] <= lower[j] and d < 0.0) or (rho[j] >= upper[j] and d > 0.0):
+            d = 0.0
+        rate[j] = d
+
+
+def actuator_effectiveness_rate(rho, u, delivered, gain, lower, upper, m, rate):
+    """Right-hand side of the effectiveness estimates when each actuator's delivered output is
+    measured (a reaction wheel's torque from its speed, a motor's from its current): the
+    gradient law ``rho_hat_j' = gain_j u_j (delivered_j - rho_hat_j u_j)`` with the same
+    element-wise projection onto ``[lower_j, upper_j]`` as :func:`adaptive_effectiveness_rate`.
+
+    Unlike the law on the achieved virtual control, each estimate is identifiable on its own:
+    two actuators of one axis that receive the same command (as ``R^T u0`` gives them) are told
+    apart.
+    """
+    for j in range(m):
+        d = gain[j] * u[j] * (delivered[j] - rho[j] * u[j])
         if (rho[j] <= lower[j] and d < 0.0) or (rho[j] >= upper[j] and d > 0.0):
             d = 0.0
         rate[j] = d
