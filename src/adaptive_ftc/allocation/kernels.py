@@ -4,18 +4,14 @@ right-hand side, and runnable as plain Python.
 
 Every matrix is a flat, row-major array: the effectiveness matrix ``B`` (p x m) is ``B[i * m + j]``.
 Nothing here allocates: each kernel receives a ``work`` array of at least the size that its
-``*_work_size`` function gives.
+``*_work_size`` function gives. Each kernel is self-contained (no call to another function of
+this module), so that numba compiles it from its own source wherever it is jitted, and
+importing this module does not import numba.
 """
 
 from __future__ import annotations
 
 import math
-
-from numba import njit
-
-#: the kernels' helpers: compiled and pasted into the kernel that calls them (a kernel jitted
-#: elsewhere, e.g. by a generated loop, finds them already compiled)
-_helper = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
 
 __all__ = [
     "actuator_effectiveness_rate",
@@ -32,15 +28,33 @@ def pinv_work_size(p: int, m: int) -> int:
     return 2 * p * p + 2 * p
 
 
-@_helper
-def _jacobi_eigen(G, Q, n, sweeps):
-    """Eigen-decomposition of the symmetric n x n matrix ``G`` (flat, overwritten: its
-    diagonal ends as the eigenvalues) by cyclic Jacobi rotations; ``Q`` receives the
-    eigenvectors as columns."""
+def pinv_allocate(B, v, w, p, m, max_condition, u, work):
+    """Weighted minimum-norm allocation ``u = W^-1 B^T (B W^-1 B^T)^+ v`` with a conditioning
+    guard; returns the number of axes kept (the numerical rank).
+
+    ``w`` holds the positive weights ``W`` per actuator (``min sum w_j u_j^2`` subject to
+    ``B u = v``). The Gram matrix ``B W^-1 B^T`` is inverted on its eigen-directions whose
+    singular value (of ``W^-1/2 B``) is at least ``sigma_max / max_condition``: a direction
+    the actuators can no longer reach (a rank loss) or barely reach (near singular) gets no
+    command at all instead of a huge one (the hexarotor's 50-2000x gains of PX4 #28589).
+    """
+    G = work[0 : p * p]
+    Q = work[p * p : 2 * p * p]
+    y = work[2 * p * p : 2 * p * p + p]
+    z = work[2 * p * p + p : 2 * p * p + 2 * p]
+    for a in range(p):
+        for b in range(p):
+            acc = 0.0
+            for j in range(m):
+                acc += B[a * m + j] * B[b * m + j] / w[j]
+            G[a * p + b] = acc
+    # eigen-decomposition of G by cyclic Jacobi rotations: G's diagonal ends as the
+    # eigenvalues, Q's columns as the eigenvectors
+    n = p
     for i in range(n):
         for j in range(n):
             Q[i * n + j] = 1.0 if i == j else 0.0
-    for _ in range(sweeps):
+    for _ in range(30):
         off = 0.0
         for i in range(n):
             for j in range(i + 1, n):
@@ -78,29 +92,6 @@ def _jacobi_eigen(G, Q, n, sweeps):
                     qkb = Q[k * n + b]
                     Q[k * n + a] = cs * qka - sn * qkb
                     Q[k * n + b] = sn * qka + cs * qkb
-
-
-def pinv_allocate(B, v, w, p, m, max_condition, u, work):
-    """Weighted minimum-norm allocation ``u = W^-1 B^T (B W^-1 B^T)^+ v`` with a conditioning
-    guard; returns the number of axes kept (the numerical rank).
-
-    ``w`` holds the positive weights ``W`` per actuator (``min sum w_j u_j^2`` subject to
-    ``B u = v``). The Gram matrix ``B W^-1 B^T`` is inverted on its eigen-directions whose
-    singular value (of ``W^-1/2 B``) is at least ``sigma_max / max_condition``: a direction
-    the actuators can no longer reach (a rank loss) or barely reach (near singular) gets no
-    command at all instead of a huge one (the hexarotor's 50-2000x gains of PX4 #28589).
-    """
-    G = work[0 : p * p]
-    Q = work[p * p : 2 * p * p]
-    y = work[2 * p * p : 2 * p * p + p]
-    z = work[2 * p * p + p : 2 * p * p + 2 * p]
-    for a in range(p):
-        for b in range(p):
-            acc = 0.0
-            for j in range(m):
-                acc += B[a * m + j] * B[b * m + j] / w[j]
-            G[a * p + b] = acc
-    _jacobi_eigen(G, Q, p, 30)
     lam_max = 0.0
     for k in range(p):
         if G[k * p + k] > lam_max:
@@ -133,34 +124,6 @@ def pinv_allocate(B, v, w, p, m, max_condition, u, work):
 def wls_work_size(p: int, m: int) -> int:
     """Length of the ``work`` array of :func:`wls_allocate`."""
     return m * m + 4 * m + p
-
-
-@_helper
-def _cholesky_solve(H, rhs, idx, nf, m, x):
-    """Solve ``H[idx, idx] x = rhs`` (symmetric positive definite, nf x nf, stored in the
-    top-left of the flat m x m array ``H`` in place); returns False when not positive."""
-    for a in range(nf):
-        for b in range(a + 1):
-            s = H[a * m + b]
-            for k in range(b):
-                s -= H[a * m + k] * H[b * m + k]
-            if a == b:
-                if s <= 0.0:
-                    return False
-                H[a * m + a] = math.sqrt(s)
-            else:
-                H[a * m + b] = s / H[b * m + b]
-    for a in range(nf):  # forward: L y = rhs
-        s = rhs[a]
-        for k in range(a):
-            s -= H[a * m + k] * x[k]
-        x[a] = s / H[a * m + a]
-    for a in range(nf - 1, -1, -1):  # backward: L^T x = y
-        s = x[a]
-        for k in range(a + 1, nf):
-            s -= H[k * m + a] * x[k]
-        x[a] = s / H[a * m + a]
-    return True
 
 
 def wls_allocate(B, v, lo, hi, wu, ud, gamma, p, m, max_iter, u, work):
@@ -223,8 +186,28 @@ def wls_allocate(B, v, lo, hi, wu, ud, gamma, p, m, max_iter, u, work):
                 nb += 1
             rhs[nf] = g[a]
             nf += 1
-        if nf > 0 and not _cholesky_solve(H, rhs, ws, nf, m, step):
-            return -1
+        # Cholesky factorisation H = L L^T (in place, lower triangle), then two solves
+        for a in range(nf):
+            for b in range(a + 1):
+                sc = H[a * m + b]
+                for k in range(b):
+                    sc -= H[a * m + k] * H[b * m + k]
+                if a == b:
+                    if sc <= 0.0:
+                        return -1  # not positive definite (a weight of 0)
+                    H[a * m + a] = math.sqrt(sc)
+                else:
+                    H[a * m + b] = sc / H[b * m + b]
+        for a in range(nf):  # forward: L y = rhs
+            sc = rhs[a]
+            for k in range(a):
+                sc -= H[a * m + k] * step[k]
+            step[a] = sc / H[a * m + a]
+        for a in range(nf - 1, -1, -1):  # backward: L^T x = y
+            sc = step[a]
+            for k in range(a + 1, nf):
+                sc -= H[k * m + a] * step[k]
+            step[a] = sc / H[a * m + a]
         # scatter the step onto all actuators (0 on the working set)
         k = nf - 1
         for j in range(m - 1, -1, -1):
