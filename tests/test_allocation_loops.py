@@ -152,3 +152,20 @@ def test_a_loop_refuses_an_allocator_it_cannot_run():
         replace(sc.loop, allocator="wls")
     with pytest.raises(ConfigurationError, match="names actuator 7"):
         replace(sc.loop, annunciations=(Annunciation(actuator=7, onset=1.0),))
+
+
+def test_an_annunciated_actuator_stays_allocated_when_it_is_the_last_of_its_axis():
+    from adaptive_ftc.allocation.inloop import known_table
+
+    R = np.hstack([np.eye(3), np.eye(3)])  # the spacecraft: roll 1, 4; pitch 2, 5; yaw 3, 6
+    anns = [
+        Annunciation(actuator=3, onset=1.0),
+        Annunciation(actuator=6, onset=2.0),  # the second yaw wheel: yaw would be lost
+        Annunciation(actuator=1, onset=3.0),
+    ]
+    table = known_table(anns, (0.0, 1.5, 2.5, 4.0), 6, R)
+    np.testing.assert_array_equal(
+        table, [[0, 0, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [1, 0, 1, 0, 0, 0]]
+    )
+    # without R (no reachability check) every annunciated actuator is removed
+    np.testing.assert_array_equal(known_table(anns, (0.0, 1.5, 2.5, 4.0), 6)[2], [1, 0, 1, 0, 0, 1])

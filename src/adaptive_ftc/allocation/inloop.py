@@ -131,14 +131,39 @@ def check_allocator(allocator, R: np.ndarray, m: int, annunciations) -> tuple:
     return allocator, anns
 
 
-def known_table(annunciations, bps, m: int) -> np.ndarray:
-    """Per (interval, actuator): 1 where the allocator knows the actuator failed (at the
-    interval's midpoint), else 0."""
+def known_table(annunciations, bps, m: int, R=None) -> np.ndarray:
+    """Per (interval, actuator): 1 where the allocator has removed the actuator (its failure
+    annunciated, at the interval's midpoint), else 0.
+
+    With the actuation matrix ``R``, the reachability check decides first: an annunciated
+    actuator whose removal would leave an axis with no actuator at all (a rank loss of
+    ``R diag(kept)``) stays in the allocation (the last, if partial, means of that axis: a
+    pseudo-inverse would otherwise command nothing there), the later-annunciated ones first.
+    """
     edges = np.asarray(bps, dtype=float)
     mids = 0.5 * (edges[:-1] + edges[1:])
     out = np.zeros((mids.size, m))
-    for a in annunciations:
+    order = sorted(annunciations, key=lambda a: a.known_from)
+    for a in order:
         out[(a.known_from <= mids) & (mids < a.known_until), a.actuator - 1] = 1.0
+    if R is None:
+        return out
+    R = np.atleast_2d(np.asarray(R, dtype=float))
+    full = np.linalg.matrix_rank(R)
+    for k in range(mids.size):
+        rank = np.linalg.matrix_rank(R * (1.0 - out[k])[None, :])
+        for a in reversed(order):  # the latest-known first, only where it restores an axis
+            j = a.actuator - 1
+            if rank == full:
+                break
+            if out[k, j] == 0.0:
+                continue
+            out[k, j] = 0.0
+            restored = np.linalg.matrix_rank(R * (1.0 - out[k])[None, :])
+            if restored > rank:
+                rank = restored
+            else:
+                out[k, j] = 1.0
     return out
 
 

@@ -1515,7 +1515,7 @@ def _with_known_table(loop: ClosedLoop, at: int, bps, m: int, c_all: np.ndarray)
     written at ``c[ALLOC]``."""
     from adaptive_ftc.allocation.inloop import known_table
 
-    table = known_table(loop.annunciations, bps, m)
+    table = known_table(loop.annunciations, bps, m, loop.R)
     c_all[at] = float(c_all.size)
     return np.concatenate([c_all, table.ravel()])
 
