@@ -135,10 +135,11 @@ def known_table(annunciations, bps, m: int, R=None) -> np.ndarray:
     """Per (interval, actuator): 1 where the allocator has removed the actuator (its failure
     annunciated, at the interval's midpoint), else 0.
 
-    With the actuation matrix ``R``, the reachability check decides first: an annunciated
-    actuator whose removal would leave an axis with no actuator at all (a rank loss of
-    ``R diag(kept)``) stays in the allocation (the last, if partial, means of that axis: a
-    pseudo-inverse would otherwise command nothing there), the later-annunciated ones first.
+    With the actuation matrix ``R``, the reachability check decides first: where removing the
+    annunciated actuators would leave a direction that no kept actuator reaches (a rank loss
+    of ``R diag(kept)``), every annunciated actuator acting along that direction stays in the
+    allocation, as if silent (one of them may be only partly failed, and the allocator does
+    not know which: a pseudo-inverse would otherwise command nothing there).
     """
     edges = np.asarray(bps, dtype=float)
     mids = 0.5 * (edges[:-1] + edges[1:])
@@ -151,19 +152,17 @@ def known_table(annunciations, bps, m: int, R=None) -> np.ndarray:
     R = np.atleast_2d(np.asarray(R, dtype=float))
     full = np.linalg.matrix_rank(R)
     for k in range(mids.size):
-        rank = np.linalg.matrix_rank(R * (1.0 - out[k])[None, :])
-        for a in reversed(order):  # the latest-known first, only where it restores an axis
-            j = a.actuator - 1
-            if rank == full:
-                break
-            if out[k, j] == 0.0:
-                continue
-            out[k, j] = 0.0
-            restored = np.linalg.matrix_rank(R * (1.0 - out[k])[None, :])
-            if restored > rank:
-                rank = restored
-            else:
-                out[k, j] = 1.0
+        kept = R * (1.0 - out[k])[None, :]
+        if not out[k].any() or np.linalg.matrix_rank(kept) == full:
+            continue
+        # the directions the kept actuators lost (left null space of kept within R's range)
+        U, S, _ = np.linalg.svd(kept)
+        tol = max(R.shape) * np.finfo(float).eps * max(1.0, np.max(np.abs(R)))
+        rank = int(np.sum(S > tol))
+        lost = U[:, rank:full] if full <= U.shape[1] else U[:, rank:]
+        for j in range(m):  # every removed actuator that acts along a lost direction returns
+            if out[k, j] and np.linalg.norm(lost.T @ R[:, j]) > tol:
+                out[k, j] = 0.0
     return out
 
 
