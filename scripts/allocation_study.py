@@ -1,6 +1,7 @@
 """The shipped allocation study (issue 31): success rate vs failed actuators and detection
-delay, per allocator, on the spacecraft (6 reaction wheels) and the manipulator (2 actuators
-per joint). Writes docs/figures/allocation.csv, allocation_summary.csv and allocation.png.
+delay, per allocator, on the spacecraft (6 reaction wheels), the manipulator (2 actuators per
+joint) and wing rock (3 aileron segments, the single-input §2.4 design). Writes
+docs/figures/allocation.csv, allocation_summary.csv and allocation.png.
 
     PYTHONPATH=src python scripts/allocation_study.py [--draws 10]
 """
@@ -20,6 +21,7 @@ CASES = {
     # scenario: (failed counts, stuck magnitude, onset window)
     "spacecraft-mimo-s1": ((1, 2, 3), 5.0, (15.0, 75.0)),
     "manipulator-mimo-s1": ((1, 2), 3.0, (3.0, 15.0)),
+    "wingrock-estimation-s1": ((1, 2), 10.0, (2.0, 6.0)),
 }
 
 

@@ -42,7 +42,8 @@ def test_the_fixed_default_is_the_thesis_text(name):
 
 
 @pytest.mark.parametrize(
-    ("name", "t_final"), [("spacecraft-mimo-s1", 20.0), ("manipulator-mimo-s1", 5.0)]
+    ("name", "t_final"),
+    [("spacecraft-mimo-s1", 20.0), ("manipulator-mimo-s1", 5.0), ("hypersonic-direct-s1", 20.0)],
 )
 def test_every_allocator_gives_the_thesis_commands_with_healthy_actuators(name, t_final):
     sc, loop = _short(name, t_final)
