@@ -193,3 +193,19 @@ def test_bad_allocator_settings_name_the_culprit(kwargs, match):
 def test_limits_in_the_wrong_order_are_refused():
     with pytest.raises(ConfigurationError, match="actuator 2: lower 1 is above upper -1"):
         WeightedLeastSquares().allocate([1.0], [[1.0, 1.0]], limits=([-1, 1], [1, -1]))
+
+
+@pytest.mark.parametrize(
+    "module",
+    [
+        "adaptive_ftc.allocation.allocators",
+        "adaptive_ftc.allocation.reachable",
+        "adaptive_ftc.allocation.inloop",
+    ],
+)
+def test_docstring_examples_run(module):
+    import doctest
+    import importlib
+
+    failures, tried = doctest.testmod(importlib.import_module(module))
+    assert tried > 0 and failures == 0

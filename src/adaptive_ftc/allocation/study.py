@@ -234,8 +234,10 @@ def plot_allocation_study(table: pd.DataFrame):
         for c, det in enumerate(detections):
             ax = axes[r][c]
             part = summary[(summary["scenario"] == scn) & (summary["detection"] == det)]
-            for name, rows in part.groupby("allocator", sort=False):
-                ax.plot(rows["n_failed"], rows["success_rate"], marker="o", label=name)
+            names = list(dict.fromkeys(part["allocator"]))
+            for k, (name, rows) in enumerate(part.groupby("allocator", sort=False)):
+                shift = 0.05 * (k - (len(names) - 1) / 2)  # equal rates stay visible
+                ax.plot(rows["n_failed"] + shift, rows["success_rate"], marker="o", label=name)
             ax.set_title(f"{scn}\n{det}", fontsize=8)
             ax.set_xticks(sorted(set(part["n_failed"])))
             ax.set_ylim(-0.05, 1.05)
