@@ -1259,7 +1259,7 @@ def scenario_schema() -> dict[str, Any]:
     Examples
     --------
     >>> sorted(scenario_schema()["propertyNames"]["enum"])[:3]
-    ['actuators', 'claims', 'controller']
+    ['actuators', 'allocation', 'claims']
     """
     from adaptive_ftc._version import __version__
 
