@@ -171,3 +171,25 @@ def test_an_annunciated_actuator_stays_allocated_when_it_is_the_last_of_its_axis
     )
     # without R (no reachability check) every annunciated actuator is removed
     np.testing.assert_array_equal(known_table(anns, (0.0, 1.5, 2.5, 4.0), 6)[2], [1, 0, 1, 0, 0, 1])
+
+
+def test_campaign_members_keep_the_allocator_but_not_the_dropped_failures_annunciations():
+    from adaptive_ftc.campaigns import draw_member, load_campaign
+
+    data = {
+        "name": "alloc",
+        "base": {"name": "alloc", "text": SCENARIO},
+        "designs": ["adaptive"],
+        "runs": 2,
+        "seed": 3,
+        "duration": 5.0,
+        "success": {"rms_error_final": 0.01, "final_window": 1.0},
+        "failures": {
+            "count": 1,
+            "onset": {"uniform": [0.5, 1.5]},
+            "models": {"loss_of_effectiveness": {"effectiveness": {"uniform": [0.2, 0.9]}}},
+        },
+    }
+    member = draw_member(load_campaign(data), 0)
+    assert member.loop.allocator == WeightedLeastSquares(gamma=1e4)
+    assert member.loop.annunciations == ()  # the base's stuck wheel 4 is not in this member
