@@ -193,3 +193,16 @@ def test_campaign_members_keep_the_allocator_but_not_the_dropped_failures_annunc
     member = draw_member(load_campaign(data), 0)
     assert member.loop.allocator == WeightedLeastSquares(gamma=1e4)
     assert member.loop.annunciations == ()  # the base's stuck wheel 4 is not in this member
+
+
+def test_wls_and_pinv_respect_the_declared_actuator_limits():
+    from adaptive_ftc.hardware import Actuators
+
+    sc, loop = _short("spacecraft-mimo-s1", 10.0)
+    loop = replace(loop, actuators=Actuators(lower=-12.0, upper=12.0))
+    fixed = simulate(loop, sc.solver)
+    assert np.max(np.abs(fixed.u_cmd)) > 12.5  # the thesis's commands go beyond the limits
+    for alloc in (WeightedLeastSquares(), PseudoInverse()):
+        run = simulate(replace(loop, allocator=alloc), sc.solver)
+        assert run.status == fixed.status
+        assert np.max(np.abs(run.u_cmd)) <= 12.0 + 1e-9, alloc.kind
