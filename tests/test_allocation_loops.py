@@ -206,3 +206,11 @@ def test_wls_and_pinv_respect_the_declared_actuator_limits():
         run = simulate(replace(loop, allocator=alloc), sc.solver)
         assert run.status == fixed.status
         assert np.max(np.abs(run.u_cmd)) <= 12.0 + 1e-9, alloc.kind
+
+
+def test_the_fixed_allocation_ignores_annunciations_entirely():
+    sc, loop = _short("spacecraft-mimo-s1", 5.0)
+    loop = replace(loop, failures=(Stuck(actuator=1, onset=1.0, value=0.0),))
+    told = replace(loop, annunciations=(Annunciation(actuator=1, onset=1.0, delay=0.5),))
+    assert assemble(told).breakpoints == assemble(loop).breakpoints  # no restart at 1.5 s
+    np.testing.assert_array_equal(simulate(told, sc.solver).y, simulate(loop, sc.solver).y)

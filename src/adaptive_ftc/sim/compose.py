@@ -1502,8 +1502,9 @@ def _allocation(g: Generator, loop: ClosedLoop, rho_at: int) -> dict | None:
 
 def _with_annunciations(loop: ClosedLoop, times: tuple[float, ...]) -> tuple[float, ...]:
     """``times`` with the instants where the allocator learns of a failure (onset +
-    detection delay) or takes a recovered actuator back: the integration restarts there."""
-    if not loop.annunciations:
+    detection delay) or takes a recovered actuator back: the integration restarts there (the
+    fixed allocation ignores annunciations: no restart)."""
+    if not loop.annunciations or loop.allocator is None:
         return times
     from adaptive_ftc.allocation.inloop import breakpoints
 
