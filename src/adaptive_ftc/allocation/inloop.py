@@ -14,23 +14,23 @@ right-hand side forms
 - the commands ``u`` from the allocator's kernel (:mod:`adaptive_ftc.allocation.kernels`).
 
 A *silent* failure (not annunciated) is known only to the plant: the allocator keeps using the
-actuator. The adaptive allocator's estimate learns it from the achieved virtual control
-``R u^f`` (the torques the actuators actually deliver, e.g. reaction-wheel torque from the wheel
-speed): its model ``R diag(rho) u`` has no bias, so a stuck actuator reads as an
-effectiveness between its bounds.
+actuator. The adaptive allocator's estimate learns it from what the actuators deliver: each
+actuator's output ``u^f_j`` (``measured = "actuator"``, e.g. a reaction wheel's torque from its
+speed) or only the achieved virtual control ``R u^f`` (``measured = "axis"``). Its model
+``rho u`` has no bias, so a stuck actuator reads as an effectiveness at a bound.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from adaptive_ftc.allocation import kernels
 from adaptive_ftc.allocation.allocators import (
     AdaptiveAllocation,
-    Allocator,
     FixedAllocation,
     PseudoInverse,
     WeightedLeastSquares,
@@ -183,10 +183,10 @@ def emit_allocation(g, loop, *, rho_at: int, has_act: bool):
     of ``D.c``: first the place of the table of :func:`known_table`, written per run), the
     initial values of its states (from ``rho_at`` on in ``Y``) and the size of its work buffer.
     """
-    alloc: Allocator = loop.allocator
+    alloc = loop.allocator
     p, m = g.p, g.m
     adaptive = isinstance(alloc, AdaptiveAllocation)
-    inner = alloc._inner_allocator() if adaptive else alloc
+    inner: Any = alloc._inner_allocator() if isinstance(alloc, AdaptiveAllocation) else alloc
     n_b, n_w = p * m, max(kernels.pinv_work_size(p, m), kernels.wls_work_size(p, m))
     # the work buffer: B, v, lower, upper, weights, preferred, achieved v, kernel work
     at_v, at_lo = n_b, n_b + p
@@ -194,13 +194,15 @@ def emit_allocation(g, loop, *, rho_at: int, has_act: bool):
     at_ach, at_k = at_lo + 4 * m, at_lo + 4 * m + p
     size = at_k + n_w
     lim_lo, lim_hi = -math.inf, math.inf
+    # ALLOC + 0: the known table's place; 1, 2: limits; 3: max_condition; 4: gamma;
+    # 5: max_iterations; 6: preferred; 7, 8, 9: the estimate's gain, lower, upper
+    settings: list[float] = [0.0, lim_lo, lim_hi]
     if isinstance(inner, WeightedLeastSquares):
-        settings = (0.0, lim_lo, lim_hi, 0.0, float(inner.gamma), float(inner.max_iterations))
+        settings += [0.0, float(inner.gamma), float(inner.max_iterations), float(inner.preferred)]
     else:
-        settings = (0.0, lim_lo, lim_hi, float(inner.max_condition), 0.0, 0.0)
-    settings += (float(inner.preferred) if isinstance(inner, WeightedLeastSquares) else 0.0,)
-    if adaptive:
-        settings += (float(alloc.gain), float(alloc.lower), float(alloc.upper))
+        settings += [float(inner.max_condition), 0.0, 0.0, 0.0]
+    if isinstance(alloc, AdaptiveAllocation):
+        settings += [float(alloc.gain), float(alloc.lower), float(alloc.upper)]
     kernel = kernels.wls_allocate if inner.kind == "wls" else kernels.pinv_allocate
     ka = g.use("alloc_kernel", kernel)
     rho = f"Y[{rho_at} + j]" if adaptive else "1.0"
@@ -253,7 +255,7 @@ def emit_allocation(g, loop, *, rho_at: int, has_act: bool):
         ]
     adapt: list[str] = []
     states: list[float] = []
-    if adaptive:
+    if isinstance(alloc, AdaptiveAllocation):
         states = [1.0] * m
         g.adaptive_names += [f"rho_hat_{a}" for a in loop.plant.actuator_names]
         adapt = [
@@ -282,4 +284,4 @@ def emit_allocation(g, loop, *, rho_at: int, has_act: bool):
                 f"    {kr}(c[RMAT:RMAT + {p * m}], {rho_v}, u, alw[{at_ach}:{at_ach + p}], "
                 f"{w}, {lo}, {hi}, {p}, {m}, {drho})",
             ]
-    return lines, adapt, settings, states, size
+    return lines, adapt, tuple(settings), states, size

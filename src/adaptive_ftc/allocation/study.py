@@ -68,7 +68,7 @@ def draw_failures(
             f"`n_failed` must be between 0 and the {n_actuators} actuators; got {n_failed}."
         )
     acts = rng.choice(n_actuators, size=n_failed, replace=False) + 1
-    out = []
+    out: list = []
     for j in sorted(int(a) for a in acts):
         t = float(np.round(rng.uniform(*onset), 3))
         if rng.uniform() < p_stuck:
@@ -150,7 +150,7 @@ def allocation_study(
     base = replace(sc.loop, t_final=t_final, failures=())
     m = base.plant.n_actuators
     rng = np.random.default_rng(seed)
-    rows = []
+    rows: list[dict] = []
     for n in failed:
         for d in range(draws):
             fails = draw_failures(m, n, rng, onset=onset, stuck=stuck)
