@@ -512,7 +512,7 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
     sensor rate) adds the sample instants ``t0 + k T``.
     """
     t0, t1 = float(loop.t0), float(loop.t_final)
-    fail = loop.failures.breakpoints(t0, t1)
+    fail = _with_annunciations(loop, loop.failures.breakpoints(t0, t1))
     period = loop.sample_time
     if not period and loop.sensors is not None and loop.sensors.has_noise:
         period = 1.0 / float(loop.sensors.rate)
@@ -902,6 +902,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             float(loop.sample_time),
             loop.has_actuator_dynamics,
             sdot,
+            loop.allocator,
         )
         hash(key)
     except TypeError:  # an unhashable allocation or reference: not remembered
@@ -962,6 +963,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     extra_at = nx + n_phi
     control_src = ctrl.emit_control(g, blocks, extra_at)
     adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
+    alloc = _allocation(g, loop, extra_at + len(g.y0_extra))  # None: u = R^T u0 (3.14)
     ca_measure = []
     if ctrl.constraint_aware is not None:  # its states after the design's own
         ca_control, ca_pre, ca_post, ca_measure = ctrl.emit_constraint_aware(
@@ -1048,12 +1050,21 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         body += src
         body.append(f"    u0[{r}] = weighted_sum(phi, Y, {o}, {at}, {size})")
     body += control_src
+    body += alloc["prelude"] if alloc else []
     body += [
-        "    # allocation u = R^T u0 (3.14) and actuator failures",
+        "    # allocation u = R^T u0 (3.14) and actuator failures"
+        if not alloc
+        else "    # the allocator's commands and actuator failures",
         f"    for j in range({m}):",
-        "        acc = 0.0",
-        f"        for i in range({p}):",
-        f"            acc += c[RMAT + i * {m} + j] * u0[i]",
+        *(
+            [
+                "        acc = 0.0",
+                f"        for i in range({p}):",
+                f"            acc += c[RMAT + i * {m} + j] * u0[i]",
+            ]
+            if not alloc
+            else ["        acc = u[j]"]
+        ),
         *(
             [
                 "        if misc[5] == 0.0:  # between samples: the held command",
@@ -1159,6 +1170,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         *["    " + ln for ln in held],
         "        return",
     ]
+    body += alloc["adapt"] if alloc else []
     body += adapt_src
     body += held
     jump_src = [
@@ -1336,6 +1348,8 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     }
     if has_delay:  # a Pade approximant's delay (s) or a digital delay in samples, per actuator
         settings["delay"] = delay_vals
+    if alloc:  # the allocator's numbers (issue 31)
+        settings["alloc"] = alloc["settings"]
     layout: dict = {}
     values = list(g.consts)  # expression constants first: their indices are in the text
     names_c = {
@@ -1353,6 +1367,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         "gains": "GAINS",
         "plant": "PLANT",
         "delay": "DELAY",
+        "alloc": "ALLOC",
     }
     consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
     for key, vals in settings.items():
@@ -1381,6 +1396,10 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         consts_lines.append(f"{name.upper()} = {at}")
         consts_lines.append(f"N_{name.upper()} = {sizes[name]}")
         at += sizes[name]
+    if alloc:  # the allocator's work buffer
+        layout["w:alw"] = slice(at, at + alloc["size"])
+        consts_lines += [f"ALW = {at}", f"N_ALW = {alloc['size']}"]
+        at += alloc["size"]
     layout["w:size"] = slice(0, at)
     consts_lines += [
         "# the header of D.i: sizes, then where the tables start (in D.i or D.c)",
@@ -1453,6 +1472,8 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     act_at = len(values)
     meas_at = act_at + act_table.size
     c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
+    if "c:alloc" in st.layout:  # the allocator's table of annunciated failures, per interval
+        c_all = _with_known_table(loop, st.layout["c:alloc"].start, bps, m, c_all)
     inst_at = _I_HEAD + fphase.size
     samp_at = inst_at + inst.size
     env_at = st.layout["c:envelope"]
@@ -1473,6 +1494,41 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     data = LoopData(c=c_all, i=ints, p=st.plant_p)
     layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns), "loaded": st.loaded}
     return st.text, data, g, layout
+
+
+def _allocation(g: Generator, loop: ClosedLoop, rho_at: int) -> dict | None:
+    """The text, numbers and states of a loop's allocator (issue 31); ``None`` for the
+    thesis's fixed allocation, whose text stays as it is (:mod:`adaptive_ftc.allocation`)."""
+    if loop.allocator is None:
+        return None
+    from adaptive_ftc.allocation.inloop import emit_allocation
+
+    prelude, adapt, settings, states, size = emit_allocation(
+        g, loop, rho_at=rho_at, has_act=loop.has_actuator_dynamics
+    )
+    g.y0_extra += states
+    return {"prelude": prelude, "adapt": adapt, "settings": settings, "size": size}
+
+
+def _with_annunciations(loop: ClosedLoop, times: tuple[float, ...]) -> tuple[float, ...]:
+    """``times`` with the instants where the allocator learns of a failure (onset +
+    detection delay) or takes a recovered actuator back: the integration restarts there (the
+    fixed allocation ignores annunciations: no restart)."""
+    if not loop.annunciations or loop.allocator is None:
+        return times
+    from adaptive_ftc.allocation.inloop import breakpoints
+
+    return breakpoints(loop.annunciations, times, float(loop.t0), float(loop.t_final))
+
+
+def _with_known_table(loop: ClosedLoop, at: int, bps, m: int, c_all: np.ndarray) -> np.ndarray:
+    """``c_all`` with the per-interval table of annunciated failures appended and its place
+    written at ``c[ALLOC]``."""
+    from adaptive_ftc.allocation.inloop import known_table
+
+    table = known_table(loop.annunciations, bps, m, loop.R)
+    c_all[at] = float(c_all.size)
+    return np.concatenate([c_all, table.ravel()])
 
 
 def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
