@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from adaptive_ftc.allocation.study import allocation_study, plot_allocation_study, summarize
+from adaptive_ftc.allocation_study import allocation_study, plot_allocation_study, summarize
 
 CASES = {
     # scenario: (failed counts, stuck magnitude, onset window)

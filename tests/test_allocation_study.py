@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from adaptive_ftc.allocation import AdaptiveAllocation, PseudoInverse
-from adaptive_ftc.allocation.study import (
+from adaptive_ftc.allocation_study import (
     allocation_study,
     draw_failures,
     plot_allocation_study,

@@ -36,6 +36,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "_signals",
         "_units",
         "_version",
+        "allocation",
         "approximators",
         "baselines",
         "controllers",
@@ -49,7 +50,17 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "sim",
     ),
     "catalogue": ("_feedback", "claims", "report", "reproduce", "scenarios"),
-    "applications": ("campaigns", "cli", "export", "gym", "interop", "studies", "study_cli", "study_plots"),
+    "applications": (
+        "allocation_study",
+        "campaigns",
+        "cli",
+        "export",
+        "gym",
+        "interop",
+        "studies",
+        "study_cli",
+        "study_plots",
+    ),
     "api": ("",),  # adaptive_ftc/__init__.py
 }
 ORDER = tuple(LAYERS)
