@@ -1,0 +1,157 @@
+"""The progress bars' ETA (issue 28): time left from the measured rate of the work done so far,
+tasks weighted by their expected cost. Driven by a fake clock: no real time is measured."""
+
+from __future__ import annotations
+
+import pytest
+
+from adaptive_ftc import _feedback
+from adaptive_ftc._feedback import BAR_FORMAT, Eta, EtaBar
+from adaptive_ftc.errors import ConfigurationError
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0  # any origin: only differences count
+
+    def __call__(self) -> float:
+        return self.now
+
+
+# tasks of very different costs (a 120 s run at 1 ms records, a 10 s run, figures...)
+COSTS = [5.0, 0.2, 0.2, 3.0, 0.5, 0.5, 0.5, 8.0, 0.1, 1.0]
+
+
+@pytest.mark.parametrize("throughput", [0.5, 2.0, 7.0])
+def test_eta_equals_the_true_time_left_at_a_steady_rate(throughput):
+    # the machine completes `throughput` units of cost per second; each task takes its cost
+    # over that: the true time left after task k is the cost still to do over the throughput
+    clock = FakeClock()
+    eta = Eta(sum(COSTS), clock=clock)
+    assert eta.seconds_left() is None and eta.text() == ""  # no rate before a completion
+    for k, cost in enumerate(COSTS):
+        clock.now += cost / throughput
+        eta.done(cost)
+        truth = sum(COSTS[k + 1 :]) / throughput
+        assert eta.seconds_left() == pytest.approx(truth, rel=1e-12, abs=1e-12)
+    assert eta.seconds_left() == 0.0
+
+
+def test_counting_tasks_alike_would_be_wrong_by_minutes():
+    # the reason for the weights: after a 5-unit task, 9 of 10 tasks are left but only
+    # 14.0 of 19.0 units; by counts the ETA would say 9 x 10 s = 90 s instead of 28 s
+    clock = FakeClock()
+    eta = Eta(sum(COSTS), clock=clock)
+    clock.now += 10.0
+    eta.done(COSTS[0])
+    assert eta.seconds_left() == pytest.approx((sum(COSTS) - 5.0) / 0.5)
+    counts = Eta(len(COSTS), clock=clock)
+    counts._start = eta._start
+    counts.done(1)
+    assert counts.seconds_left() == pytest.approx(90.0)
+    assert abs(counts.seconds_left() - eta.seconds_left()) > 60
+
+
+def test_eta_is_never_negative_nor_infinite():
+    clock = FakeClock()
+    eta = Eta(2.0, clock=clock)
+    eta.done(1.0)  # completed at the very start: no elapsed time, no rate yet
+    assert eta.seconds_left() is None
+    clock.now += 1.0
+    eta.done(5.0)  # more work than expected was done
+    assert eta.seconds_left() == 0.0
+    eta.add(-10.0)  # work dropped below nothing
+    assert eta.total == 0.0 and eta.seconds_left() == 0.0
+    eta.done(-3.0)  # a negative cost counts as nothing
+    assert eta.completed == 6.0
+    with pytest.raises(ConfigurationError, match="finite cost"):
+        Eta(float("inf"))
+    with pytest.raises(ConfigurationError, match="finite cost"):
+        Eta(float("nan"))
+
+
+def test_the_total_can_change_while_it_runs():
+    # a scenario whose run failed draws none of its 3 figures (2 units each)
+    clock = FakeClock()
+    eta = Eta(10.0, clock=clock)
+    clock.now += 4.0
+    eta.done(2.0)
+    eta.add(-6.0)
+    assert eta.seconds_left() == pytest.approx((4.0 - 2.0) / 0.5)
+
+
+@pytest.mark.parametrize(
+    ("seconds", "text"), [(0.4, "ETA 0:00"), (83, "ETA 1:23"), (3725, "ETA 1:02:05")]
+)
+def test_eta_text(seconds, text):
+    clock = FakeClock()
+    eta = Eta(2.0, clock=clock)
+    clock.now += seconds
+    eta.done(1.0)  # half done in `seconds`: as long left
+    assert eta.text() == text
+
+
+def test_bar_shows_the_measured_eta_not_tqdms(capsys):
+    clock = FakeClock()
+    assert "{remaining}" not in BAR_FORMAT
+    with EtaBar(3, cost=6.0, desc="work", clock=clock) as bar:
+        assert "ETA" not in bar.bar.postfix if bar.bar.postfix else True
+        clock.now += 4.0
+        bar.tick(4.0)  # 4 units in 4 s: 2 left, 2 s
+        assert bar.bar.postfix == "ETA 0:02"
+        bar.note("data/x.nc")
+        assert bar.bar.postfix == "ETA 0:02, data/x.nc"
+        bar.grow(1, 4.0)  # one more task: 6 units left, 6 s
+        assert bar.bar.total == 4 and bar.bar.postfix.startswith("ETA 0:06")
+        clock.now += 1.0
+        bar.tick(1.0)
+        assert bar.bar.n == 2
+    err = capsys.readouterr().err
+    assert "ETA 0:02" in err and "<?" not in err
+
+
+def test_a_resumed_bar_rates_only_this_sessions_work():
+    # a campaign resumed at 90 of 100 runs: the rate is that of the runs done now
+    clock = FakeClock()
+    bar = EtaBar(100, initial=90, disable=True, clock=clock)
+    assert bar.eta.total == 10.0
+    clock.now += 30.0
+    bar.tick(1.0)  # one run in 30 s: 9 left, 270 s (not 10 x 30 / 91)
+    assert bar.eta.seconds_left() == pytest.approx(270.0)
+    bar.close()
+
+
+def test_reproduce_weighs_its_tasks_and_ends_at_zero(tmp_path, monkeypatch):
+    from adaptive_ftc.reproduce import run_reproduction
+
+    bars: list[EtaBar] = []
+    ticks: list[float] = []
+
+    class Recording(EtaBar):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            bars.append(self)
+
+        def tick(self, cost=1.0, n=1):
+            ticks.append(cost)
+            super().tick(cost, n)
+
+    monkeypatch.setattr(_feedback, "EtaBar", Recording)
+    run_reproduction(
+        tmp_path / "r",
+        quick=True,
+        names=["wingrock-free-1deg"],
+        jobs=1,
+        progress=False,
+        formats=("png",),
+        dpi=40,
+        figure_limit=1,
+        data=False,
+    )
+    (bar,) = bars
+    assert len(ticks) == bar.bar.total  # one tick a task (a disabled bar does not count)
+    # every task's cost is counted once: the ETA ends at zero, not below
+    assert bar.eta.completed == pytest.approx(bar.eta.total)
+    assert bar.eta.seconds_left() == 0.0
+    # the tasks are weighted: a figure (0.5 s) against a short run not written to a file
+    assert max(ticks) > 5 * min(ticks)
