@@ -155,3 +155,37 @@ def test_reproduce_weighs_its_tasks_and_ends_at_zero(tmp_path, monkeypatch):
     assert bar.eta.seconds_left() == 0.0
     # the tasks are weighted: a figure (0.5 s) against a short run not written to a file
     assert max(ticks) > 5 * min(ticks)
+
+
+def test_a_resumed_campaign_rates_only_the_runs_of_this_call(tmp_path, monkeypatch):
+    from adaptive_ftc.campaigns import load_campaign, run_campaign
+
+    spec = {
+        "name": "eta",
+        "base": "hypersonic-direct-s1",
+        "designs": ["adaptive", "frozen"],
+        "runs": 4,
+        "seed": 3,
+        "chunk_size": 2,
+        "duration": 1.0,
+        "success": {"rms_error_final": 0.01, "final_window": 0.5},
+        "failures": {"count": 1, "models": {"loss_of_effectiveness": {}}},
+    }
+    bars: list[EtaBar] = []
+
+    class Recording(EtaBar):
+        def __init__(self, total, **k):
+            super().__init__(total, **k)
+            self.initial = k.get("initial", 0)
+            bars.append(self)
+
+    monkeypatch.setattr(_feedback, "EtaBar", Recording)
+    out = tmp_path / "c"
+    run_campaign(load_campaign(spec), out, jobs=1, progress=False, max_chunks=1, summary=False)
+    run_campaign(load_campaign(spec), out, jobs=1, progress=False, summary=False)
+    first, second = bars
+    # 8 runs (4 members x 2 designs) in chunks of 4: the first call runs one chunk, the second
+    # resumes at 4 and its ETA is measured on its own 4 runs
+    assert (first.bar.total, first.initial, first.eta.total) == (8, 0, 4.0)
+    assert (second.bar.total, second.initial, second.eta.total) == (8, 4, 4.0)
+    assert first.eta.completed == second.eta.completed == 4.0

@@ -440,7 +440,8 @@ def render_report(
             if n > n_noteval
             else ""
         )
-        + ". Run <code>aftc reproduce</code> without <code>--quick</code> for that.</div>"
+        + ". Run <code>aftc reproduce</code> for that (its runs are full length, with or "
+        "without <code>--quick</code>).</div>"
         if quick
         else ""
     )
