@@ -105,10 +105,13 @@ class Eta:
     """Time left from the measured rate of the work done so far.
 
     Each task has an expected cost (any unit: expected CPU seconds, recorded values, or 1 for
-    tasks alike); the rate is the cost completed per second of wall time since the clock
-    started (the whole elapsed time: parallel workers and the machine's load are in it), and
-    the time left is the cost still to do over that rate. Nothing is estimated before the first
-    task completes (there is no rate yet); the time left is never negative and never infinite.
+    tasks alike). The rate is the cost completed per second of wall time, measured from the
+    first completion on: the time until then holds what happens once (imports, worker start,
+    numba compiles on a first run: a cold ``aftc reproduce`` used to open on a 23-minute
+    estimate) and would make the rate look slow for the whole run. Parallel workers and the
+    machine's load are in the measured rate. The time left is the cost still to do over that
+    rate; nothing is estimated before a second task completes (there is no rate yet), and the
+    time left is never negative and never infinite.
 
     Parameters
     ----------
@@ -122,11 +125,12 @@ class Eta:
     --------
     >>> t = [0.0]
     >>> eta = Eta(10.0, clock=lambda: t[0])
+    >>> t[0] = 9.0; eta.done(1.0)   # the first task, after 8 s of start-up
     >>> eta.seconds_left() is None  # no rate yet
     True
-    >>> t[0] = 4.0; eta.done(2.0)   # 2 of 10 in 4 s: 0.5 per second
+    >>> t[0] = 13.0; eta.done(2.0)  # 2 more in 4 s: 0.5 a second, 7 to do
     >>> eta.seconds_left()
-    16.0
+    14.0
     """
 
     def __init__(self, total: float, *, clock=None) -> None:
@@ -139,12 +143,14 @@ class Eta:
             raise ConfigurationError(f"`total` of Eta must be a finite cost >= 0; got {total!r}.")
         self.total = total
         self._clock = clock or time.monotonic
-        self._start = self._clock()
         self.completed = 0.0
+        self._first: tuple[float, float] | None = None  # (time, cost) of the first completion
 
     def done(self, cost: float = 1.0) -> None:
         """Record a completed task of expected ``cost``."""
         self.completed += max(0.0, float(cost))
+        if self._first is None:
+            self._first = (self._clock(), self.completed)
 
     def add(self, cost: float) -> None:
         """Change the expected total by ``cost`` (negative: work dropped, e.g. the figures of
@@ -152,15 +158,17 @@ class Eta:
         self.total = max(0.0, self.total + float(cost))
 
     def seconds_left(self) -> float | None:
-        """Seconds left at the measured rate, or ``None`` before the first completion."""
-        elapsed = self._clock() - self._start
-        if self.completed <= 0 or elapsed <= 0:
+        """Seconds left at the measured rate, or ``None`` while there is no rate."""
+        if self._first is None:
             return None
-        rate = self.completed / elapsed
-        return max(0.0, self.total - self.completed) / rate
+        t_first, c_first = self._first
+        elapsed, work = self._clock() - t_first, self.completed - c_first
+        if work <= 0 or elapsed <= 0:
+            return 0.0 if self.completed >= self.total else None
+        return max(0.0, self.total - self.completed) / (work / elapsed)
 
     def text(self) -> str:
-        """``"ETA 1:23"`` (``""`` before the first completion)."""
+        """``"ETA 1:23"`` (``""`` while there is no rate)."""
         left = self.seconds_left()
         if left is None:
             return ""
