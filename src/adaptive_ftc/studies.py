@@ -938,10 +938,10 @@ def delay_margin_study(
     rows = []
     jobs = [(s, lab, law) for s in scenarios for lab, law in laws.items()]
     # the ETA weighs a margin by its scenario's duration (each bisection step is one run)
-    span = {s: float(_span(s)) for s in scenarios}
+    weight = {s: _span(s) for s in scenarios}
     bar = EtaBar(
         len(jobs),
-        cost=sum(span[s] for s, _, _ in jobs),
+        cost=sum(weight[s] for s, _, _ in jobs),
         disable=not progress,
         desc="delay margins",
         unit="law",
@@ -963,7 +963,7 @@ def delay_margin_study(
             kw.setdefault("resolution", 0.2)
         dm = delay_margin(sc, constraint_aware=law, **kw)
         rows.append({**dm.row(), "law": label})
-        bar.tick(span[name])
+        bar.tick(weight[name])
     bar.close()
     return pd.DataFrame(rows, columns=_DELAY_COLUMNS)
 
