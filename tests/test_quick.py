@@ -118,3 +118,14 @@ def test_a_claim_quick_mode_cannot_judge_is_named_in_the_report(tmp_path):
     assert missing and summary["n_not_evaluated"] == len(missing)
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "Not judged (NOT EVALUATED): wingrock-direct-s1: " + ", ".join(missing) in page
+
+
+@pytest.mark.parametrize(
+    "extra", [["--formats", "svg"], ["--dpi", "300"], ["--float32"], ["--decimate", "4"]]
+)
+def test_quick_refuses_figure_and_data_options_that_would_do_nothing(tmp_path, capsys, extra):
+    out = tmp_path / "r"
+    assert main(["reproduce", "wingrock-free-1deg", "--out", str(out), "--quick", *extra]) == 2
+    err = capsys.readouterr().err
+    assert extra[0] in err and "drop --quick" in err
+    assert not out.exists()

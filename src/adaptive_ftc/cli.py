@@ -700,6 +700,24 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
+    if args.quick:  # it writes neither figures nor data: options about them would do nothing
+        unused = [
+            flag
+            for flag, given in (
+                ("--formats", args.formats),
+                ("--dpi", args.dpi),
+                ("--baselines", args.baselines),
+                ("--float32", args.float32),
+                ("--decimate", args.decimate != 1),
+            )
+            if given
+        ]
+        if unused:
+            raise ConfigurationError(
+                f"aftc reproduce --quick draws no figures and writes no data files, so "
+                f"{', '.join(unused)} would do nothing: drop {'it' if len(unused) == 1 else 'them'}"
+                ", or drop --quick for the full reproduction."
+            )
     formats = _formats(args.formats or "png,pdf")
     if args.names:  # every name checked before the output folder is touched
         from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
