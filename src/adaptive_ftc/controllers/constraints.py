@@ -114,6 +114,23 @@ __all__ = ["ConstraintAware", "Configuration"]
 
 #: ``w_max <= C_LAG / lag``: the law's loop rate below the actuator's bandwidth.
 C_LAG = 1.0
+#: ``w_max (lag + T/2 + tau_d) <= C_DELAY``: the law's loop rate within the phase the *sum*
+#: of the loop's lags admits (the actuator's lag, half a sample of hold, the time constant
+#: ``tau_d`` of the ``s'`` estimate). Each bound above takes one lag alone; combined they add
+#: (a 13 ms lag at 100 Hz with a 20 ms ``s'`` filter passed every single bound at ``w`` = 20
+#: and limit-cycled).
+C_DELAY = 1.0
+#: ... and ``w_max (lag + T/2 + tau_d + 1/omega_f) <= C_DELAY_LIMITED`` where rate or travel
+#: limits are declared (the command filter's lag ``1/omega_f >= max(1/(C_FILTER w), lag,
+#: T/C_EULER)`` counts too, and the hedged loop has less margin): measured on the
+#: hypersonic-hardware campaign, member 7 (lag 13 ms, 100 Hz, rate 30 rad/s, travel 0.87;
+#: 58 ms in all) limit-cycles at ``w`` = 18-20 (0.53 rad of fast content) and is quiet at 15
+#: (5e-4 rad).
+C_DELAY_LIMITED = 0.8
+#: the default time constant of the ``s'`` estimate (s) of a continuous controller with
+#: noise (``SolverOptions.filter_tau_for``: ``max(S_FILTER_TAU, 2 T)``; a digital controller's
+#: ``s'`` is always filtered, a continuous noiseless one's is exact).
+S_FILTER_TAU = 0.01
 #: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
 C_SAMPLE = 0.75
 #: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
@@ -288,6 +305,11 @@ class ConstraintAware:
     b_max
         The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
         actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
+    derivative_lag
+        Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
+        ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
+        solver's default for this model, ``max(0.01, 2 sample_time)`` where the controller is
+        digital or the measurements noisy, else 0 (``s'`` exact). Not a constraint alone.
 
     Examples
     --------
@@ -309,6 +331,7 @@ class ConstraintAware:
     loop_gain: float | None = None
     min_loop_gain: float | None = None
     b_max: float | None = None
+    derivative_lag: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -330,6 +353,8 @@ class ConstraintAware:
             _number(owner, "b_max", self.b_max, allow_inf=False, positive=True)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
+        if self.derivative_lag is not None:
+            _number(owner, "derivative_lag", self.derivative_lag, allow_inf=False)
 
     @property
     def is_ideal(self) -> bool:
@@ -397,6 +422,15 @@ class ConstraintAware:
             **overrides,
         )
 
+    @property
+    def s_lag(self) -> float:
+        """The time constant of the ``s'`` estimate (:attr:`derivative_lag`, or its default)."""
+        if self.derivative_lag is not None:
+            return float(self.derivative_lag)
+        if self.sample_time > 0 or self.noise > 0:
+            return max(S_FILTER_TAU, 2.0 * self.sample_time)
+        return 0.0
+
     def omega_max(self, w0: float, b_max: float = 1.0) -> tuple[float, bool]:
         """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``), and
         whether the noise bound is the one that binds."""
@@ -409,9 +443,26 @@ class ConstraintAware:
             w = min(w, C_SAMPLE / self.sample_time)
         if math.isfinite(self.rate):
             w = min(w, C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE)
+        # the lags of the loop add up (C_DELAY); with limits, the command filter's too:
+        # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
+        # filter's own floor (1/omega_f >= lag, T/C_EULER)
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        if delay > 0 and not self.limited:
+            w = min(w, C_DELAY / delay)
+        if self.limited:
+            lag_f = max(self.lag, self.sample_time / C_EULER)
+            if delay + lag_f > 0:
+                w = min(w, C_DELAY_LIMITED / (delay + lag_f))
+            if delay > 0:
+                w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
         if self.noise > 0 and C_NOISE / self.noise < w:
             return C_NOISE / self.noise, True
         return w, False
+
+    @property
+    def limited(self) -> bool:
+        """A rate or travel limit is declared (the law's command is filtered)."""
+        return math.isfinite(self.rate) or math.isfinite(self.travel)
 
     def configure(
         self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
@@ -455,7 +506,7 @@ class ConstraintAware:
             if self.sample_time > 0:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
         omega_q = omega_m = math.inf
-        if self.noise > 0:
+        if noisy:
             omega_q = C_PREFILTER * w
             omega_m = C_MEASURE * w
             if self.sample_time > 0:
