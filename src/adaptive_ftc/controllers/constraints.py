@@ -125,8 +125,10 @@ C_DELAY = 1.0
 #: T/C_EULER)`` counts too, and the hedged loop has less margin): measured on the
 #: hypersonic-hardware campaign, member 7 (lag 13 ms, 100 Hz, rate 30 rad/s, travel 0.87;
 #: 58 ms in all) limit-cycles at ``w`` = 18-20 (0.53 rad of fast content) and is quiet at 15
-#: (5e-4 rad).
-C_DELAY_LIMITED = 0.8
+#: (5e-4 rad); with noise, a loop near that margin amplifies it (member 40: lag 39 ms,
+#: 100 Hz, 4.5e-3 rad/s on q: 2.1e-2 rad of fast content at 0.8, 9.5e-3 at 0.7; member 60:
+#: 1.8e-2 at 0.8, 1.3e-2 at 0.7).
+C_DELAY_LIMITED = 0.7
 #: the default time constant of the ``s'`` estimate (s) of a continuous controller with
 #: noise (``SolverOptions.filter_tau_for``: ``max(S_FILTER_TAU, 2 T)``; a digital controller's
 #: ``s'`` is always filtered, a continuous noiseless one's is exact).
@@ -135,6 +137,17 @@ S_FILTER_TAU = 0.01
 C_SAMPLE = 0.75
 #: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
 C_NOISE = 0.15
+#: ``w_max^2 n_d <= C_NOISE_DENSITY``, with ``n_d = noise sqrt(2 / f)`` the density (per root
+#: hertz) of the noise the law sees, held at ``f = min(noise_rate, 1/T)``. The std bound above
+#: treats 1 kHz and 100 Hz noise alike; a digital controller sees the same std in a band 10
+#: (at 100 Hz) to 20 times narrower, i.e. a 3-4.5x larger density. Measured on the
+#: hypersonic-hardware campaign (first 100 members): 8 of the 23 members at 100 Hz with
+#: 3.5-4.9e-3 rad/s of noise on q had 0.0176-0.029 rad of fast content at ``w`` = 14-20
+#: (target 0.0173); on member 15 the fast content falls as ``w^2`` to ``w^2.5`` (1.8e-2,
+#: 9.9e-3, 4.0e-3, 1.9e-3 at ``w`` = 13.7, 10, 7, 5). The constant puts the 100 Hz members at
+#: ``w`` = 12-13 and leaves continuous loops with the catalogue's noise (1e-3 rad, 1e-2
+#: rad/s at 1 kHz: 14.8) to the std bound.
+C_NOISE_DENSITY = 0.1
 #: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
 #: rate stays within the rate limit (the describing function of a rate limiter: no phase
 #: loss below it).
@@ -183,6 +196,13 @@ C_AW = 1.0
 C_HEDGE = 0.1
 #: the command filter keeps this fraction of the declared rate and travel (margin).
 C_MARGIN = 0.9
+#: §4.4 (sign estimation): the estimate ``rho`` of the control direction multiplies the law's
+#: loop gain (``alpha0 |rho| |Pi|^2 b``). Under a non-ideal model it is projected on
+#: ``|rho| <= RHO_FACTOR |rho0|`` and the rule sizes the loop for that bound, not for
+#: ``rho0``: measured on hypersonic-sign-s1-rho0pos at 100 Hz, ``rho`` ran from 1 to 146 in
+#: 0.2 s (the loop, sized at ``rho0``, sped up with it and diverged); in the ideal runs
+#: ``|rho|`` stays within 1.0 (0.87-1.0 after its first 0.05 s, from +1 or -1).
+RHO_FACTOR = 2.0
 
 
 class Configuration(NamedTuple):
@@ -305,6 +325,9 @@ class ConstraintAware:
     b_max
         The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
         actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
+    noise_rate
+        The rate (Hz) at which the sensors draw their noise (``Sensors.rate``; each sample
+        held until the next): with ``noise``, its density. Not a constraint alone.
     derivative_lag
         Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
         ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
@@ -332,6 +355,7 @@ class ConstraintAware:
     min_loop_gain: float | None = None
     b_max: float | None = None
     derivative_lag: float | None = None
+    noise_rate: float = 1000.0
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -355,6 +379,7 @@ class ConstraintAware:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
         if self.derivative_lag is not None:
             _number(owner, "derivative_lag", self.derivative_lag, allow_inf=False)
+        _number(owner, "noise_rate", self.noise_rate, allow_inf=True, positive=True)
 
     @property
     def is_ideal(self) -> bool:
@@ -385,6 +410,7 @@ class ConstraintAware:
         loop's sample time and the noise of ``s`` from the sensors' standard deviations on
         the first output's position and velocity states (``plant`` names them)."""
         lag, rate, travel, noise = 0.0, math.inf, math.inf, 0.0
+        extra: dict = {}
         if actuators is not None and plant is not None:
             tab = actuators.table(plant.n_actuators)
             lag = float(np.max(tab[:, 0]))  # a rate limiter's own linear band included
@@ -399,6 +425,7 @@ class ConstraintAware:
             sp = float(std[plant.position_index[0]])
             sv = float(std[plant.velocity_index[0]])
             noise = math.hypot(sv, lam1 * sp)
+            extra["noise_rate"] = float(sensors.rate)
         return cls(
             **{
                 "lag": lag,
@@ -406,6 +433,7 @@ class ConstraintAware:
                 "travel": travel,
                 "sample_time": float(sample_time),
                 "noise": noise,
+                **extra,
                 **overrides,
             }
         )
@@ -455,9 +483,22 @@ class ConstraintAware:
                 w = min(w, C_DELAY_LIMITED / (delay + lag_f))
             if delay > 0:
                 w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
-        if self.noise > 0 and C_NOISE / self.noise < w:
-            return C_NOISE / self.noise, True
+        if self.noise > 0:
+            # the density bound lowers the loop rate only; where the std bound binds, the
+            # measurements are prefiltered too (configure)
+            w = min(w, math.sqrt(C_NOISE_DENSITY / self.noise_density))
+            if C_NOISE / self.noise < w:
+                return C_NOISE / self.noise, True
         return w, False
+
+    @property
+    def noise_density(self) -> float:
+        """The density (per root hertz) of the noise of ``s`` the law sees: ``noise sqrt(2 /
+        f)``, held at ``f = min(noise_rate, 1/sample_time)``."""
+        f = self.noise_rate
+        if self.sample_time > 0:
+            f = min(f, 1.0 / self.sample_time)
+        return self.noise * math.sqrt(2.0 / f)
 
     @property
     def limited(self) -> bool:
@@ -562,6 +603,14 @@ def hedged_q(q, s, xi, dxi, k, k0, eps0):
     limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
     2003)."""
     return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
+
+
+def project_interval(d, v, v_max):
+    """Projection of a scalar estimate on ``|v| <= v_max``: on or outside the boundary, an
+    outward ``v'`` is set to 0 (Lavretsky & Wise 2013, §11.4, in one dimension)."""
+    if abs(v) >= v_max and v * d > 0.0:
+        return 0.0
+    return d
 
 
 def project_ball(dY, Y, theta_max, at, size):
