@@ -17,7 +17,9 @@ from adaptive_ftc.controllers.constraints import (
     C_DELAY_LIMITED,
     C_EULER,
     C_LAG,
+    C_NOISE_DENSITY,
     C_SAMPLE,
+    RHO_FACTOR,
     ConstraintAware,
 )
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
@@ -74,7 +76,12 @@ def test_the_lags_of_the_loop_add_up_in_the_admitted_loop_rate():
     # with limits the command filter's lag (its floor max(lag, T/C_EULER)) counts too
     lim = replace(ca, rate=30.0, travel=0.87)
     w, _ = lim.omega_max(W0, 2.0)
-    assert w == pytest.approx(C_DELAY_LIMITED / (lag + T / 2 + tau_d + max(lag, T / C_EULER)))
+    delay = lag + T / 2 + tau_d
+    # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, C_FILTER = 4
+    expected = min(
+        C_DELAY_LIMITED / (delay + max(lag, T / C_EULER)), (C_DELAY_LIMITED - 0.25) / delay
+    )
+    assert w == pytest.approx(expected)
     assert w < 14.0
     # a continuous noiseless loop has an exact s' (no derivative lag): a lag alone as before
     assert ConstraintAware(lag=0.05).s_lag == 0.0
@@ -124,3 +131,59 @@ def test_noise_below_the_bound_is_not_prefiltered_and_the_loop_tracks(direct):
     assert "the laws see the prefiltered q" not in text
     done, err, fast = _judge(aware, solver)
     assert done and err <= THRESHOLD and fast <= FAST_MAX, (err, fast)
+
+
+def test_noise_held_at_a_slow_sample_rate_lowers_the_loop_rate_by_its_density():
+    """Truth by hand: w_max <= sqrt(C_NOISE_DENSITY / n_d), n_d = noise sqrt(2 / f), f the
+    rate the law sees the noise at (min of the sensors' rate and 1/T)."""
+    noise = 5e-3
+    ca = ConstraintAware(sample_time=0.01, noise=noise, derivative_lag=0.0, **MEASURED)
+    assert ca.noise_density == pytest.approx(noise * math.sqrt(2.0 / 100.0))
+    w, noisy = ca.omega_max(W0, 2.0)
+    assert w == pytest.approx(math.sqrt(C_NOISE_DENSITY / ca.noise_density))
+    assert not noisy  # the std bound (0.15/noise = 30) does not bind: no prefilters
+    # the same noise at 1 kHz on a continuous loop: 3.2x less dense, the bound does not bind
+    fast = replace(ca, sample_time=0.0)
+    assert fast.noise_density == pytest.approx(noise * math.sqrt(2.0 / 1000.0))
+    assert fast.omega_max(W0, 2.0)[0] == pytest.approx(0.1 * W0)
+    # the model takes the sensors' rate
+    sc = load_scenario("hypersonic-direct-s1")
+    hw = replace(sc.loop, sensors=Sensors(noise={"q": noise}, rate=250.0))
+    assert ConstraintAware.from_loop(hw).noise_rate == 250.0
+    with pytest.raises(ConfigurationError, match="`noise_rate` of ConstraintAware"):
+        ConstraintAware(noise=noise, noise_rate=0.0)
+
+
+def test_noise_seen_at_100_hz_leaves_the_command_quiet(direct):
+    """5e-3 rad/s of noise on q seen by a 100 Hz controller: at the loop rate the std bound
+    and the hardware admit (w = 20) the command carries 3.5e-2 rad of fast content; the
+    density bound (w = 11.9) 1.5e-2."""
+    loop, solver = direct
+    hw = replace(loop, sample_time=0.01, sensors=Sensors(noise={"alpha": 2e-4, "q": 5e-3}, seed=3))
+    done, err, fast = _judge(_aware(hw), solver)
+    assert done and err <= THRESHOLD and fast <= FAST_MAX, (err, fast)
+
+
+def test_sign_estimation_bounds_rho_and_sizes_its_loop_for_the_bound():
+    """§4.4 at 100 Hz: sized for rho0 = 1, rho ran from 1 to 146 within 0.2 s and the loop
+    diverged at 0.59 s; rho is projected on |rho| <= RHO_FACTOR |rho0| and the rule sizes the
+    loop for that bound."""
+    sc = load_scenario("hypersonic-sign-s1-rho0pos")
+    loop = replace(sc.loop, t_final=10.0, sample_time=0.01)
+    solver = replace(sc.solver, method="rk4", dt=1e-3, filter_tau=0.01, record_dt=1e-3)
+    aware = _aware(loop)
+    ctrl = aware.controller
+    assert ctrl.rho_bound() == RHO_FACTOR * abs(ctrl.rho0)
+    assert ctrl.theta_gain() == ctrl.alpha0 * ctrl.rho_bound()
+    assert "project_interval" in source_of(aware)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        r = simulate(aware, solver)
+    assert r.status == "completed"
+    rho = r.adaptive_state("rho")
+    assert np.max(np.abs(rho)) <= ctrl.rho_bound() * (1 + 1e-3)
+    assert float(np.max(r.rms_error(5.0, 10.0))) < 1e-3
+    # the thesis law and an ideal model: no bound, the thesis's gain
+    ideal = replace(sc.loop.controller, constraint_aware=ConstraintAware())
+    assert ideal.rho_bound() == math.inf and ideal.theta_gain() == ideal.alpha0 * abs(ideal.rho0)
+    assert "project_interval" not in source_of(sc.loop)
