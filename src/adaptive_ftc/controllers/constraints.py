@@ -20,7 +20,15 @@ design, not another design) it derives, by the rules below, one configuration
    1/s on hypersonic-direct-s1, 73 on the manipulator, 48 on the spacecraft, 12700 on the
    wing rock; without a loop the proxy ``K``). The hardware admits
    ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
-   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`). The adaptation gains are scaled by
+   C_DELAY/(lag + T/2 + tau_d), C_NOISE/noise, sqrt(C_NOISE_DENSITY/n_d))``
+   (:meth:`ConstraintAware.omega_max`): the lags of the loop add up (the actuator's, half a
+   sample of hold, the time constant ``tau_d`` of the ``s'`` estimate; with rate or travel
+   limits the command filter's ``1/omega_f`` too, against ``C_DELAY_LIMITED``), and noise
+   counts by its std and by its density ``n_d = noise sqrt(2/f)`` at the rate ``f`` the law
+   sees it (a 100 Hz controller sees the same std 3x denser than a 1 kHz sensor). §4.4's
+   loop gain ``alpha0 |rho| |Pi|^2 b`` grows with ``rho``: under a non-ideal model ``rho`` is
+   projected on ``|rho| <= RHO_FACTOR |rho0|`` and the loop is sized for that bound
+   (:meth:`SignEstimation.rho_bound`). The adaptation gains are scaled by
    ``r = min(1, w_max/g)`` (every gain of ``theta``; ``k -> r k``) and the robust term's
    slope ``k0/eps0`` by ``r_K`` so that ``sqrt(r g r_K K) <= w_max`` (``eps0 -> eps0/r_K``):
    a loop whose adaptation is already slow keeps its gain and only its robust term is
@@ -58,9 +66,15 @@ design, not another design) it derives, by the rules below, one configuration
    back-calculation below). With ``input_gain = 0``: **anti-windup by back-calculation on
    the estimates** (Åström & Rundqwist, ACC 1989): ``theta' += -k_aw Pi (u0c -
    u0_reachable) / |Pi|^2`` pulls the law's command back to what the filter can deliver.
-4. **Noise**: the law sees its measurements (regressor inputs, errors, ``s``) through a
-   first-order prefilter at ``C_MEASURE w_max``, and its adaptation signal ``q`` through
-   ``qf' = w_q (q - qf)`` at ``C_PREFILTER w_max``.
+4. **Noise**: where the std bound ``C_NOISE/noise`` is the one that binds, the law sees its
+   measurements (regressor inputs, errors, ``s``) through a first-order prefilter at
+   ``C_MEASURE w_max``, and its adaptation signal ``q`` through ``qf' = w_q (q - qf)`` at
+   ``C_PREFILTER w_max``. Below that noise the lower loop rate alone quiets the command:
+   measured on the hypersonic-hardware campaign, the two prefilters' lags (12 and 25 ms at
+   ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
+   5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
+   travel limits the loop was lost, error 0.12 rad), while the same law without them stayed
+   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error.
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
@@ -92,8 +106,11 @@ Guarantees (which holds for which combination):
   2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
   bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
   loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure).
-- *noise*: the prefilters and the lower bandwidth bound the noise in the command (linear
-  filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
+- *noise*: the lower bandwidth (and, where the std bound binds, the prefilters) bound the
+  noise in the command (linear filtering), with sigma-modification keeping the estimates
+  bounded; no dead-zone.
+- *§4.4*: with a non-ideal model ``|rho| <= RHO_FACTOR |rho0|`` at all times (projection);
+  the sign estimate can still cross zero (from ``-rho0`` to ``+rho0``, as in the ideal runs).
 - *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
 
 All of this is measured, case by case, in docs/hardware.md ("Designs under real hardware")
