@@ -203,8 +203,12 @@ C_FILTER = 4.0
 C_MEASURE = 4.0
 #: the prefilter of the adaptation signal, in multiples of ``w_max``.
 C_PREFILTER = 2.0
-#: a digital filter's bandwidth is at most ``C_EULER / T``.
-C_EULER = 0.5
+#: a digital filter's bandwidth is at most ``C_EULER / T``: forward Euler of ``x' = w (u -
+#: x)`` has its pole at ``1 - w T``, stable below 2 and monotone (no ringing) up to 1. Round 2
+#: used 0.5; at 50 Hz the command filter's floor ``T / C_EULER`` (40 ms) was then the largest
+#: lag of the loop's budget (``C_DELAY_LIMITED``), and campaign member 65 (10 ms lag, 50 Hz,
+#: a stuck elevator) tracked to 8.9e-4 rad instead of 4.1e-4.
+C_EULER = 1.0
 #: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
 C_AW = 1.0
 #: decay rate of the compensated error, in multiples of ``w_max``: slow, so the part of the
