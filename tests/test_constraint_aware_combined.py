@@ -174,7 +174,13 @@ def test_sign_estimation_bounds_rho_and_sizes_its_loop_for_the_bound():
     aware = _aware(loop)
     ctrl = aware.controller
     assert ctrl.rho_bound() == RHO_FACTOR * abs(ctrl.rho0)
-    assert ctrl.theta_gain() == ctrl.alpha0 * ctrl.rho_bound()
+    assert ctrl.loop_gain_growth() == RHO_FACTOR
+    bound = ctrl.bound(aware).constraint_aware
+    assert bound.gain_growth == RHO_FACTOR
+    # the adaptation is scaled for the grown gain: half the scale of the same model at rho0
+    at_rho0 = replace(bound, gain_growth=1.0)
+    cfg, cfg0 = (replace(ctrl, constraint_aware=m).configuration(2.0) for m in (bound, at_rho0))
+    assert cfg.scale == pytest.approx(cfg0.scale / RHO_FACTOR)
     assert "project_interval" in source_of(aware)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DivergenceWarning)
@@ -185,5 +191,5 @@ def test_sign_estimation_bounds_rho_and_sizes_its_loop_for_the_bound():
     assert float(np.max(r.rms_error(5.0, 10.0))) < 1e-3
     # the thesis law and an ideal model: no bound, the thesis's gain
     ideal = replace(sc.loop.controller, constraint_aware=ConstraintAware())
-    assert ideal.rho_bound() == math.inf and ideal.theta_gain() == ideal.alpha0 * abs(ideal.rho0)
+    assert ideal.rho_bound() == math.inf and ideal.loop_gain_growth() == 1.0
     assert "project_interval" not in source_of(sc.loop)

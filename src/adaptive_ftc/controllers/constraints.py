@@ -346,6 +346,12 @@ class ConstraintAware:
     b_max
         The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
         actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
+    gain_growth
+        The factor by which the law's loop gain can grow along the run over the one measured at
+        ``t0`` (§4.4: the projection bound of ``rho`` over ``|rho0|``, ``RHO_FACTOR``): the rule
+        scales the adaptation for the grown gain, while its cap ``C_CAP w0`` stays a tenth of
+        the thesis's loop rate. ``None``: the design's (:meth:`AdaptiveController.bound`; 1
+        but for §4.4). Not a constraint.
     noise_rate
         The rate (Hz) at which the sensors draw their noise (``Sensors.rate``; each sample
         held until the next): with ``noise``, its density. Not a constraint alone.
@@ -377,6 +383,7 @@ class ConstraintAware:
     b_max: float | None = None
     derivative_lag: float | None = None
     noise_rate: float = 1000.0
+    gain_growth: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -401,6 +408,8 @@ class ConstraintAware:
         if self.derivative_lag is not None:
             _number(owner, "derivative_lag", self.derivative_lag, allow_inf=False)
         _number(owner, "noise_rate", self.noise_rate, allow_inf=True, positive=True)
+        if self.gain_growth is not None:
+            _number(owner, "gain_growth", self.gain_growth, allow_inf=False, positive=True)
 
     @property
     def is_ideal(self) -> bool:
@@ -545,6 +554,7 @@ class ConstraintAware:
             # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
             # manipulator loses the arm with eta scaled below 0.3)
             big_k = w0 * w0 / g if w0 > g else g
+            g = g * (self.gain_growth or 1.0)  # the largest loop gain along the run (§4.4)
             scale = min(1.0, w / g)
             slope_scale = min(1.0, w * w / (scale * g) / big_k)
         lam_factor = 1.0

@@ -55,18 +55,21 @@ class SignEstimation(AdaptiveController):
         """The projection bound of ``rho`` (``inf``: none): ``RHO_FACTOR |rho0|`` under a
         non-ideal constraint-aware model (:data:`~adaptive_ftc.controllers.constraints.
         RHO_FACTOR`; ``rho0 = 0``: none), so that the loop gain ``alpha0 |rho| |Pi|^2 b``
-        the rule sizes the law for is a bound along the whole run."""
+        the rule sizes the law for (:meth:`loop_gain_growth`) is a bound along the run."""
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or float(self.rho0) == 0.0:
             return math.inf
         return constraints.RHO_FACTOR * abs(float(self.rho0))
 
     def theta_gain(self) -> float:
-        """``alpha0 |rho0|``: the law's gain at the initial ``rho``; with a bounded ``rho``
-        (:meth:`rho_bound`), ``alpha0`` times the bound (the largest gain along the run)."""
+        """``alpha0 |rho0|``: the law's gain at the initial ``rho``."""
+        return float(self.alpha0) * abs(float(self.rho0))
+
+    def loop_gain_growth(self) -> float:
+        """The loop gain ``alpha0 |rho| |Pi|^2 b`` grows with ``|rho|``: with a bounded ``rho``
+        (:meth:`rho_bound`) at most ``bound / |rho0|`` times the one at ``t0``."""
         bound = self.rho_bound()
-        rho = bound if math.isfinite(bound) else abs(float(self.rho0))
-        return float(self.alpha0) * rho
+        return bound / abs(float(self.rho0)) if math.isfinite(bound) else 1.0
 
     def gains(self) -> SignGains:
         r = self.adaptation_scale  # 1 for the thesis law
