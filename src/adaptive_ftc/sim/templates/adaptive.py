@@ -1028,12 +1028,10 @@ def _steps(
     a, b, ph, last_phase, D, W, rtol, atol, h_max, bound, stop,
     t_rec, r, out_Y, out_phase, stats, w, stiff, nstep,
 ):  # fmt: skip
-    """Integrate ``[a, b]`` (interval ``ph``) from ``w.Y`` with a fresh step-size guess.
-
-    Returns ``(r, status, t_stop, bad, stiff, nstep)``: status 0 when ``b`` is reached."""
+    """Integrate ``[a, b]`` (interval ``ph``) from ``w.Y`` with a fresh step-size guess; returns
+    ``(r, status, t_stop, bad, stiff, nstep)`` (status 0: ``b`` reached)."""
     Y, yn, f0 = w.Y, w.yn, w.f0
-    tol = 1e-9 * max(1.0, abs(b))
-    t = a
+    t, tol = a, 1e-9 * max(1.0, abs(b))
     rhs(t, Y, ph, D, W, f0)
     # explicit steps now: a literal where the method does not switch (so numba drops the other)
     explicit = not stiff if _SWITCH else _DOPRI5
@@ -1052,8 +1050,7 @@ def _steps(
             return r, 2, t, -1, stiff, nstep
         last = t + 1.01 * h >= b
         t1 = b if last else t + h
-        hh = t1 - t
-        nstep += 1
+        hh, nstep = t1 - t, nstep + 1
         limit = t1 + tol if (last and last_phase) else t1 - tol
         inside = r < t_rec.size and t_rec[r] < limit  # a record falls inside the step
         explicit = not stiff if _SWITCH else _DOPRI5
@@ -1092,20 +1089,16 @@ def _steps(
             hnew, erracc = _rosenbrock_control(
                 err, edense, hh, qexp, first, hacc, erracc, reject_last
             )
-            first = False
-            hacc = hh
-            jac_ok = False
+            first, hacc, jac_ok = False, hh, False
             if _SWITCH:
                 stiff, n_stiff, n_nonstiff = _nonstiff_test(hh, w, n_stiff, n_nonstiff)
                 if not stiff:
                     facold = 1e-4
         if inside:
             r = _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, w.rc, ph, out_Y, out_phase)
-        reject_last = False
         for i in range(Y.size):
             Y[i] = yn[i]
             f0[i] = w.k7[i]
-        t = t1
-        h = min(hnew, h_max)
+        t, h, reject_last = t1, min(hnew, h_max), False
         if last:
             return r, 0, t, -1, stiff, nstep
