@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
+from adaptive_ftc.sim import solvers
 from adaptive_ftc.sim.compose import Assembled, assemble
 from adaptive_ftc.sim.result import SimResult, signal_block
 from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
@@ -21,10 +22,11 @@ from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["SolverOptions", "integrate_only", "simulate"]
 
-_SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+# the names of the registry (sim/solvers.py), by kind
+_SCIPY_METHODS = solvers.names("scipy")
 #: Compiled adaptive-step methods (``sim/templates/adaptive.py``; evidence in docs/solvers.md).
-_ADAPTIVE_METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
-_METHODS = ("rk4", *_ADAPTIVE_METHODS, "accurate", *_SCIPY_METHODS)
+_ADAPTIVE_METHODS = solvers.names("adaptive")
+_METHODS = solvers.names()
 #: Time constant (s) of a continuous controller's s' filter (``SolverOptions.filter_tau``).
 DEFAULT_FILTER_TAU = 0.01
 
@@ -79,13 +81,7 @@ class SolverOptions:
     divergence_bound: float = 1e8
 
     def __post_init__(self) -> None:
-        if self.method not in _METHODS:
-            from adaptive_ftc.errors import did_you_mean
-
-            raise ConfigurationError(
-                f"Unknown solver method {self.method!r}."
-                f"{did_you_mean(str(self.method), _METHODS)} Use one of {', '.join(_METHODS)}."
-            )
+        solvers.method(self.method)  # a clear error naming the registered methods
         if isinstance(self.atol, (list, tuple, np.ndarray)):
             atol = tuple(self.atol)
             if not atol:
@@ -143,9 +139,7 @@ class SolverOptions:
     @property
     def compiled_method(self) -> str | None:
         """The compiled integrator this setting runs (``None`` for a scipy method)."""
-        if self.method == "accurate":
-            return "auto"
-        return self.method if self.method in ("rk4", *_ADAPTIVE_METHODS) else None
+        return solvers.method(self.method).compiled
 
     def atol_for(self, n: int, names=None) -> np.ndarray:
         """The absolute tolerance of each of the ``n`` states (``names``: their names, for the
