@@ -14,9 +14,21 @@ per machine. (A function passed as an argument would defeat numba's disk cache.)
 Everything above the marker is a stand-in so that this file imports, lints and can be tested
 on its own; :func:`bind` executes the template against any jitted ``rhs``.
 
-Entry points (same signature; each is its own copy of the core ``_solve``, pasted by
-:func:`specialise` with the other method's code dropped, so a ``dopri5`` loop compiles no
-Rosenbrock code: on hypersonic-direct-s1 the whole cold compile fell from 11-12 s to 8.4 s)::
+Structure: one driver and per-method step functions. The driver is ``_solve`` (the run: scratch
+arrays, breaks, records at interval starts and at the end) with ``_steps`` (one interval: step
+size, stop flag, step-size underflow, acceptance, divergence check, records, the switch between
+explicit and Rosenbrock steps). A method brings its step functions: DOPRI5 ``_dopri5_step``
+(tableau constants ``_A*``, ``_E*``), ``_dopri5_dense``, ``_dopri5_control``, ``_dopri5_retry``;
+the Rosenbrock methods ``_jacobian``, ``_rosenbrock_step`` over ``_rodasp_stages`` or
+``_rodas5p_stages`` (tableaus ``_R*``, ``_P*``), ``_rosenbrock_dense``, ``_rosenbrock_control``,
+``_rosenbrock_retry``; ``auto`` adds ``_stiffness_test`` and ``_nonstiff_test``. The step
+functions are inlined into ``_steps`` by numba (``inl``) and share one :class:`Work` of scratch
+arrays; ``_steps`` runs without reference counting (``hot``). The arithmetic is that of the
+single core it replaced, in the same order (every catalogue trajectory bit-identical).
+
+Entry points (same signature; each is its own copy of the driver, pasted by :func:`specialise`
+with the other method's code dropped, so a ``dopri5`` loop compiles no Rosenbrock code: on
+hypersonic-direct-s1 the whole cold compile fell from 11-12 s to 8.4 s)::
 
     integrate_dopri5(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop,
                      out_Y, out_phase, stats) -> (nrec, status, t_stop, bad)
