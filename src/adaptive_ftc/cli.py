@@ -106,9 +106,9 @@ class _HelpFormatter(argparse.HelpFormatter):
 
 def _solver_methods() -> tuple[str, ...]:
     """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
-    from adaptive_ftc.registry import SOLVERS
+    from adaptive_ftc.sim import solvers
 
-    return SOLVERS
+    return solvers.names()
 
 
 def _add_figure_options(parser: argparse.ArgumentParser, default: str) -> None:

@@ -208,7 +208,9 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     plants = [by_name[name].loop.plant.name for name, _ in tasks]
     # the shared integrators' compile cost, largest first (measured on a cold run: auto 4.7 s,
     # Rodas5P 3.5 s, DOPRI5 1.2 s and its helpers, RK4 0.8 s)
-    cost = {"auto": 4, "rodas5p": 3, "rodasp": 3, "dopri5": 2, "rk4": 1}
+    from adaptive_ftc.sim.solvers import METHODS
+
+    cost = {m.name: m.compile_cost for m in METHODS}
     first_of_method: dict[str, int] = {}
     for i, (_, method) in enumerate(keys):
         first_of_method.setdefault(method, i)

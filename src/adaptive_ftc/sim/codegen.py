@@ -49,8 +49,6 @@ _BEGIN = "# --- template: begin ---"
 _lock = threading.RLock()
 _modules: dict[str, types.ModuleType] = {}
 _kept: dict[str, tuple] = {}
-#: the integrators a loop module may define
-_METHODS = ("rk4", "dopri5", "rodasp", "rodas5p", "auto")
 _stats = {"generated": 0, "loaded": 0, "in_memory": 0}
 
 
@@ -375,9 +373,11 @@ def load_module(
 def stats() -> dict[str, int]:
     """Counters of this process: modules generated (written), loaded, compiled in memory, and
     numba compilations of loop entry points (``compiled``; 0 when every loop hit the cache)."""
+    from adaptive_ftc.sim.solvers import compiled_entries
+
     compiled = 0
     for mod in list(_modules.values()):
-        for fn in ("rhs", "control_gain", "signals", *(f"integrate_{m}" for m in _METHODS)):
+        for fn in ("rhs", "control_gain", "signals", *compiled_entries()):
             disp = getattr(mod, fn, None)
             if disp is not None and hasattr(disp, "stats"):
                 compiled += sum(disp.stats.cache_misses.values())
