@@ -181,7 +181,7 @@ def _type_schema(annotation: str) -> dict[str, Any]:
     return {}  # not expressible: checked by the class itself
 
 
-def _class_schema(cls: type, skip: set[str] = frozenset()) -> dict[str, Any]:
+def _class_schema(cls: type, skip: frozenset[str] | set[str] = frozenset()) -> dict[str, Any]:
     """``properties``/``required`` of a component class, from its dataclass fields."""
     props: dict[str, Any] = {}
     required = []

@@ -87,9 +87,9 @@ def stop_outcome(
     if y_rhs is not None:
         # a step-size underflow at a plant derivative past the bound: a singular equation
         huge = pole if code == 2 else math.inf
-        found = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method, huge)
-        if found is not None:
-            return found
+        stopped = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method, huge)
+        if stopped is not None:
+            return stopped
     if code == 1:
         if value is not None and math.isfinite(value):
             return RunStatus.DIVERGED, StatusReason(

@@ -365,20 +365,22 @@ def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True
 
         nrec, code, t_stop, bad = _compiled_call(loop, run)
         nrec = int(nrec)
+        outcome: tuple[RunStatus, StatusReason | None]
         if code == 0:
             outcome = (RunStatus.COMPLETED, None)
         else:
             # codes 1 and 2 leave the state at the stop in the row after the last record
             kept = int(code) in (1, 2) and nrec < t_rec.size
-            outcome = _stop(
+            status, reason = _stop(
                 loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
                 Y[nrec].copy() if kept else None,
             )  # fmt: skip
-            if outcome[0] is RunStatus.STEP_UNDERFLOW and method != "rk4":
+            if status is RunStatus.STEP_UNDERFLOW and method != "rk4":
                 from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
 
                 if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
-                    outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
+                    reason = replace(reason, step_limit=MAX_STEPS)
+            outcome = (status, reason)
     else:
         Y, phases, nrec, outcome = _integrate_scipy(asm, bps, t_rec, solver, loop, atol, stats)
     wall = time.perf_counter() - start
