@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence, Sized
 from concurrent.futures import ThreadPoolExecutor
 
 from adaptive_ftc.errors import ConfigurationError
@@ -84,7 +84,7 @@ def iter_simulate(
     if progress:
         from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
 
-        bar = tqdm(total=len(loops) if hasattr(loops, "__len__") else None, desc="simulations")
+        bar = tqdm(total=len(loops) if isinstance(loops, Sized) else None, desc="simulations")
     source = iter(loops)
     pending: deque = deque()
     pool = ThreadPoolExecutor(max_workers=jobs)
@@ -95,9 +95,9 @@ def iter_simulate(
                 break
         while pending:
             result = pending.popleft().result()
-            loop = next(source, None)
-            if loop is not None:  # the next run starts before the caller takes this result
-                pending.append(pool.submit(simulate, loop, solver))
+            following = next(source, None)
+            if following is not None:  # the next run starts before the caller takes this result
+                pending.append(pool.submit(simulate, following, solver))
             if bar is not None:
                 bar.update()
             yield result
