@@ -20,6 +20,9 @@ import numpy as np
 from adaptive_ftc.sim.status import RunStatus, StatusReason
 
 if TYPE_CHECKING:  # pragma: no cover
+    from collections.abc import Callable
+
+    from adaptive_ftc.faults import Failure
     from adaptive_ftc.sim.compose import Assembled
     from adaptive_ftc.sim.engine import SolverOptions
     from adaptive_ftc.sim.system import ClosedLoop
@@ -157,7 +160,7 @@ def _candidates(loop: ClosedLoop):
                 f"the {kind} failure of actuator {f.actuator} (onset {f.onset:g} s)",
                 _unwrap(f.pattern()),
                 e,
-                (lambda t, f=f: f.onset <= t < f.end),
+                _acting(f),
             )
         )
     return out
@@ -179,6 +182,11 @@ def _unwrap(text: str) -> str:
 
 def _always(t: float) -> bool:
     return True
+
+
+def _acting(f: Failure) -> Callable[[float], bool]:
+    """Whether ``f`` acts at ``t`` (from its onset to its end)."""
+    return lambda t: f.onset <= t < f.end
 
 
 def _env(loop: ClosedLoop, asm: Assembled, t: float, y: np.ndarray | None, actuator: int):

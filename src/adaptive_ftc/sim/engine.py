@@ -560,7 +560,7 @@ def _integrate_scipy(
     def blowup(t, y):
         return bound - np.max(np.abs(y))
 
-    blowup.terminal = True
+    blowup.terminal = True  # type: ignore[attr-defined]  # scipy's event protocol
     for ph in range(nph):
         a, b = float(bps[ph]), float(bps[ph + 1])
         asm.module.jump(a, y, ph, asm.data, W)  # e.g. a digital controller's sample
