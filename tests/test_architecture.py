@@ -33,6 +33,7 @@ PACKAGE = "adaptive_ftc"
 LAYERS: dict[str, tuple[str, ...]] = {
     "core": (
         "_atomic",
+        "_feedback",
         "_signals",
         "_units",
         "_version",
@@ -49,7 +50,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "registry",
         "sim",
     ),
-    "catalogue": ("_feedback", "claims", "report", "reproduce", "scenarios"),
+    "catalogue": ("claims", "report", "reproduce", "scenarios"),
     "applications": (
         "allocation_study",
         "campaigns",

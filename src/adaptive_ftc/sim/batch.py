@@ -6,6 +6,7 @@ import os
 from collections import deque
 from collections.abc import Iterable, Iterator, Sequence, Sized
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.engine import SolverOptions, simulate
@@ -80,11 +81,16 @@ def iter_simulate(
     window = 4 * jobs if window is None else window
     if isinstance(window, bool) or not isinstance(window, int) or window < 1:
         raise ConfigurationError(f"`window` must be a positive integer; got {window!r}.")
-    bar = None
+    bar: Any = None  # an EtaBar (a known number of runs) or a tqdm bar (an open stream)
     if progress:
-        from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
+        if isinstance(loops, Sized):  # runs of one solver: the ETA counts them as equals
+            from adaptive_ftc._feedback import EtaBar
 
-        bar = tqdm(total=len(loops) if isinstance(loops, Sized) else None, desc="simulations")
+            bar = EtaBar(len(loops), desc="simulations", unit="run")
+        else:  # an open stream: no total, no ETA
+            from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
+
+            bar = tqdm(total=None, desc="simulations")
     source = iter(loops)
     pending: deque = deque()
     pool = ThreadPoolExecutor(max_workers=jobs)
@@ -98,7 +104,9 @@ def iter_simulate(
             following = next(source, None)
             if following is not None:  # the next run starts before the caller takes this result
                 pending.append(pool.submit(simulate, following, solver))
-            if bar is not None:
+            if hasattr(bar, "tick"):
+                bar.tick()
+            elif bar is not None:
                 bar.update()
             yield result
     finally:
