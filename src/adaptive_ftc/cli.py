@@ -29,6 +29,7 @@ import math
 import signal
 import sys
 import warnings
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -669,7 +670,7 @@ def _thesis_law_claims(sc, results: dict) -> list:
     )
 
 
-def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: list = ()) -> None:
+def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: Sequence = ()) -> None:
     import csv
 
     from adaptive_ftc.reproduce import _claim_row  # one row format with reproduce's claims.csv

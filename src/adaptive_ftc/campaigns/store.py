@@ -374,7 +374,7 @@ def finished_chunks(spec: CampaignSpec, out: Path) -> set[int]:
     """Chunks whose part file is present (part files are only ever complete)."""
     # one listing of parts/, not one stat per chunk (a campaign may have 1e5 chunks)
     parts = Path(out) / "parts"
-    done = set()
+    done: set[int] = set()
     try:
         entries = list(os.scandir(parts))
     except FileNotFoundError:

@@ -220,7 +220,7 @@ def _source_hash(modules: list[str]) -> str:
         h = hashlib.sha256()
         for name, path, _, size in stamps:
             h.update(name.encode())
-            if size:
+            if path and size:  # a size is only read from a path
                 h.update(Path(path).read_bytes())
         digest = _hashes[stamp] = h.hexdigest()
     return digest
@@ -257,9 +257,11 @@ def is_cached(
     import numba
     from numba.core.caching import UserProvidedCacheLocator
 
-    if numba.config.CACHE_DIR:  # numba then keeps every index there
+    # numba.config sets its settings at import (mypy does not see them)
+    numba_dir = numba.config.CACHE_DIR  # type: ignore[attr-defined]
+    if numba_dir:  # numba then keeps every index there
         sub = UserProvidedCacheLocator.get_suitable_cache_subpath(str(folder / "x.py"))
-        places.insert(0, Path(numba.config.CACHE_DIR) / sub)
+        places.insert(0, Path(numba_dir) / sub)
     return any(any(p.glob(f"{kind}_{key}*.nbi")) for p in places)
 
 
@@ -336,7 +338,7 @@ def load_module(
         if folder is None:
             module = types.ModuleType(name)
             module.__dict__.update(inject or {})
-            module.CACHE = False
+            module.CACHE = False  # type: ignore[attr-defined]  # read by the generated code
             sys.modules[name] = module
             try:
                 exec(compile(source, f"<generated loop {key}>", "exec"), module.__dict__)
@@ -355,7 +357,7 @@ def load_module(
             if spec is None or spec.loader is None:  # pragma: no cover
                 raise ConfigurationError(f"Cannot load the generated loop module {path}.")
             module = importlib.util.module_from_spec(spec)
-            module.CACHE = True
+            module.CACHE = True  # type: ignore[attr-defined]  # read by the generated code
             # must be importable by name before it runs, or numba's cache cannot find it
             sys.modules[name] = module
             try:

@@ -202,14 +202,15 @@ def _importable(obj) -> str:
         return ""
     if not getattr(module, "__file__", None):
         return ""
-    named = getattr(module, obj.__name__, None)
+    name = obj.__name__
+    named = getattr(module, name, None)
     if named is obj:
-        return f"{modname}:{obj.__name__}"
+        return f"{modname}:{name}"
     # a decorator such as ``@plant`` rebinds the name to an object that keeps the function
     # as ``equations`` (itself perhaps a numba dispatcher): import it through that object
     wrapped = getattr(named, "equations", None)
     if wrapped is not None and getattr(wrapped, "py_func", wrapped) is obj:
-        return f"{modname}:{obj.__name__}.equations"
+        return f"{modname}:{name}.equations"
     return ""
 
 
@@ -233,8 +234,9 @@ def _pack_plant(g: Generator, value) -> tuple[list[float], str]:
             vals.append(float(v))
             return f"c[PLANT + {len(vals) - 1}]"
         if isinstance(v, tuple):
-            parts = [pack(x) for x in v]
-            if any(part is None for part in parts):
+            packed = [pack(x) for x in v]
+            parts = [part for part in packed if part is not None]
+            if len(parts) < len(packed):  # one of them cannot be flattened
                 return None
             if hasattr(type(v), "_fields"):
                 if not _importable(type(v)):
@@ -720,7 +722,8 @@ def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
     )
     found = module.__dict__.get("_ADDRESSES")
     if found is None:
-        found = module._ADDRESSES = (fptr.address(module.value), fptr.address(module.slope))
+        found = (fptr.address(module.value), fptr.address(module.slope))
+        module._ADDRESSES = found  # type: ignore[attr-defined]  # remembered on the module
     return found
 
 
@@ -1000,6 +1003,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     if has_delay:
         from adaptive_ftc.hardware import pade_realization
 
+        assert loop.actuators is not None  # has_delay
         delays = loop.actuators.delays(m)
         if sampled:
             delay_vals = tuple(float(round(d / loop.sample_time)) for d in delays)
@@ -1244,7 +1248,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
             *jump_src[1:],
             "    return",
         ]
-    jump_src = "\n".join(jump_src)
+    jump_text = "\n".join(jump_src)
     env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
     plant_vals, plant_expr = _pack_plant(g, plant.parameter_values())
     gains = ctrl.gains()
@@ -1326,7 +1330,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         *g.defs,
         _FAILURE_SRC,
         "\n".join(_used_views(body)),
-        jump_src,
+        jump_text,
         tables_src,
     ]
     # ------------------------------------------------------------ numbers and layout
@@ -1559,6 +1563,7 @@ def _measurements(loop: ClosedLoop, sample_index: np.ndarray) -> np.ndarray:
     """Measurement offset ``bias + noise`` per (interval, state); noise sample ``k`` holds on
     sample interval ``k`` (drawn in time order, so a shorter run sees the same noise)."""
     sensors = loop.sensors
+    assert sensors is not None  # called for a loop with sensors only (has_meas)
     n = loop.plant.n_states
     std, bias = sensors.per_state(loop.plant.aliases(), n)
     n_rows = len(sample_index)

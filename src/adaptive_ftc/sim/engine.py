@@ -397,16 +397,16 @@ class CompiledLoop:
             return Y, phases, nrec, (RunStatus.COMPLETED, None)
         # codes 1 and 2 leave the state at the stop in the row after the last record
         kept = int(code) in (1, 2) and nrec < t_rec.size
-        outcome = _stop(
+        status, reason = _stop(
             self.loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
             Y[nrec].copy() if kept else None,
         )  # fmt: skip
-        if outcome[0] is RunStatus.STEP_UNDERFLOW and method != "rk4":
+        if status is RunStatus.STEP_UNDERFLOW and method != "rk4":
             from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
 
             if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
-                outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
-        return Y, phases, nrec, outcome
+                reason = replace(reason, step_limit=MAX_STEPS)
+        return Y, phases, nrec, (status, reason)
 
 
 def _stop(loop, asm, solver, t_rec, Y, nrec, code, t_stop, bad, y_stop):
@@ -578,7 +578,7 @@ def _integrate_scipy(
     def blowup(t, y):
         return bound - np.max(np.abs(y))
 
-    blowup.terminal = True
+    blowup.terminal = True  # type: ignore[attr-defined]  # scipy's event protocol
     for ph in range(nph):
         a, b = float(bps[ph]), float(bps[ph + 1])
         asm.module.jump(a, y, ph, asm.data, W)  # e.g. a digital controller's sample
