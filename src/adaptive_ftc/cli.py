@@ -119,9 +119,10 @@ class _Deferred(Sequence):
     ``%(choices)s`` of a help text."""
 
     def __init__(self, load: Callable[[], Sequence[str]]) -> None:
-        self._load, self._items = load, None
+        self._load = load
+        self._items: tuple[str, ...] | None = None
 
-    def _get(self) -> Sequence[str]:
+    def _get(self) -> tuple[str, ...]:
         if self._items is None:
             self._items = tuple(self._load())
         return self._items

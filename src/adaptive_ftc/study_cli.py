@@ -4,6 +4,8 @@ studies, so the studies cannot import the figures)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from adaptive_ftc.errors import ConfigurationError
 
 
@@ -13,7 +15,9 @@ class _Help(str):
     :mod:`adaptive_ftc.studies`, which imports pandas and the engine, and ``aftc --help`` or
     any other command should not pay for that."""
 
-    def __new__(cls, text: str, fill):
+    _fill: Callable[[], dict[str, str]]
+
+    def __new__(cls, text: str, fill: Callable[[], dict[str, str]]):
         self = super().__new__(cls, text)
         self._fill = fill
         return self
