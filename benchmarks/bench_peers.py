@@ -11,7 +11,8 @@ Engines, each on ONE thread so that its wall time is its per-core time:
 * ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
   skipped with a message when no C compiler is found;
 * ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
-  (the engine's ``method="RK45"`` path; Dopri5 only: scipy has no fixed-step RK4);
+  (the engine's ``method="RK45"`` path; Dopri5 only: scipy has no fixed-step RK4; timed on
+  the first ``--check`` members only, as it is some 20x slower);
 * ``diffrax``: vmapped JAX, only when ``jax`` and ``diffrax`` are importable (never installed
   in CI); this version has no JAX model of the loop yet, so it is reported as not run.
 
