@@ -153,7 +153,6 @@ class MimoDirectAdaptive(AdaptiveController):
         ca = ctrl.constraint_aware
         R = np.atleast_2d(np.asarray(loop.R, dtype=float))
         b_max = float(np.abs(R).max()) if R.size else 1.0
-        cfg = ctrl.configuration(b_max, ctrl.nominal_input_gain(loop))
         w0 = ca.loop_rate if ca.loop_rate is not None else ctrl.loop_rate()
         w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else b_max)
         G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
