@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt
 
+from adaptive_ftc.controllers.base import AdaptiveController
 from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.controllers.mimo import normaliser
-from adaptive_ftc.errors import DivergenceWarning
+from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.compose import source_of
@@ -117,3 +118,50 @@ def test_manipulator_at_50_hz_keeps_the_arm_the_thesis_law_loses(manipulator):
     assert judged[0][0] > 1.0  # the arm is lost
     err, fast = judged[1]
     assert err <= 0.05 and fast <= 0.03 * 12.1, judged
+
+
+@pytest.fixture(scope="module")
+def spacecraft():
+    return load_scenario("spacecraft-mimo-s1")
+
+
+def test_each_output_gets_the_robust_slope_its_own_loop_gain_admits(spacecraft):
+    loop = spacecraft.loop
+    thesis = loop.controller
+    ctrl = replace(thesis, constraint_aware=ConstraintAware(lag=0.05)).bound(loop)
+    g = ctrl.output_gains
+    assert g == pytest.approx(
+        tuple(np.maximum(thesis._output_gains(loop, False), thesis._output_gains(loop, True)))
+    )
+    ca = ctrl.constraint_aware
+    w, _ = ca.omega_max(ca.loop_rate, ca.b_max)
+    _, k, k0, eps0 = ctrl.robust_settings()
+    _, k_s, k0_s, eps0_s = AdaptiveController.robust_settings(ctrl)  # the shared rule
+    assert (k, eps0) == (k_s, eps0_s)
+    fastest = int(np.argmax(g))  # pitch: the shared rule's slope, set for it
+    assert k0[fastest] == pytest.approx(k0_s[fastest], rel=1e-12)
+    for i in range(3):
+        if i != fastest:  # roll, yaw: sqrt(g_i K_i') = w
+            slope = k_s + k0[i] / eps0
+            assert math.sqrt(g[i] * slope) == pytest.approx(w, rel=1e-9)
+            assert k0[i] > 5.0 * k0_s[i]
+    noisy = replace(thesis, constraint_aware=ConstraintAware(noise=0.01)).bound(loop)
+    assert noisy.robust_settings() == AdaptiveController.robust_settings(noisy)
+    assert replace(thesis, constraint_aware=None).bound(loop).output_gains == ()
+
+
+def test_output_gains_is_not_a_setting(spacecraft):
+    with pytest.raises(ConfigurationError, match="output_gains.*bound"):
+        replace(spacecraft.loop.controller, output_gains=(-1.0,))
+
+
+def test_spacecraft_behind_a_50_ms_lag_follows_the_reference(spacecraft):
+    """Reduced size (40 s, window 30-40 s): with the fastest output's slope on every axis
+    the roll and yaw lag the reference by 3.4e-2 rad; with their own, 3e-3."""
+    loop = replace(spacecraft.loop, t_final=40.0, actuators=Actuators(tau=0.05))
+    ctrl = replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        r = simulate(replace(loop, controller=ctrl), spacecraft.solver)
+    assert r.status == "completed"
+    assert float(np.max(r.rms_error(30.0, 40.0))) < 1e-2
