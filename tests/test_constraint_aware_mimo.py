@@ -165,3 +165,20 @@ def test_spacecraft_behind_a_50_ms_lag_follows_the_reference(spacecraft):
         r = simulate(replace(loop, controller=ctrl), spacecraft.solver)
     assert r.status == "completed"
     assert float(np.max(r.rms_error(30.0, 40.0))) < 1e-2
+
+
+def test_an_ideal_model_is_the_thesis_mimo_law_and_removing_the_option_gives_it_back(
+    manipulator,
+):
+    loop = replace(manipulator, t_final=10.0)  # past the 8 s failure
+    ideal = replace(loop.controller, constraint_aware=ConstraintAware())
+    assert source_of(replace(loop, controller=ideal)) == source_of(loop)
+    solver = load_scenario("manipulator-mimo-s1").solver
+    a, b = simulate(loop, solver), simulate(replace(loop, controller=ideal), solver)
+    np.testing.assert_allclose(b.u_cmd, a.u_cmd, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(b.adaptive, a.adaptive, rtol=0, atol=1e-9)
+    lagged = replace(loop.controller, constraint_aware=ConstraintAware(lag=0.05)).bound(loop)
+    assert lagged.output_gains  # filled from the loop
+    back = replace(lagged, constraint_aware=None)
+    assert back == loop.controller
+    assert source_of(replace(loop, controller=back)) == source_of(loop)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -53,8 +53,9 @@ class MimoDirectAdaptive(AdaptiveController):
     eta: float = 0.001
     sigma: float = 0.01
     #: constraint-aware only, filled by :meth:`bound` from the loop (not a setting): each
-    #: output's loop gain ``b_i eta |Pi_i|^2`` (:meth:`measured_loop_rate`)
-    output_gains: tuple = ()
+    #: output's loop gain ``b_i eta |Pi_i|^2`` (:meth:`measured_loop_rate`); not compared, so
+    #: ``replace(bound_design, constraint_aware=None)`` equals the thesis design
+    output_gains: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
         super().__post_init__()
