@@ -348,7 +348,7 @@ class CompiledLoop:
                 self.asm, bps, self.t_rec, self.solver, self.loop, self.atol, stats
             )
         wall = time.perf_counter() - start
-        return Integration(Y, phases, nrec, *outcome, wall, stats)
+        return Integration(Y, phases, nrec, outcome[0], outcome[1], wall, stats)
 
     def recorded(self, run: Integration):
         """The records of ``run`` with their signals, cut at the first one outside the plant's
@@ -370,6 +370,7 @@ class CompiledLoop:
         """The compiled integrator's run: ``(Y, phases, nrec, (status, reason))``."""
         asm, solver, t_rec = self.asm, self.solver, self.t_rec
         method = solver.compiled_method
+        assert method is not None  # only compiled methods reach here (scipy's take the other path)
         # rows past the last record are never read: not zeroed (4 MB a 120 s run)
         Y = np.empty((t_rec.size, asm.y0.size))
         phases = np.empty(t_rec.size, dtype=np.int64)

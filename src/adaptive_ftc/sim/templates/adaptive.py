@@ -108,9 +108,9 @@ PER_METHOD = "# --- per method: begin ---"
 
 jit = numba.njit(nogil=True, error_model="numpy")
 #: the interval loop: allocates nothing, so it runs without reference counting
-hot = numba.njit(nogil=True, error_model="numpy", _nrt=False)
+hot = numba.njit(nogil=True, error_model="numpy", _nrt=False)  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
 #: the step functions: inlined into the interval loop by numba (``inline="always"``)
-inl = numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+inl = numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always")  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
 
 #: the docstring of every entry point after its first line
 _ENTRY_DOC = """    Returns ``(n_recorded, status, t_stop, bad_index)``; the arguments, statuses and
@@ -189,7 +189,7 @@ def specialise(text: str) -> str:
     for name, dopri5, rodasp, switch, rodas5p in _CORES:
         body = re.sub(
             r'(def _solve\([^"]*)"""[^"]*"""',
-            lambda m, name=name: f'{m.group(1)}"""{_DOCS[name]}\n\n{_ENTRY_DOC}"""',
+            lambda m, name=name: f'{m.group(1)}"""{_DOCS[name]}\n\n{_ENTRY_DOC}"""',  # type: ignore[misc]
             core,
             count=1,
         )
@@ -242,8 +242,8 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
         leaves_envelope=numba.njit(_no_envelope),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
-        hot=numba.njit(nogil=True, error_model="numpy", _nrt=False),
-        inl=numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always"),
+        hot=numba.njit(nogil=True, error_model="numpy", _nrt=False),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
+        inl=numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always"),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
     )
     exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
     return mod
