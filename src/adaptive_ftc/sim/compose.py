@@ -26,7 +26,16 @@ import numpy as np
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
 from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.sim import codegen
-from adaptive_ftc.sim.layout import HEADER, PARAMS, SIGNAL_WORK, WORK, Header, Misc
+from adaptive_ftc.sim.layout import (
+    HEADER,
+    PARAMS,
+    WORK,
+    Header,
+    LoopLayout,
+    Misc,
+    RecordLayout,
+    SignalTable,
+)
 from adaptive_ftc.sim.parts import Build, skeleton
 from adaptive_ftc.sim.parts import parts as loop_parts
 from adaptive_ftc.sim.parts.approximator import Approximator
@@ -96,7 +105,6 @@ class LoopData(NamedTuple):
 # the layout's names (sim/layout.py): the header of ``LoopData.i``, the work buffers
 _HEADER = HEADER
 _WORK = WORK
-_SIGNAL_WORK = SIGNAL_WORK
 
 
 @dataclass
@@ -191,7 +199,9 @@ class Assembled:
     adaptive_names: tuple[str, ...]
     theta_slices: tuple[slice, ...]
     n_x: int
-    layout: dict[str, slice]  # named places: "c:<setting>" in data.c, "w:<buffer>" in work
+    #: where everything lives: named states, parameters (``layout["c:lam"]``), work buffers
+    #: (``layout["w:ref"]``) and recorded columns
+    layout: LoopLayout
     source: str = field(repr=False, default="")
     #: names of the states after the controller's: actuator positions, held command and held
     #: controller derivatives (digital control)
@@ -199,7 +209,7 @@ class Assembled:
 
     def work(self) -> np.ndarray:
         """A fresh work array for one run (never shared between threads)."""
-        return np.zeros(self.layout["w:size"].stop)
+        return np.zeros(self.layout.work_size)
 
     def integrator(self, method: str):
         """The compiled ``integrate_<method>`` (``rk4``, ``dopri5``, ``rodasp``, ``rodas5p``,
@@ -210,9 +220,8 @@ class Assembled:
     def _shared(self):
         """The shared compiled module, once this loop's addresses are known to be set."""
         i = self.data.i
-        if not (
-            i[Header.RHS] and i[Header.GAIN]
-        ):  # a call to address 0 crashes (a jump of 0: none)
+        # a call to address 0 crashes (a jump of 0: none)
+        if not (i[Header.RHS] and i[Header.GAIN]):
             raise ConfigurationError(
                 "This loop's data holds no compiled rhs/control-gain addresses (made or copied "
                 "outside assemble(), or unpickled in another process): call assemble(loop) here."
@@ -231,7 +240,7 @@ class Assembled:
         W = self.work()
         y = np.ascontiguousarray(y, dtype=float)
         self.module.rhs(float(t), y, int(phase), self.data, W, np.zeros(self.y0.size))
-        return W[self.layout["w:phi"]].copy()
+        return W[self.layout.work["phi"]].copy()
 
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> int:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
@@ -245,15 +254,15 @@ class Assembled:
 # the plant's part of the recorded signals (one module per plant, _gain_module_source): the
 # shared ``signals`` (templates/record.py) calls it by address once per recorded row, after
 # the loop's ``rhs`` (which left u in W)
-_CONTROL_GAIN = '''@hot
+_CONTROL_GAIN = f'''@hot
 def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
     """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
     the rate of output 1 per unit command of actuator j; df_j/du: its failure's slope)."""
     c = D.c
     s = D.i[I_SIGT]
-    v0 = D.i[s + 11 + D.i[s]]  # VEL[0]
-    U = D.i[s + 6]
-    RMAT = D.i[s + 10]
+    v0 = D.i[s + {int(SignalTable.POS)} + D.i[s]]  # VEL[0]
+    U = D.i[s + {int(SignalTable.U)}]
+    RMAT = D.i[s + {int(SignalTable.RMAT)}]
     u = W[U : U + M]
     x = Y[:NX]
     gain = 0.0
@@ -351,7 +360,13 @@ _INTEGRATORS_IMPORTS = [
 
 
 def _integrators_source() -> str:
-    constants = "\n".join(f"I_{name} = {k}" for k, name in enumerate(_HEADER))
+    constants = "\n".join(
+        [
+            *(f"I_{name} = {k}" for k, name in enumerate(_HEADER)),
+            *(f"SIGT_{t.name} = {int(t)}" for t in SignalTable),
+            *(f"MISC_{slot.name} = {int(slot)}" for slot in Misc),
+        ]
+    )
     return "\n\n".join(
         [
             _INTEGRATORS_HEAD.format(constants=constants),
@@ -667,7 +682,7 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
             '    """The plant parameters (at the place in D.c named by the signal table)."""',
             "    c = D.c",
             "    s = D.i[I_SIGT]",
-            "    PLANT = D.i[s + 11 + 2 * D.i[s]]",
+            f"    PLANT = D.i[s + {int(SignalTable.POS)} + 2 * D.i[s]]",
             f"    return {plant_expr}",
             "",
             "",
@@ -790,24 +805,28 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
     pos, vel = plant.position_index, plant.velocity_index
     consts_lines = _constants(param_at, work, g, pos, vel)
     text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
-    sig_table = [g.p] + [work[w].start for w in _SIGNAL_WORK]
-    sig_table += [param_at["lam"].start, param_at["R"].start, *pos, *vel]
-    sig_table.append(param_at["plant"].start)
+    ny = b.states.controller_stop
+    loop_layout = LoopLayout(
+        states=dict(b.states.blocks),
+        params=param_at,
+        work=work,
+        records=RecordLayout(p=g.p, m=g.m),
+        extra_names=b.states.labels_after(ny),
+        n_states=b.states.size,
+    )
+    sig_table = loop_layout.signal_table(pos, vel)
     approximator = next(part for part in members if isinstance(part, Approximator))
     plant_part = next(part for part in members if isinstance(part, PlantPart))
-    ny = b.states.controller_stop
-    layout: dict = {f"c:{k}": v for k, v in param_at.items()}
-    layout.update({f"w:{k}": v for k, v in work.items()})
-    layout["w:size"] = slice(0, max(s.stop for s in work.values()))
+    layout: dict = dict(loop_layout.items())  # "c:<param>", "w:<buffer>"
     layout.update(
+        loop_layout=loop_layout,
         ny=ny,
         ny_all=b.states.size,
         at_act=b.states["actuator_position"].start,
-        extra_names=b.states.labels_after(ny),
+        extra_names=loop_layout.extra_names,
         filt=b.states["s_filter"].start,
         n_phi=approximator.n_phi,
         theta_slices=tuple(approximator.theta_slices),
-        states=dict(b.states.blocks),
         mods=mods,
         gain=_gain_module_source(loop, sdot),
     )
@@ -1007,7 +1026,8 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     if not filter_tau > 0:
         raise ConfigurationError(f"`filter_tau` must be positive; got {filter_tau}.")
     text, data, g, layout = generate(loop, sdot=sdot)
-    data.c[layout["c:filter_tau"]] = float(filter_tau)
+    where: LoopLayout = layout["loop_layout"]
+    data.c[where.params["filter_tau"]] = float(filter_tau)
     # the modules and addresses of a structure seen before: every loop of it has the same
     # (its numbers' types included), so they are looked up once
     loaded = layout["loaded"]
@@ -1016,33 +1036,73 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         module = loaded["module"] = codegen.load_module(
             text, imports=layout["mods"], inject=g.inject
         )
-    nx, p = g.nx, g.p
-    y0 = np.zeros(layout["ny_all"])
-    y0[:nx] = loop.initial_state
-    y0[nx : nx + layout["n_phi"]] = loop.controller.theta0
-    y0[nx + layout["n_phi"] : layout["filt"]] = g.y0_extra
-    if loop.adaptive_initial:
-        n_ad = layout["filt"] - nx
-        if len(loop.adaptive_initial) != n_ad:
-            raise ConfigurationError(
-                f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
-                f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
-            )
-        y0[nx : layout["filt"]] = loop.adaptive_initial
-    if loop.actuators is not None and loop.actuators.initial:
-        at = layout["at_act"]
-        y0[at : at + g.m] = loop.actuators.initial
-    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
-        at = nx + g.adaptive_names.index("measurement_filter1")
-        y0[at : at + nx] = y0[:nx]
+    y0 = _initial_state(loop, g, where)
     if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
         raise ConfigurationError(
             f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "
             f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
+    _link(loop, module, data, layout)
+    asm = Assembled(
+        module=module,
+        data=data,
+        y0=y0,
+        breakpoints=layout["bps"],
+        adaptive_names=tuple(g.adaptive_names),
+        theta_slices=layout["theta_slices"],
+        n_x=g.nx,
+        layout=where,
+        source=text,
+        extra_names=where.extra_names,
+    )
+    if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
+        ref = np.zeros(3 * g.p)
+        module.reference_at(float(loop.t0), data.c, ref)
+        lam = data.c[where.params["lam"]]
+        x0 = y0[: g.nx]
+        at = where.states["s_filter"].start
+        for i in range(g.p):
+            e = ref[3 * i] - x0[loop.plant.position_index[i]]
+            ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
+            y0[at + i] = ed + lam[i] * e
+    if asm.extra_names:  # actuators at their first command, the first sample's held values
+        module.jump(float(loop.t0), y0, 0, data, asm.work())
+    return asm
+
+
+def _initial_state(loop: ClosedLoop, g: Generator, where: LoopLayout) -> np.ndarray:
+    """``y0`` before the s' filter and ``jump`` set theirs: the plant's initial state, theta0,
+    the design's initial states (or ``adaptive_initial``) and the actuators' positions."""
+    nx = g.nx
+    theta, design = where.states["theta"], where.states["design"]
+    y0 = np.zeros(where.n_states)
+    y0[:nx] = loop.initial_state
+    y0[theta] = loop.controller.theta0
+    y0[design] = g.y0_extra
+    if loop.adaptive_initial:
+        n_ad = design.stop - nx
+        if len(loop.adaptive_initial) != n_ad:
+            raise ConfigurationError(
+                f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
+                f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
+            )
+        y0[nx : design.stop] = loop.adaptive_initial
+    if loop.actuators is not None and loop.actuators.initial:
+        at = where.states["actuator_position"].start
+        y0[at : at + g.m] = loop.actuators.initial
+    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
+        at = nx + g.adaptive_names.index("measurement_filter1")
+        y0[at : at + nx] = y0[:nx]
+    return y0
+
+
+def _link(loop: ClosedLoop, module, data: LoopData, layout: dict) -> None:
+    """Write the addresses of the compiled ``rhs``, ``jump``, the plant's ``control_gain``
+    and the failure patterns into ``data.i`` (compiling or loading them on first use)."""
     from adaptive_ftc.sim.engine import clear_compile_errors
 
+    loaded = layout["loaded"]
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
         addresses = loaded.get("addresses")
         if addresses is None:
@@ -1056,27 +1116,3 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         for n_, pattern in enumerate(layout["patterns"]):
             if pattern is not None:  # the failure patterns that are not affine
                 inst[n_, 2], inst[n_, 3] = _pattern_addresses(pattern)
-    asm = Assembled(
-        module=module,
-        data=data,
-        y0=y0,
-        breakpoints=layout["bps"],
-        adaptive_names=tuple(g.adaptive_names),
-        theta_slices=layout["theta_slices"],
-        n_x=nx,
-        layout={k: v for k, v in layout.items() if ":" in k},
-        source=text,
-        extra_names=layout["extra_names"],
-    )
-    if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
-        ref = np.zeros(3 * p)
-        module.reference_at(float(loop.t0), data.c, ref)
-        lam = data.c[layout["c:lam"]]
-        x0 = y0[:nx]
-        for i in range(p):
-            e = ref[3 * i] - x0[loop.plant.position_index[i]]
-            ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
-            y0[layout["filt"] + i] = ed + lam[i] * e
-    if asm.extra_names:  # actuators at their first command, the first sample's held values
-        module.jump(float(loop.t0), y0, 0, data, asm.work())
-    return asm

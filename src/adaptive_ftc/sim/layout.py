@@ -223,6 +223,18 @@ class LoopLayout:
         """Length of the work array ``W``."""
         return max((s.stop for s in self.work.values()), default=0)
 
+    def signal_table(self, pos, vel) -> tuple[int, ...]:
+        """The :class:`SignalTable` of this loop (``pos``, ``vel``: the outputs' position
+        and rate states), as the shared ``signals`` reads it from ``D.i``."""
+        places = {
+            SignalTable.P: len(pos),
+            **{SignalTable[w.upper()]: self.work[w].start for w in SIGNAL_WORK},
+            SignalTable.LAM: self.params["lam"].start,
+            SignalTable.RMAT: self.params["R"].start,
+        }
+        head = [places[k] for k in SignalTable if k != SignalTable.POS]
+        return (*head, *pos, *vel, self.params["plant"].start)
+
     def misc(self, slot: Misc) -> int:
         """Index of ``slot`` of the ``misc`` buffer in ``W``."""
         return self.work["misc"].start + int(slot)

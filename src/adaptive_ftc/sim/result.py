@@ -140,8 +140,7 @@ class SimResult:
                     np.ascontiguousarray(phases),
                     out,
                 )
-        cols = [out[:, i * p : (i + 1) * p] for i in range(9)]
-        c = 9 * p
+        col = {name: out[:, where] for name, where, _ in asm.layout.records}
         times = sorted(
             {t for f in loop.failures.failures for t in f.jump_times if loop.t0 < t < loop.t_final}
         )
@@ -166,7 +165,7 @@ class SimResult:
         plant = loop.plant
         from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
 
-        u_cmd = out[:, c : c + m]
+        u_cmd = col["u_cmd"]
         if loop.has_actuator_dynamics:
             meta["actuator_limits"] = actuator_limits_meta(loop, asm)
         return cls(
@@ -175,19 +174,11 @@ class SimResult:
             time=T.copy(),
             states=Y[:, :n],
             adaptive=Y[:, n : n + len(asm.adaptive_names)],
-            y=cols[0],
-            yd=cols[1],
-            yd_dot=cols[2],
-            e=cols[3],
-            edot=cols[4],
-            s=cols[5],
-            sdot=cols[6],
-            u0=cols[8],
+            **{k: col[k] for k in ("y", "yd", "yd_dot", "e", "edot", "s", "sdot", "u0")},
             u_cmd=u_cmd,
-            u_applied=out[:, c + m : c + 2 * m],
-            u_f=out[:, c + 2 * m],
-            gain=out[:, c + 2 * m + 1],
-            control_gain=out[:, c + 2 * m + 2],
+            u_applied=col["u_applied"],
+            # the columns of one value (not per output or actuator): 1-d
+            **{k: col[k][:, 0] for k in ("u_f", "gain", "control_gain")},
             state_names=tuple(loop.plant.state_names),
             output_names=tuple(loop.plant.output_names),
             actuator_names=tuple(loop.plant.actuator_names),
@@ -721,8 +712,9 @@ class SimResult:
 def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
     """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
     (``Assembled.signals`` writes every column of every row)."""
-    p, m = loop.plant.n_outputs, loop.plant.n_actuators
-    return np.empty((rows, 9 * p + 2 * m + 4))
+    from adaptive_ftc.sim.layout import RecordLayout
+
+    return np.empty((rows, RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width))
 
 
 def _solver_settings(solver: Any) -> str:
