@@ -9,6 +9,7 @@ from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["MimoDirectAdaptive"]
 
@@ -74,6 +75,6 @@ class MimoDirectAdaptive(AdaptiveController):
         g.use("theta_law", theta_law)
         return [
             "    # adaptive laws (3.37), one per output",
-            "    misc[1] = 1.0",
+            f"    misc[{int(Misc.GAIN)}] = 1.0",
             *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
         ]

@@ -8,6 +8,7 @@ from typing import ClassVar, NamedTuple
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["SignEstimation"]
 
@@ -67,7 +68,7 @@ class SignEstimation(AdaptiveController):
         return [
             "    # adaptive laws (4.54)-(4.55)",
             f"    rho = Y[{extra_at}]",
-            "    misc[1] = rho",
+            f"    misc[{int(Misc.GAIN)}] = rho",
             f"    dY[{extra_at}] = rho_law(u0[0], q[0], rho, D.gains.alpha1, D.gains.sigma1)",
             *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma0", "rho"),
         ]
