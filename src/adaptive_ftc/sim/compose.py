@@ -813,6 +813,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         records=RecordLayout(p=g.p, m=g.m),
         extra_names=b.states.labels_after(ny),
         n_states=b.states.size,
+        adaptive=slice(g.nx, ny),
     )
     sig_table = loop_layout.signal_table(pos, vel)
     approximator = next(part for part in members if isinstance(part, Approximator))

@@ -210,6 +210,8 @@ class LoopLayout:
     #: labels of the states after the controller's (actuators, held values, delay states)
     extra_names: tuple[str, ...] = ()
     n_states: int = 0
+    #: the adaptive (controller) states in ``Y``: after the plant's, before the hardware's
+    adaptive: slice = field(default_factory=lambda: slice(0, 0))
     _flat: Mapping[str, slice] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:

@@ -144,36 +144,17 @@ class SimResult:
         times = sorted(
             {t for f in loop.failures.failures for t in f.jump_times if loop.t0 < t < loop.t_final}
         )
-        ctrl = loop.controller
-        meta = {
-            "name": loop.name,
-            "plant": loop.plant.name,
-            "design": ctrl.design,
-            "equations": ctrl.equation,
-            "adapt": loop.adapt,
-            "solver": solver.method,
-            "dt": solver.dt,
-            "sdot": solver.sdot_for(loop),
-            "t_final": loop.t_final,
-            "wall_time_s": wall_time,
-            "solver_settings": _solver_settings(solver),
-            "controller": repr(ctrl),
-            "actuators": repr(loop.actuators) if loop.actuators is not None else "ideal",
-            "sensors": repr(loop.sensors) if loop.sensors is not None else "exact",
-            "sample_time": loop.sample_time,
-        }
         plant = loop.plant
-        from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
+        from adaptive_ftc.sim.activity import actuator_positions
 
         u_cmd = col["u_cmd"]
-        if loop.has_actuator_dynamics:
-            meta["actuator_limits"] = actuator_limits_meta(loop, asm)
+        where = asm.layout.states
         return cls(
             # views of the recorded block, like the signals below: copying them cost ~1 ms
             # of a 60 ms run
             time=T.copy(),
-            states=Y[:, :n],
-            adaptive=Y[:, n : n + len(asm.adaptive_names)],
+            states=Y[:, where["plant"]],
+            adaptive=Y[:, asm.layout.adaptive],
             **{k: col[k] for k in ("y", "yd", "yd_dot", "e", "edot", "s", "sdot", "u0")},
             u_cmd=u_cmd,
             u_applied=col["u_applied"],
@@ -189,7 +170,7 @@ class SimResult:
             status=RunStatus(status),
             reason=reason,
             message=message,
-            meta=meta,
+            meta=_run_meta(loop, asm, solver, wall_time),
             state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
             output_units=_declared_units(plant, ("output_units",), p)
             or _output_units(loop.plant.state_names, loop.plant.output_names, su),
@@ -706,6 +687,33 @@ class SimResult:
         from adaptive_ftc import plots
 
         return plots.plot(self, kind, **kwargs)
+
+
+def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -> dict:
+    """The provenance of one run (``SimResult.meta``)."""
+    ctrl = loop.controller
+    meta = {
+        "name": loop.name,
+        "plant": loop.plant.name,
+        "design": ctrl.design,
+        "equations": ctrl.equation,
+        "adapt": loop.adapt,
+        "solver": solver.method,
+        "dt": solver.dt,
+        "sdot": solver.sdot_for(loop),
+        "t_final": loop.t_final,
+        "wall_time_s": wall_time,
+        "solver_settings": _solver_settings(solver),
+        "controller": repr(ctrl),
+        "actuators": repr(loop.actuators) if loop.actuators is not None else "ideal",
+        "sensors": repr(loop.sensors) if loop.sensors is not None else "exact",
+        "sample_time": loop.sample_time,
+    }
+    if loop.has_actuator_dynamics:
+        from adaptive_ftc.sim.activity import actuator_limits_meta
+
+        meta["actuator_limits"] = actuator_limits_meta(loop, asm)
+    return meta
 
 
 # ---------------------------------------------------------------------- export helpers
