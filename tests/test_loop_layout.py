@@ -170,3 +170,8 @@ def test_no_index_arithmetic_on_the_loops_arrays_outside_the_generator():
             if _ARITHMETIC.search(line):
                 found.append(f"{rel}:{n}: {line.strip()}")
     assert not found, "index arithmetic outside sim/layout.py:\n" + "\n".join(found)
+
+
+def test_each_recorded_signal_is_owned_by_exactly_one_part():
+    owned = [name for part in parts() for name in part.records]
+    assert sorted(owned) == sorted(name for name, _, _ in RECORDS)

@@ -12,6 +12,8 @@ __all__ = ["Allocation"]
 class Allocation(Part):
     """``acc = sum_i R_ij u0_i`` per actuator j, then ``u[j] = acc`` (the commands)."""
 
+    records = ("u_cmd",)
+
     def rhs(self, b: Build) -> dict[str, list[str]]:
         return {
             "allocate": [

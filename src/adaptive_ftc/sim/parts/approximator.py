@@ -12,6 +12,8 @@ __all__ = ["Approximator"]
 class Approximator(Part):
     """The regressor values ``Pi`` (work buffer ``phi``) and the theta blocks."""
 
+    records = ("u0",)
+
     def build(self, b: Build) -> None:
         g, ctrl, nx = b.g, b.ctrl, b.nx
         regs = ctrl.regressors_for(b.p)

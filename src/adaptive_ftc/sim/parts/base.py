@@ -101,6 +101,10 @@ class Part:
     """One part of a generated loop (see the module docstring). Every method has a default
     that contributes nothing, so a part implements only what it has."""
 
+    #: the recorded signals it owns (names of :data:`~adaptive_ftc.sim.layout.RECORDS`; the
+    #: shared ``signals`` computes them, in the columns of ``RecordLayout``)
+    records: tuple[str, ...] = ()
+
     def build(self, b: Build) -> None:
         """Emit through ``b.g`` and claim states from ``b.states`` (parts build in order)."""
 

@@ -16,6 +16,8 @@ __all__ = ["Design"]
 class Design(Part):
     """The control and adaptive laws, the states they add and the freeze of adaptation."""
 
+    records = ("u_f", "gain")
+
     def build(self, b: Build) -> None:
         g, ctrl = b.g, b.ctrl
         extra_at = b.states.size

@@ -70,6 +70,8 @@ def instance(ph, j, D):
 class Failures(Part):
     """``uf[j]``: the output of actuator j after its failure (``acc`` when healthy)."""
 
+    records = ("u_applied",)
+
     def rhs(self, b: Build) -> dict[str, list[str]]:
         return {
             "failure": [

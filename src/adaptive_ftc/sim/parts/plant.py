@@ -13,6 +13,8 @@ __all__ = ["Plant", "pack_plant"]
 class Plant(Part):
     """x' = f(t, x, u_f, p): the plant states, first in ``Y``."""
 
+    records = ("control_gain",)
+
     def build(self, b: Build) -> None:
         plant = b.loop.plant
         b.states.claim("plant", b.nx)

@@ -13,6 +13,8 @@ __all__ = ["Reference"]
 class Reference(Part):
     """``reference(t, c, out)``: y_d, y_d', y_d'' per output (in the work buffer ``ref``)."""
 
+    records = ("yd", "yd_dot")
+
     def build(self, b: Build) -> None:
         g = b.g
         lines = [

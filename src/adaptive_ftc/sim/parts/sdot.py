@@ -13,6 +13,8 @@ __all__ = ["SDot"]
 class SDot(Part):
     """s' and ``q`` per output (work buffer ``q``); the s' of output 1 in ``misc``."""
 
+    records = ("sdot", "q", "sdot_used")
+
     def build(self, b: Build) -> None:
         filtered = b.sdot == "filtered"
         self.at = b.states.claim("s_filter", b.p if filtered else 0, controller=True)

@@ -12,6 +12,8 @@ __all__ = ["Sensor"]
 class Sensor(Part):
     """The controller signals ``sig`` = [measured x, e, e', s]."""
 
+    records = ("y", "e", "edot", "s")
+
     def rhs(self, b: Build) -> dict[str, list[str]]:
         nx, p = b.nx, b.p
         pos, vel = b.loop.plant.position_index, b.loop.plant.velocity_index
