@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import doctest
-import importlib
 import re
 from pathlib import Path
 
@@ -30,26 +28,6 @@ def test_readme_quick_start_is_two_commands_matching_ci():
     assert "aftc reproduce" in lines[0]
     ci = (ROOT / ".ci" / "run").read_text()
     assert lines[1].strip() in ci
-
-
-@pytest.mark.parametrize(
-    "module",
-    [
-        "adaptive_ftc.scenarios.expressions",
-        "adaptive_ftc.faults.models",
-        "adaptive_ftc.faults.schedule",
-        "adaptive_ftc.approximators.fuzzy",
-        "adaptive_ftc.approximators.linear",
-        "adaptive_ftc.plants.hypersonic",
-        "adaptive_ftc.sim.engine",
-        "adaptive_ftc.sim.batch",
-        "adaptive_ftc.scenarios.loader",
-    ],
-)
-def test_docstring_examples(module):
-    mod = importlib.import_module(module)
-    failures, _ = doctest.testmod(mod, optionflags=doctest.ELLIPSIS)
-    assert failures == 0
 
 
 # ---------------------------------------------------------------------------- documentation site

@@ -24,6 +24,7 @@ from adaptive_ftc.errors import (
     ExpressionError,
     ScenarioError,
 )
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.faults import (
     Affine,
     Bias,
@@ -42,7 +43,6 @@ from adaptive_ftc.plants import (
     TwoLinkManipulator,
     WingRock,
 )
-from adaptive_ftc.scenarios.expressions import Expression
 from adaptive_ftc.scenarios.loader import Scenario, list_scenarios, load_scenario
 from adaptive_ftc.sim import ClosedLoop, SimResult, SolverOptions, simulate
 from adaptive_ftc.sim.batch import iter_simulate, simulate_many

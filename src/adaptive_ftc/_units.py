@@ -41,7 +41,12 @@ PLANT_UNITS: dict[str, tuple[str, str, str]] = {
     "wingrock": ("rad", "rad s-1", "rad"),
     "manipulator": ("rad", "rad s-1", "N m"),
     "spacecraft": ("rad", "rad s-1", "N m"),
+    "pendulum": ("rad", "rad s-1", "N m"),
 }
+
+#: plant -> its rate states whose names do not end in ``_dot`` (tests/test_registry.py checks
+#: every state's unit against the plant's own ``units``)
+_RATE_STATES: dict[str, tuple[str, ...]] = {"hypersonic": ("q",), "pendulum": ("omega",)}
 
 _STATE_PREFIX_UNITS: tuple[tuple[str, str], ...] = (
     ("eta", SQRT_KG_M),
@@ -172,7 +177,7 @@ def state_unit(meta: Mapping[str, Any], name: str) -> str:
         return ""
     dot = name.endswith("_dot")
     base = name[: -len("_dot")] if dot else name
-    if plant == "hypersonic" and name == "q":  # pitch rate
+    if name in _RATE_STATES.get(plant, ()):  # a rate whose name does not end in _dot
         return display("rad s-1")
     unit = "rad"
     if plant == "spacecraft":

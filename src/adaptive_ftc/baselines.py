@@ -23,7 +23,8 @@ against (the best of them, see :mod:`adaptive_ftc.claims`).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from threading import Lock
 
 import numpy as np
@@ -35,6 +36,8 @@ from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
     "BASELINES",
+    "BASELINE_TABLE",
+    "Baseline",
     "CAMPAIGN_SOLVER",
     "FAIR_BASELINES",
     "baseline_loop",
@@ -45,11 +48,6 @@ __all__ = [
     "oracle",
     "run_baselines",
 ]
-
-#: Every baseline, in report order; ``"oracle"`` knows the true failure.
-BASELINES: tuple[str, ...] = ("fixed-gain", "nominal-inverse", "oracle", "frozen")
-#: The baselines a controller can be fairly compared with (all but the oracle).
-FAIR_BASELINES: tuple[str, ...] = ("fixed-gain", "nominal-inverse", "frozen")
 
 #: Solver of the failure-free tuning run when a campaign asks for ``"fixed-gain"`` (a campaign
 #: design variant receives only the loop): adaptive-step DOPRI5/RODASP, so stiff loops work too.
@@ -240,6 +238,49 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     return _inverse(loop, OracleInverse, "oracle", hardware=True, **settings)
 
 
+@dataclass(frozen=True)
+class Baseline:
+    """One baseline as the registry lists it (:data:`adaptive_ftc.registry.BASELINES`).
+
+    ``make(loop, solver)`` builds the baseline's closed loop from the adaptive design's
+    ``loop`` (``solver``: the failure-free tuning run's settings where the baseline has one);
+    ``fair``: a claim's ``baseline_ratio`` may be held against it (all but the oracle).
+    """
+
+    name: str
+    make: Callable[[ClosedLoop, SolverOptions | None], ClosedLoop]
+    fair: bool
+    summary: str
+
+
+def _nominal_inverse(loop: ClosedLoop, solver: SolverOptions | None = None) -> ClosedLoop:
+    return nominal_inverse(loop)
+
+
+def _oracle(loop: ClosedLoop, solver: SolverOptions | None = None) -> ClosedLoop:
+    return oracle(loop)
+
+
+def _frozen(loop: ClosedLoop, solver: SolverOptions | None = None) -> ClosedLoop:
+    return loop.frozen()
+
+
+#: The baselines by name, in report order (:data:`BASELINES` lists the names).
+BASELINE_TABLE: dict[str, Baseline] = {
+    b.name: b
+    for b in (
+        Baseline("fixed-gain", fixed_gain, True, "the adaptive law's healthy end state, frozen"),
+        Baseline("nominal-inverse", _nominal_inverse, True, "inverse of the healthy model"),
+        Baseline("oracle", _oracle, False, "inverse of the model with the true failure"),
+        Baseline("frozen", _frozen, True, "adaptation frozen at theta0"),
+    )
+}
+#: Every baseline, in report order; ``"oracle"`` knows the true failure.
+BASELINES: tuple[str, ...] = tuple(BASELINE_TABLE)
+#: The baselines a controller can be fairly compared with (all but the oracle).
+FAIR_BASELINES: tuple[str, ...] = tuple(n for n, b in BASELINE_TABLE.items() if b.fair)
+
+
 def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = None) -> ClosedLoop:
     """The baseline ``name`` (one of :data:`BASELINES`) of ``loop``.
 
@@ -250,14 +291,9 @@ def baseline_loop(loop: ClosedLoop, name: str, solver: SolverOptions | None = No
     ConfigurationError
         For an unknown name (the message lists :data:`BASELINES`).
     """
-    if name == "fixed-gain":
-        return fixed_gain(loop, solver)
-    if name == "nominal-inverse":
-        return nominal_inverse(loop)
-    if name == "oracle":
-        return oracle(loop)
-    if name == "frozen":
-        return loop.frozen()
+    baseline = BASELINE_TABLE.get(name)
+    if baseline is not None:
+        return baseline.make(loop, solver)
     from adaptive_ftc.errors import did_you_mean
 
     raise ConfigurationError(
@@ -356,16 +392,6 @@ def run_baselines(
     return out
 
 
-def _campaign_fixed_gain(loop: ClosedLoop) -> ClosedLoop:
+def campaign_fixed_gain(loop: ClosedLoop) -> ClosedLoop:
+    """The fixed-gain baseline of a campaign member (tuned with :data:`CAMPAIGN_SOLVER`)."""
     return fixed_gain(loop, CAMPAIGN_SOLVER)
-
-
-def _register() -> None:
-    from adaptive_ftc.campaigns.spec import register_design
-
-    register_design("fixed-gain", _campaign_fixed_gain)
-    register_design("nominal-inverse", nominal_inverse)
-    register_design("oracle", oracle)
-
-
-_register()

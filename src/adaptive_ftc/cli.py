@@ -106,9 +106,9 @@ class _HelpFormatter(argparse.HelpFormatter):
 
 def _solver_methods() -> tuple[str, ...]:
     """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
-    from adaptive_ftc.sim.engine import _METHODS
+    from adaptive_ftc.registry import SOLVERS
 
-    return tuple(_METHODS)
+    return SOLVERS
 
 
 def _add_figure_options(parser: argparse.ArgumentParser, default: str) -> None:
@@ -270,11 +270,14 @@ def _parser() -> argparse.ArgumentParser:
     except ImportError:  # pragma: no cover - campaigns not installed
         pass
     else:
-        campaign_cli.add_parser(sub)
-    from adaptive_ftc import studies
+        campaign_cli.add_parser(sub, formatter_class=raw)
+    from adaptive_ftc import study_cli
 
-    st = studies.add_parser(sub)
+    st = study_cli.add_parser(sub)
     st.epilog, st.formatter_class = _EPILOG, raw  # the same exit status as every command
+    from adaptive_ftc.export import cli as export_cli
+
+    export_cli.add_parser(sub, epilog=_EPILOG, formatter_class=raw)
     return p
 
 
@@ -799,9 +802,13 @@ def main(argv: list[str] | None = None) -> int:
 
             return campaign_cli.main(args)
         if args.command == "study":
-            from adaptive_ftc import studies
+            from adaptive_ftc import study_cli
 
-            return studies.cli_main(args)
+            return study_cli.cli_main(args)
+        if args.command == "export":
+            from adaptive_ftc.export import cli as export_cli
+
+            return export_cli.main(args)
         return _cmd_reproduce(args)
     except (ScenarioError, ConfigurationError, ExpressionError, ClaimError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -9,6 +9,7 @@ import difflib
 from collections.abc import Iterable
 
 __all__ = [
+    "CampaignError",
     "ConfigurationError",
     "DivergenceWarning",
     "ExpressionError",
@@ -27,6 +28,10 @@ class ExpressionError(ValueError):
 
 class ScenarioError(ValueError):
     """A scenario file or scenario name is invalid."""
+
+
+class CampaignError(ScenarioError):
+    """A campaign spec is invalid (the message lists every problem, one per line)."""
 
 
 class DivergenceWarning(RuntimeWarning):

@@ -325,7 +325,7 @@ def robustness_sweep(
 
     Examples
     --------
-    >>> df = robustness_sweep("hypersonic-direct-s1", "lag", [0.0, 0.05], duration=20.0)
+    >>> df = robustness_sweep("hypersonic-direct-s1", "lag", [0.0, 0.05])
     >>> df[["value", "status", "broken"]].values.tolist()
     [[0.0, 'completed', False], [0.05, 'completed', False]]
     """
@@ -482,79 +482,6 @@ def robustness_study(
         bar.set_postfix_str(f"{name} {knob}")
         tables.append(robustness_sweep(name, knob, chosen[knob], seeds=seeds, jobs=jobs))
     return pd.concat(tables, ignore_index=True)
-
-
-def add_parser(subparsers):
-    """Add the ``study`` command to the ``aftc`` sub-parsers."""
-    st = subparsers.add_parser(
-        "study",
-        help="robustness studies beyond the thesis (sensor noise, digital control, actuators)",
-        description="aftc study robustness --out DIR: sweep sensor noise, controller rate, "
-        "actuator lag and rate limit on the §2.3 and §4.4 hypersonic designs; write "
-        "robustness.csv, break_points.csv and robustness.png/.pdf. "
-        "aftc study delay-margin --out DIR [SCENARIO ...]: the time-delay margin of each "
-        "scenario under the thesis law and the constraint-aware law (bisection on an injected "
-        "input delay); write delay_margin.csv and delay_margin.png/.pdf.",
-    )
-    st.add_argument("study", choices=["robustness", "delay-margin"], help="which study")
-    st.add_argument(
-        "scenarios",
-        nargs="*",
-        metavar="SCENARIO",
-        help="scenarios (as --scenario; delay-margin default: " + ", ".join(DELAY_SCENARIOS) + ")",
-    )
-    st.add_argument("--out", default="study", help="output folder (default: ./study)")
-    st.add_argument("--quick", action="store_true", help="3 values per knob, one noise seed")
-    st.add_argument(
-        "--scenario",
-        action="append",
-        help="scenario to sweep (repeatable; default: " + ", ".join(STUDY_SCENARIOS) + ")",
-    )
-    st.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
-    st.add_argument("--quiet", action="store_true", help="no progress bar")
-    return st
-
-
-def cli_main(args) -> int:
-    """Run ``aftc study robustness``; print the break points; return the exit status."""
-    from pathlib import Path
-
-    from adaptive_ftc.study_plots import save_robustness_figure
-
-    if args.jobs is not None and args.jobs < 1:
-        raise ConfigurationError(f"--jobs must be >= 1; got {args.jobs}.")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    chosen = [*(getattr(args, "scenarios", None) or []), *(args.scenario or [])]
-    if args.study == "delay-margin":
-        from adaptive_ftc.study_plots import save_delay_margin_figure
-
-        table = delay_margin_study(
-            tuple(chosen or DELAY_SCENARIOS), quick=args.quick, progress=not args.quiet
-        )
-        table.to_csv(out / "delay_margin.csv", index=False)
-        files = save_delay_margin_figure(table, out / "delay_margin.png", formats=("png", "pdf"))
-        show = table[["scenario", "law", "margin", "upper", "how", "runs"]]
-        with pd.option_context("display.width", 200, "display.max_columns", 10):
-            print(show.to_string(index=False))
-        print(f"wrote {out / 'delay_margin.csv'}, " + ", ".join(map(str, files)))
-        return 0
-    table = robustness_study(
-        tuple(chosen or STUDY_SCENARIOS),
-        quick=args.quick,
-        jobs=args.jobs,
-        progress=not args.quiet,
-    )
-    table.to_csv(out / "robustness.csv", index=False)
-    bps = break_points(table)
-    bps.to_csv(out / "break_points.csv", index=False)
-    files = save_robustness_figure(table, out / "robustness.png", formats=("png", "pdf"))
-    with pd.option_context("display.width", 200, "display.max_columns", 10):
-        print(bps.to_string(index=False))
-    print(
-        f"wrote {out / 'robustness.csv'}, {out / 'break_points.csv'}, " + ", ".join(map(str, files))
-    )
-    return 0
 
 
 # ---------------------------------------------------------------------------- delay margin

@@ -135,7 +135,7 @@ def ideal_reference(spec: CampaignSpec) -> tuple[float, float]:
         t_end = float(r.time[-1])
         w = r.window(t_end - spec.final_window)
         u = r.u_cmd[w]
-        from adaptive_ftc.campaigns.spec import CampaignError
+        from adaptive_ftc.errors import CampaignError
 
         if r.status != "completed" or u.size == 0:
             raise CampaignError(

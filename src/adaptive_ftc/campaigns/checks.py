@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from adaptive_ftc.errors import did_you_mean
-from adaptive_ftc.scenarios.expressions import MAX_LENGTH
+from adaptive_ftc.expressions import MAX_LENGTH
 from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -61,7 +61,7 @@ def _fill(value: Any, params: dict[str, Any], where: str = "failures.models") ->
     CampaignError
         Naming the field, for an unknown placeholder, a stray brace or a too-long text.
     """
-    from adaptive_ftc.campaigns.spec import CampaignError
+    from adaptive_ftc.errors import CampaignError
 
     if isinstance(value, str) and ("{" in value or "}" in value):
         if len(value) > MAX_LENGTH:

@@ -24,14 +24,11 @@ _EPILOG = """exit status:
 """
 
 
-def _formatter():
-    from adaptive_ftc.cli import _HelpFormatter  # descriptions wrapped, the epilog kept
-
-    return _HelpFormatter
-
-
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``campaign`` command to the ``aftc`` sub-parsers."""
+def add_parser(
+    subparsers, formatter_class: type[argparse.HelpFormatter] = argparse.HelpFormatter
+) -> argparse.ArgumentParser:
+    """Add the ``campaign`` command to the ``aftc`` sub-parsers (``formatter_class``: the
+    ``aftc`` help formatter, which wraps the descriptions and keeps the epilog's lines)."""
     c = subparsers.add_parser(
         "campaign",
         help="Monte Carlo fault campaign (run/resume), 'replay DIR INDEX', 'list', 'show NAME', "
@@ -40,7 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "member: aftc campaign replay DIR INDEX. Shipped specs: aftc campaign list; print one: "
         "aftc campaign show NAME; copy one to edit: aftc campaign init NAME FILE.",
         epilog=_EPILOG,
-        formatter_class=_formatter(),
+        formatter_class=formatter_class,
     )
     c.add_argument(
         "target",

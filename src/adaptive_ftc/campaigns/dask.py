@@ -10,7 +10,7 @@ tasks and closes the connection.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
@@ -21,9 +21,9 @@ __all__ = ["run_chunks_dask"]
 CONNECT_TIMEOUT = "20s"
 
 
-def _chunk_task(spec: CampaignSpec, chunk: int) -> tuple[int, list[dict[str, Any]]]:
-    from adaptive_ftc.campaigns.runner import run_chunk
-
+def _chunk_task(
+    spec: CampaignSpec, chunk: int, run_chunk: Callable[..., list[dict[str, Any]]]
+) -> tuple[int, list[dict[str, Any]]]:
     try:
         from distributed import get_worker
 
@@ -54,9 +54,17 @@ def _client(scheduler: Any):
 
 
 def run_chunks_dask(
-    spec: CampaignSpec, chunks: Sequence[int], scheduler: Any
+    spec: CampaignSpec,
+    chunks: Sequence[int],
+    scheduler: Any,
+    run_chunk: Callable[..., list[dict[str, Any]]],
 ) -> Iterator[tuple[int, list[dict[str, Any]]]]:
-    """Yield ``(chunk, rows)`` for each chunk as the cluster finishes it."""
+    """Yield ``(chunk, rows)`` for each chunk as the cluster finishes it.
+
+    ``run_chunk(spec, chunk, jobs=...)`` runs one chunk on a worker
+    (:func:`adaptive_ftc.campaigns.runner.run_chunk`, passed in by the runner, so that this
+    module does not import the runner that imports it).
+    """
     if not chunks:
         return
     from distributed import as_completed
@@ -70,6 +78,7 @@ def run_chunks_dask(
                 _chunk_task,
                 spec_future,
                 c,
+                run_chunk,
                 key=f"aftc-{spec.digest()[:12]}-chunk-{c}",
                 retries=2,
             )

@@ -221,7 +221,7 @@ def run_campaign(
         if scheduler is not None:
             from adaptive_ftc.campaigns.dask import run_chunks_dask
 
-            source = run_chunks_dask(spec, list(pending), scheduler)
+            source = run_chunks_dask(spec, list(pending), scheduler, run_chunk)
         else:
             source = ((c, run_chunk(spec, c, jobs)) for c in pending)
         now = 0

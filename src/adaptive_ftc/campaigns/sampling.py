@@ -25,13 +25,11 @@ import numpy as np
 from adaptive_ftc.campaigns.checks import _fill
 from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec
 from adaptive_ftc.errors import ConfigurationError, ExpressionError
-from adaptive_ftc.faults import FAILURE_MODELS, Failure
+from adaptive_ftc.faults import Failure
+from adaptive_ftc.registry import FAILURE_MODELS
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["Member", "draw_member", "severity"]
-
-#: Models whose failure removes the actuator's authority whatever the drawn values.
-_TOTAL = ("stuck", "parameterised_stuck", "reversal")
 
 
 @dataclass(frozen=True)
@@ -53,12 +51,14 @@ class Member:
         return DESIGN_VARIANTS[design](self.loop)
 
 
-def severity(spec: FailureModelSpec, drawn: dict[str, Any]) -> float:
+def severity(spec: FailureModelSpec, drawn: dict[str, Any], failure: Failure) -> float:
     """Severity of a drawn failure in [0, 1] (``nan``: not rated).
 
+    The model's own rating (:meth:`Failure.severity <adaptive_ftc.faults.Failure.severity>`:
     ``1 - effectiveness`` for loss of effectiveness and affine failures, ``|bias| / largest
-    |bias|`` for biases, 1 for stuck, parameterised stuck and reversal; the spec may name any
-    drawn value instead (``severity = "a"``: ``|a| / largest |a|``).
+    |bias|`` for biases, 1 for stuck, parameterised stuck and reversal), with the largest
+    magnitude of each drawn field as its scale; the spec may name any drawn value instead
+    (``severity = "a"``: ``|a| / largest |a|``).
     """
     dists = dict(spec.fields) | dict(spec.params)
     if spec.severity is not None:
@@ -66,16 +66,7 @@ def severity(spec: FailureModelSpec, drawn: dict[str, Any]) -> float:
         if isinstance(v, (int, float)):
             return float(min(1.0, abs(v) / (dists[spec.severity].scale() or 1.0)))
         return math.nan
-    if spec.model in _TOTAL:
-        return 1.0
-    if spec.model in ("loss_of_effectiveness", "affine"):
-        v = drawn.get("effectiveness", 1.0)
-        return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
-    if spec.model == "bias":
-        v = drawn.get("bias", 0.0)
-        if isinstance(v, (int, float)) and "bias" in dists:
-            return float(min(1.0, abs(v) / (dists["bias"].scale() or 1.0)))
-    return math.nan
+    return failure.severity({k: d.scale() for k, d in spec.fields})
 
 
 def _draw_failure(
@@ -97,7 +88,7 @@ def _draw_failure(
         actuator=actuator, onset=onset, recovery=recovery, ramp=ramp, **kwargs
     )
     drawn = {**params, **fields}
-    return failure, severity(mspec, drawn), drawn
+    return failure, severity(mspec, drawn, failure), drawn
 
 
 def draw_member(spec: CampaignSpec, index: int) -> Member:

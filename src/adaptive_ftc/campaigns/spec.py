@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from adaptive_ftc import _version
+from adaptive_ftc import _version, baselines
 from adaptive_ftc.campaigns.activity import (
     ACTIVITY_SUCCESS_KEYS,
     ActivityCriterion,
@@ -39,8 +39,14 @@ from adaptive_ftc.campaigns.checks import (
     safe_name,
 )
 from adaptive_ftc.campaigns.hardware import HardwareSpec, parse_hardware
-from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
-from adaptive_ftc.faults import FAILURE_MODELS
+from adaptive_ftc.errors import (
+    CampaignError,
+    ConfigurationError,
+    ExpressionError,
+    ScenarioError,
+    did_you_mean,
+)
+from adaptive_ftc.registry import FAILURE_MODELS
 from adaptive_ftc.scenarios.loader import MAX_FILE_BYTES, Scenario, load_scenario
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.system import ClosedLoop
@@ -73,10 +79,6 @@ _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
 _TEXT_KEYS = ("name", "title", "description")
 
 
-class CampaignError(ScenarioError):
-    """A campaign spec is invalid (the message lists every problem, one per line)."""
-
-
 def _constraint_aware(loop: ClosedLoop) -> ClosedLoop:
     """The base design with its constraint-aware option derived from the member's hardware
     (:meth:`~adaptive_ftc.controllers.ConstraintAware.from_loop`: the designer knows the
@@ -96,13 +98,16 @@ def _thesis_law(loop: ClosedLoop) -> ClosedLoop:
 #: Designs a campaign can compare, by name: a function of the member's closed loop (base
 #: design, drawn failures and hardware). ``adaptive`` is the base scenario's design as it is;
 #: ``thesis-law`` and ``constraint-aware`` are that design without / with the constraint-aware
-#: option (derived from each member's drawn hardware). Another module adds baselines with
-#: :func:`register_design`.
+#: option (derived from each member's drawn hardware); the others are the baselines of
+#: :mod:`adaptive_ftc.baselines`. A user adds designs with :func:`register_design`.
 DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "adaptive": lambda loop: loop,
     "frozen": lambda loop: loop.frozen(),
     "thesis-law": _thesis_law,
     "constraint-aware": _constraint_aware,
+    "fixed-gain": baselines.campaign_fixed_gain,
+    "nominal-inverse": baselines.nominal_inverse,
+    "oracle": baselines.oracle,
 }
 #: Designs that need an adaptive base design with the ``constraint_aware`` option.
 _OPTION_DESIGNS = ("thesis-law", "constraint-aware")

@@ -9,7 +9,7 @@ from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import kappa_law, theta_law
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["FailureEstimation"]

@@ -8,7 +8,7 @@ from typing import ClassVar, NamedTuple
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["NussbaumAdaptive", "NUSSBAUM_FUNCTIONS"]

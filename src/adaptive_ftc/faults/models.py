@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 
 __all__ = [
     "Affine",
@@ -128,6 +129,15 @@ class Failure(ABC):
         """Whether the failure acts at time ``t`` (window ``[onset, recovery)``)."""
         return self.onset <= t < self.end
 
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """How much authority the failure takes from its actuator, in [0, 1] (``nan``: this
+        model is not rated, or its value is an expression).
+
+        ``scales`` gives the largest magnitude a field can take (a campaign's distribution of
+        it), for models rated relative to it (:class:`Bias`). The default: not rated.
+        """
+        return math.nan
+
     def expression(
         self, variables: tuple[str, ...], *, strict: bool = True, context: str = ""
     ) -> Expression:
@@ -153,7 +163,7 @@ def _names_in(text: str) -> set[str]:
         tree = ast.parse(text, mode="eval")
     except SyntaxError:
         return set()
-    from adaptive_ftc.scenarios.expressions import FUNCTIONS
+    from adaptive_ftc.expressions import FUNCTIONS
 
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
     # only state-like names are tolerated before the plant is known
@@ -193,6 +203,11 @@ class LossOfEffectiveness(Failure):
     def pattern(self) -> str:
         return f"{_paren(self.effectiveness)}*u"
 
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """``1 - effectiveness`` (``nan`` when the effectiveness is an expression)."""
+        v = self.effectiveness
+        return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
+
 
 @dataclass(frozen=True, kw_only=True)
 class Stuck(Failure):
@@ -204,6 +219,10 @@ class Stuck(Failure):
 
     def pattern(self) -> str:
         return _paren(self.value)
+
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """1: the actuator has no authority left, whatever the values."""
+        return 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -227,6 +246,10 @@ class ParameterisedStuck(Failure):
             f"{_paren(c)}*{_paren(b)}" for c, b in zip(self.coefficients, self.basis, strict=True)
         )
 
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """1: the actuator has no authority left, whatever the values."""
+        return 1.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class Bias(Failure):
@@ -237,6 +260,15 @@ class Bias(Failure):
 
     def pattern(self) -> str:
         return f"u + {_paren(self.bias)}"
+
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """``|bias| / scales["bias"]`` (``nan`` without a scale or for an expression)."""
+        if not scales or "bias" not in scales:
+            return math.nan
+        v = self.bias
+        if not isinstance(v, (int, float)):
+            return math.nan
+        return float(min(1.0, abs(v) / (scales["bias"] or 1.0)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -249,6 +281,11 @@ class Affine(Failure):
 
     def pattern(self) -> str:
         return f"{_paren(self.effectiveness)}*u + {_paren(self.bias)}"
+
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """``1 - effectiveness`` (``nan`` when the effectiveness is an expression)."""
+        v = self.effectiveness
+        return float(min(1.0, max(0.0, 1.0 - v))) if isinstance(v, (int, float)) else math.nan
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -277,6 +314,10 @@ class Reversal(Failure):
     def pattern(self) -> str:
         return "-u"
 
+    def severity(self, scales: Mapping[str, float] | None = None) -> float:
+        """1: the actuator has no authority left, whatever the values."""
+        return 1.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class PositionLimit(Failure):
@@ -294,9 +335,14 @@ class PositionLimit(Failure):
         super().__post_init__()
 
     def pattern(self) -> str:
-        lo = _text(self.lower) if math.isfinite(self.lower) else "-1e300"
-        hi = _text(self.upper) if math.isfinite(self.upper) else "1e300"
-        return f"clip(u, {lo}, {hi})"
+        # an infinite bound is left out (a literal such as 1e300 is refused by the expression
+        # language, whose numbers are at most 1e100 in magnitude)
+        lo, hi = math.isfinite(self.lower), math.isfinite(self.upper)
+        if lo and hi:
+            return f"clip(u, {_text(self.lower)}, {_text(self.upper)})"
+        if lo:
+            return f"max(u, {_text(self.lower)})"
+        return f"min(u, {_text(self.upper)})" if hi else "u"
 
 
 @dataclass(frozen=True, kw_only=True)

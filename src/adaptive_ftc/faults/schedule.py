@@ -163,11 +163,6 @@ def _slope(f: Failure | None, variables: tuple[str, ...], samples: dict) -> np.n
     return np.broadcast_to(np.asarray(values, dtype=float), (n,)).copy()
 
 
-def _effective(f: Failure | None, variables: tuple[str, ...], samples: dict) -> bool:
-    """An actuator is effective when its output still depends on its command."""
-    return bool(np.any(np.abs(_slope(f, variables, samples)) > 1e-12))
-
-
 def check_compensability(
     schedule: FailureSchedule,
     allocation: np.ndarray,

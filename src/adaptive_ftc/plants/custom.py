@@ -255,7 +255,7 @@ class ExpressionPlant(_NamedPlant):
     actuator_units: str = "1"
 
     def __post_init__(self) -> None:
-        from adaptive_ftc.scenarios.expressions import Expression
+        from adaptive_ftc.expressions import Expression
 
         owner = f"plant '{self.name}'"
         states = _names(owner, "states", self.states)

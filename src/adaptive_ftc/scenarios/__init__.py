@@ -1,7 +1,7 @@
-"""Scenario files, the safe expression language and the thesis catalogue.
+"""Scenario files and the thesis catalogue (the expression language they use is in
+:mod:`adaptive_ftc.expressions`; ``adaptive_ftc.scenarios.expressions`` still imports it).
 
-The loader is imported lazily so that the expression language (used by the failure models and
-designs) does not pull in the whole package.
+The loader is imported lazily: importing this package does not import the whole library.
 """
 
 from __future__ import annotations

@@ -17,12 +17,11 @@ from pathlib import Path
 from typing import Any
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
-from adaptive_ftc.controllers import DESIGNS, DirectAdaptive, MimoDirectAdaptive
+from adaptive_ftc.controllers import DirectAdaptive, MimoDirectAdaptive
 from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.errors import ConfigurationError, ExpressionError, ScenarioError, did_you_mean
-from adaptive_ftc.faults import FAILURE_MODELS
 from adaptive_ftc.hardware import Actuators, Sensors
-from adaptive_ftc.plants import PLANTS
+from adaptive_ftc.registry import DESIGNS, FAILURE_MODELS, PLANTS
 from adaptive_ftc.sim.budget import check_run_size
 from adaptive_ftc.sim.engine import SolverOptions, simulate
 from adaptive_ftc.sim.result import SimResult
@@ -958,7 +957,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
 
 def _reference_checked(outputs: list[Any], plant: Any, ctx: _Ctx) -> list[Any] | None:
     """Parse every reference expression now (``None`` when one is bad, each recorded)."""
-    from adaptive_ftc.scenarios.expressions import Expression
+    from adaptive_ftc.expressions import Expression
 
     ok = True
     for i, text in enumerate(outputs):

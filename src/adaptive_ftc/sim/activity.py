@@ -57,7 +57,7 @@ Examples
 >>> t = np.arange(0, 20.0001, 1e-3)
 >>> u = 0.1 * np.sin(2 * np.pi * 0.2 * t) + 0.01 * np.sin(2 * np.pi * 10 * t)
 >>> a = command_activity(t, u[:, None], ("u",), start=5.0, end=15.0)["u"]
->>> round(a.fast_rms / (0.01 / np.sqrt(2)), 3)
+>>> round(float(a.fast_rms / (0.01 / np.sqrt(2))), 3)
 1.0
 """
 

@@ -19,12 +19,12 @@ import re
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim import codegen
 from adaptive_ftc.sim.layout import (
     HEADER,
@@ -42,7 +42,9 @@ from adaptive_ftc.sim.parts.approximator import Approximator
 from adaptive_ftc.sim.parts.failures import DFAILURE_SRC, INSTANCE_SRC
 from adaptive_ftc.sim.parts.plant import Plant as PlantPart
 from adaptive_ftc.sim.parts.plant import pack_plant
-from adaptive_ftc.sim.system import ClosedLoop
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["Assembled", "Generator", "LoopData", "assemble", "generate", "source_of"]
 
@@ -105,6 +107,10 @@ class LoopData(NamedTuple):
 # the layout's names (sim/layout.py): the header of ``LoopData.i``, the work buffers
 _HEADER = HEADER
 _WORK = WORK
+# the former names of the header's places, for code written against them (new code: Header)
+_I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = tuple(Header)[:8]
+_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT, _I_PH0 = tuple(Header)[8:]
+_I_HEAD = Header.head()
 
 
 @dataclass
@@ -199,7 +205,8 @@ class Assembled:
     adaptive_names: tuple[str, ...]
     theta_slices: tuple[slice, ...]
     n_x: int
-    #: where everything lives: named states, parameters (``layout["c:lam"]``), work buffers
+    #: where everything lives: named states (``layout["y:held_command"]``: a digital
+    #: controller's held command), parameters (``layout["c:lam"]``), work buffers
     #: (``layout["w:ref"]``) and recorded columns
     layout: LoopLayout
     source: str = field(repr=False, default="")
@@ -314,15 +321,16 @@ if not DISABLE_JIT:
     # allocate), the arrays passed would be counted at every call (measured: DOPRI5 30 % slower)
     @hot
     def rhs(t, Y, ph, D, W, dY):
-        """The loop's right-hand side, compiled in the loop's own module."""
-        call_rhs(D.i[I_RHS], t, Y, ph, D, W, dY)
+        """The loop's right-hand side, compiled in the loop's own module (``ph``: the
+        interval of this call, the loop's interval ``ph + D.i[I_PH0]``)."""
+        call_rhs(D.i[I_RHS], t, Y, ph + D.i[I_PH0], D, W, dY)
 
     @hot
     def jump(t, Y, ph, D, W):
         """The loop's state update at the start of interval ``ph`` (address 0: a continuous
-        loop, which has none)."""
+        loop, which has none, or a caller that runs the updates itself)."""
         if D.i[I_JUMP] != 0:
-            call_jump(D.i[I_JUMP], t, Y, ph, D, W)
+            call_jump(D.i[I_JUMP], t, Y, ph + D.i[I_PH0], D, W)
 
     @hot
     def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
@@ -332,11 +340,11 @@ if not DISABLE_JIT:
 else:  # NUMBA_DISABLE_JIT=1: the same calls, in Python, to the loop's Python functions
 
     def rhs(t, Y, ph, D, W, dY):
-        python_function(D.i[I_RHS])(t, Y, ph, D, W, dY)
+        python_function(D.i[I_RHS])(t, Y, ph + D.i[I_PH0], D, W, dY)
 
     def jump(t, Y, ph, D, W):
         if D.i[I_JUMP] != 0:
-            python_function(D.i[I_JUMP])(t, Y, ph, D, W)
+            python_function(D.i[I_JUMP])(t, Y, ph + D.i[I_PH0], D, W)
 
     def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
         return python_function(D.i[I_GAIN])(t, Y, ph, D, W, unit, x0dot, x1dot)
@@ -938,7 +946,7 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     samp_flags = (samp if st.sampled else np.zeros(nph, dtype=np.int64)).ravel()
     sigt_at = samp_at + samp_flags.size
     # the addresses are written by assemble()
-    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at]
+    header += [env_at.start, env_at.stop - env_at.start, 0, 0, 0, sigt_at, 0]
     ints = np.concatenate(
         [
             np.array(header, dtype=np.int64),
@@ -1101,7 +1109,7 @@ def _initial_state(loop: ClosedLoop, g: Generator, where: LoopLayout) -> np.ndar
 def _link(loop: ClosedLoop, module, data: LoopData, layout: dict) -> None:
     """Write the addresses of the compiled ``rhs``, ``jump``, the plant's ``control_gain``
     and the failure patterns into ``data.i`` (compiling or loading them on first use)."""
-    from adaptive_ftc.sim.engine import clear_compile_errors
+    from adaptive_ftc.sim.compile_errors import clear_compile_errors
 
     loaded = layout["loaded"]
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here

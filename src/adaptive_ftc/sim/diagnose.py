@@ -122,7 +122,7 @@ def _probe_times(t_lo: float, t_stop: float) -> np.ndarray:
 
 def _candidates(loop: ClosedLoop):
     """``(source, text, expression, active)`` of every expression of ``loop`` that varies."""
-    from adaptive_ftc.scenarios.expressions import Expression
+    from adaptive_ftc.expressions import Expression
 
     out = []
     for i, text in enumerate(loop.reference):

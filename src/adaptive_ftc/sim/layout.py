@@ -39,9 +39,9 @@ class Header(enum.IntEnum):
     """The header of ``LoopData.i``: sizes, then where each table starts (in ``i`` or ``c``),
     then the envelope (its start in ``c``, its length), the addresses of the compiled ``rhs``,
     ``jump`` (0 for a continuous loop: none) and the plant's ``control_gain`` that the shared
-    integrators and ``signals`` call (``sim/fptr.py``; set by ``assemble``) and where the
-    :class:`SignalTable` starts. The failure instance per (interval, actuator) follows the
-    header (from :attr:`HEAD` on)."""
+    integrators and ``signals`` call (``sim/fptr.py``; set by ``assemble``), where the
+    :class:`SignalTable` starts and the interval a call of the integrators starts at. The
+    failure instance per (interval, actuator) follows the header (from :meth:`head` on)."""
 
     NPH = 0  # intervals of the integration
     M = 1  # actuators
@@ -57,6 +57,9 @@ class Header(enum.IntEnum):
     JUMP = 11  # address of the compiled jump (0: none)
     GAIN = 12  # address of the plant's control_gain
     SIGT = 13  # the signal table (in i)
+    #: the loop's interval where a call of the shared integrators starts (0 for a whole run;
+    #: :class:`~adaptive_ftc.sim.stepper.DigitalStepper` integrates one interval at a time)
+    PH0 = 14
 
     @classmethod
     def head(cls) -> int:
@@ -199,8 +202,10 @@ class LoopLayout:
     of ``D.c`` (parameters) and of the work array ``W``, and its recorded columns.
 
     Made by the generator (:func:`~adaptive_ftc.sim.compose.generate`); read through
-    ``Assembled.layout``. ``layout["c:lam"]`` and ``layout["w:ref"]`` are the same places as
-    ``layout.params["lam"]`` and ``layout.work["ref"]``.
+    ``Assembled.layout``. ``layout["y:held_command"]``, ``layout["c:lam"]`` and
+    ``layout["w:ref"]`` are the same places as ``layout.states["held_command"]``,
+    ``layout.params["lam"]`` and ``layout.work["ref"]`` (a ``"y:"`` name only for states the
+    loop has).
     """
 
     states: Mapping[str, slice]
@@ -215,7 +220,8 @@ class LoopLayout:
     _flat: Mapping[str, slice] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        flat = {f"c:{k}": v for k, v in self.params.items()}
+        flat = {f"y:{k}": v for k, v in self.states.items() if v.stop > v.start}
+        flat.update({f"c:{k}": v for k, v in self.params.items()})
         flat.update({f"w:{k}": v for k, v in self.work.items()})
         flat["w:size"] = slice(0, self.work_size)
         object.__setattr__(self, "_flat", flat)

@@ -3,7 +3,7 @@ with their numbers lifted into ``D.c``; the right-hand side computes them once p
 
 from __future__ import annotations
 
-from adaptive_ftc.scenarios.expressions import Expression
+from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim.layout import Misc
 from adaptive_ftc.sim.parts.base import Build, Part
 

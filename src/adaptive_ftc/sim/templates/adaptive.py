@@ -149,7 +149,7 @@ _DOCS = {
     "(stiff loops).",
     "integrate_rodas5p": "Rodas5P Rosenbrock 5(4), stiffly accurate, 4th-order dense output "
     "(stiff loops).",
-    "integrate_auto": "Dormand-Prince 5(4) switching to Rodas4 while the loop is stiff.",
+    "integrate_auto": "Dormand-Prince 5(4) switching to RODASP while the loop is stiff.",
 }
 
 
@@ -225,8 +225,9 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
 
 # --- template: begin ---
 # ============================================================================ adaptive step
-# Pasted from adaptive_ftc/sim/templates/adaptive.py: Dormand-Prince 5(4), Rodas4 and automatic
-# switching between them. Needs the module globals ``rhs``, ``make_work`` and ``jit``.
+# Pasted from adaptive_ftc/sim/templates/adaptive.py: Dormand-Prince 5(4), RODASP, Rodas5P and
+# automatic switching between DOPRI5 and RODASP. Needs the module globals ``rhs``,
+# ``make_work`` and ``jit``.
 import math  # noqa: E402
 
 import numpy as np  # noqa: E402
