@@ -69,14 +69,15 @@ def importable(obj) -> str:
         return ""
     if not getattr(module, "__file__", None):
         return ""
-    named = getattr(module, obj.__name__, None)
+    name = obj.__name__
+    named = getattr(module, name, None)
     if named is obj:
-        return f"{modname}:{obj.__name__}"
+        return f"{modname}:{name}"
     # a decorator such as ``@plant`` rebinds the name to an object that keeps the function
     # as ``equations`` (itself perhaps a numba dispatcher): import it through that object
     wrapped = getattr(named, "equations", None)
     if wrapped is not None and getattr(wrapped, "py_func", wrapped) is obj:
-        return f"{modname}:{obj.__name__}.equations"
+        return f"{modname}:{name}.equations"
     return ""
 
 

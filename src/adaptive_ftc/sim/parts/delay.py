@@ -66,8 +66,9 @@ class Delay(Part):
         if not b.has_delay:
             return {}
         n, sampled = self.n, b.sampled
-        fill = "1.0" if sampled else None
-        xss = None if sampled else self.pade[4]
+        # the delay line starts full of the first command (digital) or at the Pade
+        # realization's steady state for it (continuous)
+        fills = ["1.0"] * n if sampled else [repr(float(v)) for v in self.pade[4][:n]]
         out = {
             "jump_first": [
                 "    if ph == 0:  # the delay line starts holding the first command",
@@ -76,10 +77,7 @@ class Delay(Part):
                 *([f"        misc[{_SAMPLING}] = 0.0"] if sampled else []),
                 f"        for j in range({b.m}):",
                 f"            at = {self.at} + j * {n}",
-                *[
-                    f"            Y[at + {q}] = {fill or repr(float(xss[q]))} * W[U + j]"
-                    for q in range(n)
-                ],
+                *[f"            Y[at + {q}] = {fills[q]} * W[U + j]" for q in range(n)],
             ]
         }
         if sampled:

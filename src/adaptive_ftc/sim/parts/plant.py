@@ -73,8 +73,9 @@ def pack_plant(g, value) -> tuple[list[float], str]:
             vals.append(float(v))
             return f"c[PLANT + {len(vals) - 1}]"
         if isinstance(v, tuple):
-            parts = [pack(x) for x in v]
-            if any(part is None for part in parts):
+            packed = [pack(x) for x in v]
+            parts = [part for part in packed if part is not None]
+            if len(parts) < len(packed):
                 return None
             if hasattr(type(v), "_fields"):
                 if not importable(type(v)):
