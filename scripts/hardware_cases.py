@@ -123,9 +123,14 @@ def case_loop(sc, case: Case, duration: float | None = None):
     return loop, solver
 
 
-def constraint_aware(loop):
-    """The same design with the constraint-aware option derived from the loop's hardware."""
-    ca = ConstraintAware.from_loop(loop)
+def constraint_aware(loop, solver=None):
+    """The same design with the constraint-aware option derived from the loop's hardware (and
+    the time constant of the solver's ``s'`` filter, where it filters ``s'``: the designer
+    knows its own derivative filter)."""
+    over = {}
+    if solver is not None and solver.sdot_for(loop) == "filtered":
+        over["derivative_lag"] = solver.filter_tau_for(loop)
+    ca = ConstraintAware.from_loop(loop, **over)
     return replace(loop, controller=replace(loop.controller, constraint_aware=ca))
 
 
@@ -210,7 +215,7 @@ def run_cases(
         case_thr = thr
         if with_oracle:
             loop, solver = case_loop(sc, case, duration)
-            loop = oracle(constraint_aware(loop))
+            loop = oracle(constraint_aware(loop, solver))
             t = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", DivergenceWarning)
@@ -224,7 +229,7 @@ def run_cases(
         for law in laws:
             loop, solver = case_loop(sc, case, duration)
             if law == "aware":
-                loop = constraint_aware(loop)
+                loop = constraint_aware(loop, solver)
             t = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", DivergenceWarning)

@@ -33,9 +33,11 @@ PACKAGE = "adaptive_ftc"
 LAYERS: dict[str, tuple[str, ...]] = {
     "core": (
         "_atomic",
+        "_feedback",
         "_signals",
         "_units",
         "_version",
+        "allocation",
         "approximators",
         "baselines",
         "controllers",
@@ -48,8 +50,18 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "registry",
         "sim",
     ),
-    "catalogue": ("_feedback", "claims", "report", "reproduce", "scenarios"),
-    "applications": ("campaigns", "cli", "export", "gym", "interop", "studies", "study_cli", "study_plots"),
+    "catalogue": ("claims", "report", "reproduce", "scenarios"),
+    "applications": (
+        "allocation_study",
+        "campaigns",
+        "cli",
+        "export",
+        "gym",
+        "interop",
+        "studies",
+        "study_cli",
+        "study_plots",
+    ),
     "api": ("",),  # adaptive_ftc/__init__.py
 }
 ORDER = tuple(LAYERS)

@@ -223,13 +223,14 @@ def test_the_filters_keep_running_while_adaptation_is_frozen(direct):
     hw = replace(
         loop,
         actuators=Actuators(rate=10.0),
-        sensors=Sensors(noise={"alpha": 1e-4, "q": 1e-3}, seed=0),
+        # noise whose bound binds (the measurement prefilters exist only then)
+        sensors=Sensors(noise={"alpha": 1e-3, "q": 1e-2}, seed=0),
         adapt=False,
         t_final=10.0,
     )
     r = _run(_aware(hw), replace(solver, method="rk4", dt=1e-3))
     seen = r.adaptive_state("measurement_filter1")
-    assert np.max(np.abs(seen - r.y[:, 0])) < 0.01 < np.ptp(r.y[:, 0])
+    assert np.max(np.abs(seen - r.y[:, 0])) < 0.05 < np.ptp(r.y[:, 0])  # follows, with noise
     assert np.ptp(r.adaptive_state("command_filter1")) > 0.0
     np.testing.assert_array_equal(r.theta[-1], r.theta[0])  # the estimates are frozen
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from adaptive_ftc import load_scenario, simulate
+from adaptive_ftc.allocation import AdaptiveAllocation
 from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.sim.compose import assemble, source_of
 from adaptive_ftc.sim.layout import RECORDS, Misc, RecordLayout
@@ -21,15 +22,27 @@ from adaptive_ftc.sim.result import SimResult, signal_block
 SRC = Path(__file__).resolve().parents[1] / "src" / "adaptive_ftc"
 
 
+def _projected(loop):
+    """``loop`` with its constraint-aware estimates projected on ``|theta| <= 10``."""
+    ca = replace(loop.controller.constraint_aware, theta_max=10.0)
+    return replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+
+
 def _loops():
     """Loops that use every optional part: actuators (first and second order), a digital
-    controller, noisy sensors, an input delay, the filtered s', a MIMO plant."""
+    controller, noisy sensors, an input delay, the filtered s', a MIMO plant, an adaptive
+    allocator."""
     digital = load_scenario("hypersonic-direct-s1-digital").loop
     return {
         "actuators": (load_scenario("hypersonic-direct-s1-actuators").loop, "exact"),
+        "projected": (_projected(load_scenario("hypersonic-direct-s1-actuators").loop), "exact"),
         "digital": (digital, "exact"),
         "noise": (load_scenario("hypersonic-direct-s1-noise").loop, "exact"),
         "mimo-filtered": (load_scenario("manipulator-mimo-s1").loop, "filtered"),
+        "adaptive-allocator": (
+            replace(load_scenario("manipulator-mimo-s1").loop, allocator=AdaptiveAllocation()),
+            "exact",
+        ),
         "digital-delay": (
             replace(digital, actuators=Actuators(delay=3 * digital.sample_time)),
             "exact",

@@ -226,9 +226,9 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument(
         "--quick",
         action="store_true",
-        help="a smoke test (for CI): shortened runs, no fair baselines, the first figure of "
-        "each scenario, PNG only; most claims are then NOT EVALUATED (the report says which "
-        "it judged)",
+        help="judge the claims fast: only the runs the claims are judged on, at full length "
+        "(so the verdicts are a full reproduction's), no data files, no figures, no thesis-law "
+        "companion runs; the report and the summary list what it left out",
     )
     rep.add_argument("--jobs", type=_count(1, 1024), default=None, help="parallel processes")
     rep.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -243,7 +243,7 @@ def _parser() -> argparse.ArgumentParser:
         help="skip the fixed-gain, nominal-inverse and oracle runs (faster; baseline_ratio "
         "claims are then held against the frozen run alone, an unfair comparison)",
     )
-    _add_figure_options(rep, "png,pdf; with --quick png")
+    _add_figure_options(rep, "png,pdf; --quick draws none")
     s = sub.add_parser(
         "schema",
         help="print the JSON Schema of scenario files (for editors)",
@@ -372,9 +372,14 @@ def _cmd_validate(target: str) -> int:
     return EXIT_OK
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    from tqdm.auto import tqdm
+def _n_values(result) -> int:
+    """How many numbers a run recorded (the size of its data file, for the ETA)."""
+    import numpy as np
 
+    return sum(int(v.size) for v in vars(result).values() if isinstance(v, np.ndarray) and v.ndim)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import (
         check_output_dir,
         commit_staged,
@@ -383,6 +388,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         safe_stem,
         staging_dir,
     )
+    from adaptive_ftc._feedback import EtaBar, figure_cost, write_cost
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import check_run_size
     from adaptive_ftc.sim.engine import simulate
@@ -466,11 +472,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
             # divergence is reported below from each result's status (a frozen baseline is
             # expected to diverge under some failures)
             warnings.simplefilter("ignore", DivergenceWarning)
-            for key, loop in tqdm(
-                variants.items(), desc=sc.name, disable=args.quiet, total=len(variants)
-            ):
-                # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
-                results[key] = sc.stamp(simulate(loop, solver))
+            # the runs are alike (one scenario, one duration): the ETA counts them as equals
+            with EtaBar(len(variants), desc=sc.name, disable=args.quiet, unit="run") as bar:
+                for key, loop in variants.items():
+                    # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
+                    results[key] = sc.stamp(simulate(loop, solver))
+                    bar.tick()
         main = results["adaptive"]
         if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
             discard_staged(stage)
@@ -485,14 +492,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
         specs = list(sc.figure_specs) or plots.default_figure_specs(main)
-        # what is being written, file by file (a figure takes a second or two)
-        writing = tqdm(
-            total=len(results) + len(specs), desc="writing", disable=args.quiet, unit="file"
+        # what is being written, file by file (a figure takes a second or two); the ETA
+        # weighs a data file by its size
+        sizes = {k: _n_values(r) for k, r in results.items()}
+        writing = EtaBar(
+            len(results) + len(specs),
+            cost=sum(write_cost(n) for n in sizes.values())
+            + len(specs) * figure_cost(len(formats)),
+            desc="writing",
+            disable=args.quiet,
+            unit="file",
         )
         for key, res in results.items():
             # the variant's name as 'aftc reproduce' spells it: data/<name>_fixed-gain.nc
             stem = base_stem if key == "adaptive" else f"{base_stem}_{_FILE_SUFFIX[key]}"
-            writing.set_postfix_str(f"data/{stem}.nc", refresh=True)
+            writing.note(f"data/{stem}.nc")
             res.meta["variant"] = key
             res.to_netcdf(
                 inside(stage, stage / "data" / f"{stem}.nc"),
@@ -502,7 +516,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if args.csv:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
-            writing.update(1)
+            writing.tick(write_cost(sizes[key]))
         baselines = {
             k.replace("_", " "): v
             for k, v in results.items()
@@ -512,7 +526,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         figures = []
         for i, spec in enumerate(specs):
             name = f"fig_{spec.get('number', i + 1)}.png"
-            writing.set_postfix_str(f"figures/{name}", refresh=True)
+            writing.note(f"figures/{name}")
             zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
             plots.save_figure(
                 main,
@@ -524,7 +538,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 dpi=args.dpi,
             )
             figures += [str(out / "figures" / Path(name).with_suffix(f".{f}")) for f in formats]
-            writing.update(1)
+            writing.tick(figure_cost(len(formats)))
         writing.close()
         from adaptive_ftc.reproduce import _claim_row  # reproduce's claims.csv rows
 
@@ -689,7 +703,25 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.reproduce import run_reproduction
 
-    formats = _formats(args.formats or ("png" if args.quick else "png,pdf"))
+    if args.quick:  # it writes neither figures nor data: options about them would do nothing
+        unused = [
+            flag
+            for flag, given in (
+                ("--formats", args.formats),
+                ("--dpi", args.dpi),
+                ("--baselines", args.baselines),
+                ("--float32", args.float32),
+                ("--decimate", args.decimate != 1),
+            )
+            if given
+        ]
+        if unused:
+            raise ConfigurationError(
+                f"aftc reproduce --quick draws no figures and writes no data files, so "
+                f"{', '.join(unused)} would do nothing: drop {'it' if len(unused) == 1 else 'them'}"
+                ", or drop --quick for the full reproduction."
+            )
+    formats = _formats(args.formats or "png,pdf")
     if args.names:  # every name checked before the output folder is touched
         from adaptive_ftc.scenarios.loader import list_scenarios, load_scenario
 
@@ -704,7 +736,10 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     check_output_dir(args.out)
     summary = run_reproduction(
         args.out,
-        quick=args.quick,
+        # --quick: the runs the claims need, at full length (the library's quick=True, for
+        # tests, shortens every run instead: most claims are then NOT EVALUATED)
+        claims_only=args.quick,
+        data=not args.quick,
         jobs=args.jobs,
         progress=not args.quiet,
         baselines=args.baselines,
@@ -714,7 +749,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         float32=args.float32,
         decimate=args.decimate,
         names=args.names or None,
-        figure_limit=1 if args.quick else None,  # a smoke test: one figure a scenario
+        figure_limit=0 if args.quick else None,
     )
     print(
         f"reproduced {summary['n_scenarios']} scenarios in {summary['wall_time_s']:.1f} s: "
@@ -734,10 +769,12 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         n_claims = int(summary["n_claims"])
         judged = n_claims - int(summary.get("n_not_evaluated", 0))
         print(
-            f"quick mode judged {judged} of {n_claims} claims (the others' windows lie beyond "
-            "the shortened runs: NOT EVALUATED) and drew the first figure of each scenario; "
-            "run without --quick for the thesis check."
+            f"quick mode judged {judged} of {n_claims} claims on full-length runs (the verdicts "
+            "of a full reproduction). Left out:"
         )
+        for what in summary.get("left_out", ()):
+            print(f"  - {what}")
+        print("Run without --quick for everything.")
     n_fail = int(summary.get("n_fail", 0))
     n_errors = int(summary.get("n_errors", 0))
     if n_fail or n_errors:

@@ -397,6 +397,7 @@ def render_report(
     jobs: int = 1,
     embed: bool = False,
     data_note: str = "",
+    left_out: Sequence[str] = (),
 ) -> str:
     """The report as one HTML string (see the module docstring).
 
@@ -413,6 +414,10 @@ def render_report(
         files in ``figures/`` beside the report.
     data_note
         What the data files hold (precision, decimation), shown under the totals.
+    left_out
+        What the reproduction did not do, one sentence each (``aftc reproduce --quick``:
+        the runs no claim needs, the data files, the figures): listed in a banner with the
+        claims it judged and those it did not.
     """
     n = sum(len(s.claims) for s in entries)
     counts = {v: sum(s.count(v) for s in entries) for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)}
@@ -435,10 +440,13 @@ def render_report(
             if n > n_noteval
             else ""
         )
-        + ". Run <code>aftc reproduce</code> without <code>--quick</code> for that.</div>"
+        + ". Run <code>aftc reproduce</code> for that (its runs are full length, with or "
+        "without <code>--quick</code>).</div>"
         if quick
         else ""
     )
+    if left_out:
+        banner = _left_out_banner(entries, left_out, shortened=quick)
     tots = "".join(
         f'<div class="tot"><b style="color:{_VERDICT_COLOURS[v]}">{counts[v]}</b>{v}</div>'
         for v in (PASS, FAIL, NOT_REPRODUCED, FINDING)
@@ -472,6 +480,36 @@ def render_report(
     )
 
 
+def _left_out_banner(
+    entries: Sequence[ScenarioEntry], left_out: Sequence[str], shortened: bool = False
+) -> str:
+    """The banner of a reproduction that left things out (``aftc reproduce --quick``): which
+    claims it judged, which it did not, and what else it skipped (``shortened``: the runs
+    were also shortened, the library's ``quick=True``)."""
+    n = sum(len(s.claims) for s in entries)
+    n_noteval = sum(s.count(NOT_EVALUATED) for s in entries)
+    unjudged = [
+        f"{_e(s.name)}: " + ", ".join(_e(c.kind) for c in s.claims if c.status == NOT_EVALUATED)
+        for s in entries
+        if s.count(NOT_EVALUATED)
+    ]
+    judged = (
+        f"It judged <b>{n - n_noteval} of {n} claims</b> on shortened runs (a smoke test: "
+        "claims whose window a shortened run does not reach are not evaluated)."
+        if shortened
+        else f"It judged <b>{n - n_noteval} of {n} claims</b> on full-length runs: those "
+        "verdicts are the ones a full reproduction gives."
+    )
+    if unjudged:
+        judged += " Not judged (NOT EVALUATED): " + "; ".join(unjudged) + "."
+    items = "".join(f"<li>{_e(t)}</li>" for t in left_out)
+    return (
+        '<div class="banner"><b>Quick mode.</b> Only the runs the claims are judged on were '
+        f"made. {judged} Left out:<ul>{items}</ul>Run <code>aftc reproduce</code> without "
+        "<code>--quick</code> for everything.</div>"
+    )
+
+
 def write_report(
     path: str | Path,
     entries: Sequence[ScenarioEntry],
@@ -481,6 +519,7 @@ def write_report(
     jobs: int = 1,
     embed: bool = False,
     data_note: str = "",
+    left_out: Sequence[str] = (),
 ) -> Path:
     """Write :func:`render_report` to ``path`` (UTF-8) and return the path.
 
@@ -490,7 +529,13 @@ def write_report(
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     page = render_report(
-        entries, quick=quick, wall_time_s=wall_time_s, jobs=jobs, embed=embed, data_note=data_note
+        entries,
+        quick=quick,
+        wall_time_s=wall_time_s,
+        jobs=jobs,
+        embed=embed,
+        data_note=data_note,
+        left_out=left_out,
     )
     path.write_text(page, encoding="utf-8")
     return path

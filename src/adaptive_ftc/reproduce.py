@@ -46,6 +46,15 @@ Quick mode (``quick=True``, for CI) shortens every run to
 first failure event, so at least the first failure happens inside the shortened run (failures
 later than that are simply not reached). Claims are evaluated against the full duration ``T``:
 a claim whose window the shortened run does not reach is ``NOT EVALUATED`` (not a FAIL).
+
+Claims-only mode (``claims_only=True``, ``data=False``, ``figure_limit=0``: what ``aftc
+reproduce --quick`` runs) makes the runs the claims need and nothing else, at full length: the
+adaptive run of every scenario, and for a scenario with a ``baseline_ratio`` claim the
+baselines it is held against (frozen, fixed-gain, nominal inverse). Its verdicts are those of
+a full reproduction; what it leaves out (the failure-free runs, the oracle, the thesis law's
+companion runs and their verdicts, data files, figures) is listed in the report and the
+summary's ``left_out``. The runs themselves are a few seconds of the catalogue's cost: a warm
+full reproduction spends its time writing the 1 ms records and drawing the figures.
 """
 
 from __future__ import annotations
@@ -72,6 +81,7 @@ from adaptive_ftc.claims import (
     FINDING,
     NOT_EVALUATED,
     NOT_REPRODUCED,
+    ORACLES,
     PASS,
     ClaimError,
     ClaimResult,
@@ -274,6 +284,33 @@ def _variants(sc: Scenario, all_baselines: bool = False) -> list[str]:
     return out
 
 
+def _claim_variants(sc: Scenario, fair: bool) -> list[str]:
+    """The runs a scenario's claims are judged on (claims-only mode): the adaptive run, and
+    for a ``baseline_ratio`` claim the baselines it is held against (the oracle is never)."""
+    out = ["adaptive"]
+    if sc.loop.adapt and _has_baseline_claim(sc):
+        out.append("frozen")
+        if fair:
+            out += [v for v in _DESIGN_BASELINES if v not in ORACLES]
+    return out
+
+
+def _run_cost(sc: Scenario, data: bool) -> float:
+    """Expected CPU seconds of one run of ``sc`` (and of writing its data file), the weight of
+    its task in the progress bar's ETA (:func:`adaptive_ftc._feedback.run_cost`)."""
+    from adaptive_ftc._feedback import run_cost
+    from adaptive_ftc.sim.layout import RecordLayout
+
+    try:
+        loop = sc.loop
+        records = (float(loop.t_final) - float(loop.t0)) / float(sc.solver.record_dt) + 1
+        recorded = RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators)
+        values = records * (len(loop.initial_state) + recorded.width)
+    except Exception:  # noqa: BLE001 - an estimate: the run itself reports a broken loop
+        values = 1e6
+    return run_cost(values, write=data)
+
+
 def _data_path(out_dir: Path, name: str, variant: str) -> Path:
     suffix = "" if variant == "adaptive" else f"_{variant}"
     return out_dir / "data" / f"{name}{suffix}.nc"
@@ -281,10 +318,16 @@ def _data_path(out_dir: Path, name: str, variant: str) -> Path:
 
 # ---------------------------------------------------------------------------- worker tasks
 def _simulate_task(
-    name: str, variant: str, quick: bool, out_dir: str, float32: bool = False, decimate: int = 1
+    name: str,
+    variant: str,
+    quick: bool,
+    out_dir: str,
+    float32: bool = False,
+    decimate: int = 1,
+    data: bool = True,
 ) -> dict[str, Any]:
     """Run one variant in a worker process, write its netCDF (float64, every sample unless
-    ``float32`` / ``decimate`` say otherwise), return the result."""
+    ``float32`` / ``decimate`` say otherwise; none without ``data``), return the result."""
     start = time.perf_counter()
     try:
         sc = _prepare(name, quick)
@@ -307,11 +350,12 @@ def _simulate_task(
             else:
                 result = sc.run(adapt=variant != "frozen", failures=variant != "failure_free")
         result.meta["variant"] = variant
-        result.to_netcdf(
-            _data_path(Path(out_dir), name, variant),
-            float32=float32,
-            decimate=decimate,
-        )
+        if data:
+            result.to_netcdf(
+                _data_path(Path(out_dir), name, variant),
+                float32=float32,
+                decimate=decimate,
+            )
         return {"result": result, "error": "", "wall": time.perf_counter() - start}
     except Exception:  # noqa: BLE001 - reported in the report and metrics, the others go on
         return {"result": None, "error": traceback.format_exc(limit=3), "wall": 0.0}
@@ -581,6 +625,41 @@ def _staged(fn):
     return wrapper
 
 
+def _left_out(
+    scenarios: Sequence[Scenario], claims_only: bool, data: bool, figure_limit: int | None
+) -> tuple[list[str], int]:
+    """What a reproduction did not do, one sentence each (report and summary), and how many
+    verdicts on the thesis law's companion runs that leaves out."""
+    out: list[str] = []
+    n_thesis = 0
+    if claims_only:
+        aware = [sc for sc in scenarios if _is_constraint_aware(sc) and sc.claims]
+        n_thesis = sum(len(sc.claims) for sc in aware)
+        if aware:
+            out.append(
+                f"the thesis law's companion runs beside the {len(aware)} constraint-aware "
+                f"design(s), and their {n_thesis} verdicts (a full reproduction judges every "
+                "claim of these scenarios on the thesis law too: "
+                + ", ".join(f"{sc.name} ({len(sc.claims)})" for sc in aware)
+                + ")"
+            )
+        out.append(
+            "the failure-free runs, the oracle baseline, and the frozen-adaptation runs of "
+            "scenarios without a baseline_ratio claim (no verdict uses them; the report's "
+            "error ratios against them are blank)"
+        )
+    if not data:
+        out.append(
+            "the data files (data/*.nc): not written; metrics.csv and the verdicts are "
+            "computed from the runs in memory"
+        )
+    if figure_limit == 0:
+        out.append("the figures: none drawn")
+    elif figure_limit is not None:
+        out.append(f"the figures after the first {figure_limit} of each scenario")
+    return out, n_thesis
+
+
 def _data_note(float32: bool, decimate: int) -> str:
     """What the data files of a reproduction hold, for the report."""
     if not float32 and decimate == 1:
@@ -619,6 +698,8 @@ def run_reproduction(
     float32: bool = False,
     decimate: int = 1,
     figure_limit: int | None = None,
+    claims_only: bool = False,
+    data: bool = True,
 ) -> dict[str, Any]:
     """Run the catalogue, write figures, data, metrics, claims and the HTML report.
 
@@ -655,8 +736,15 @@ def run_reproduction(
         recomputed from a file equals ``metrics.csv``. The choice is recorded in each file's
         ``precision``, ``decimation`` and ``history`` attributes and stated in the report.
     figure_limit
-        Draw only the first ``figure_limit`` figures of each scenario (``aftc reproduce
-        --quick``: 1); default: all.
+        Draw only the first ``figure_limit`` figures of each scenario (``0``: none, as
+        ``aftc reproduce --quick``); default: all.
+    claims_only
+        Make only the runs the claims are judged on (see the module docstring; ``aftc
+        reproduce --quick``): no failure-free runs, no oracle, no thesis-law companions (their
+        verdicts are left out, and listed as such in the report and in ``left_out``).
+    data
+        Write the data files (``data/*.nc``); ``False``: none (the claims and metrics are
+        computed from the runs in memory), stated in the report.
 
     Returns
     -------
@@ -665,7 +753,9 @@ def run_reproduction(
         ``n_not_evaluated``, ``n_not_reproduced``, ``n_finding`` (claims marked ``finding``
         that the data show: never PASS, not counted as FAIL), ``n_thesis_law_finding`` (claims
         the thesis law's companion run of a constraint-aware scenario does not meet: apart
-        from all the others), ``n_errors``, ``wall_time_s``,
+        from all the others), ``n_thesis_law_left_out`` (verdicts on the thesis law's
+        companion runs that ``claims_only`` did not make), ``left_out`` (what was not done, one
+        sentence each: empty for a full reproduction), ``n_errors``, ``wall_time_s``,
         ``report``
         (path of report.html) and ``out_dir``.
 
@@ -675,7 +765,7 @@ def run_reproduction(
     >>> s["report"]                                                               # doctest: +SKIP
     PosixPath('out/report.html')
     """
-    from tqdm.auto import tqdm
+    from adaptive_ftc._feedback import EtaBar, figure_cost
 
     t_start = time.perf_counter()
     if isinstance(decimate, bool) or not isinstance(decimate, int) or decimate < 1:
@@ -687,8 +777,11 @@ def run_reproduction(
         )
     float32 = bool(float32)
     out = Path(out_dir)
-    (out / "figures").mkdir(parents=True, exist_ok=True)
-    (out / "data").mkdir(parents=True, exist_ok=True)
+    if figure_limit != 0:
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+    if data:
+        (out / "data").mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     scenario_names = list(names) if names is not None else list_scenarios()
     _LOADED.clear()  # files may have changed since an earlier reproduction in this process
     # loaded (and validated) here, before the workers fork: they inherit them
@@ -708,6 +801,8 @@ def run_reproduction(
         fair_baselines = baselines or not quick
 
     def variants(sc: Scenario) -> list[str]:
+        if claims_only:
+            return _claim_variants(sc, fair_baselines)
         out = _variants(sc, all_baselines=baselines)
         return out if fair_baselines else [v for v in out if v not in _DESIGN_BASELINES]
 
@@ -736,15 +831,20 @@ def run_reproduction(
             import sys
 
             print(compile_line(n_new, seconds, jobs), file=sys.stderr, flush=True)
-    bar = tqdm(
-        total=len(sim_tasks) + sum(expected.values()),
+    # the ETA weighs each task by its expected cost (a 1 ms record of a 120 s run costs a
+    # hundred times a 10 ms one; a figure about half a second)
+    run_cost = {sc.name: _run_cost(sc, data) for sc in scenarios}
+    fig_cost = figure_cost(len(formats))
+    bar = EtaBar(
+        len(sim_tasks) + sum(expected.values()),
+        cost=sum(run_cost[n] for n, _ in sim_tasks) + fig_cost * sum(expected.values()),
         disable=not progress,
         desc="reproduce",
         unit="task",
     )
     with executor:
         pending: dict[cf.Future, tuple] = {
-            executor.submit(_simulate_task, n, v, quick, str(out), float32, decimate): (
+            executor.submit(_simulate_task, n, v, quick, str(out), float32, decimate, data): (
                 "sim",
                 n,
                 v,
@@ -755,7 +855,7 @@ def run_reproduction(
             done, _ = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
             for fut in done:
                 tag = pending.pop(fut)
-                bar.update(1)
+                bar.tick(run_cost[tag[1]] if tag[0] == "sim" else fig_cost)
                 if tag[0] == "sim":
                     _, name, variant = tag
                     results[(name, variant)] = fut.result()
@@ -776,8 +876,8 @@ def run_reproduction(
                             pending[f] = ftag
                             figures[name].append(entry)
                         if len(new) != expected[name]:  # a failed run draws none
-                            bar.total += len(new) - expected[name]
-                            bar.refresh()
+                            extra = len(new) - expected[name]
+                            bar.grow(extra, extra * fig_cost)
                 else:
                     _, name, fname = tag
                     fig_errors[(name, fname)] = fut.result()
@@ -885,6 +985,7 @@ def run_reproduction(
         )
     _write_csv(out / "metrics.csv", _METRIC_FIELDS, metric_rows)
     _write_csv(out / "claims.csv", CLAIM_FIELDS, claim_rows)
+    left_out, n_thesis_left_out = _left_out(scenarios, claims_only, data, figure_limit)
     wall = time.perf_counter() - t_start
     report = write_report(
         out / "report.html",
@@ -892,7 +993,8 @@ def run_reproduction(
         quick=quick,
         wall_time_s=wall,
         jobs=jobs,
-        data_note=_data_note(float32, decimate),
+        data_note=_data_note(float32, decimate) if data else "",
+        left_out=left_out,
     )
     return {
         "n_scenarios": len(scenarios),
@@ -904,6 +1006,8 @@ def run_reproduction(
         "n_not_reproduced": n_not_reproduced,
         "n_finding": n_finding,
         "n_thesis_law_finding": n_thesis_finding,
+        "n_thesis_law_left_out": n_thesis_left_out,
+        "left_out": left_out,
         "n_errors": n_errors,
         "data_precision": "float32" if float32 else "float64",
         "data_decimation": decimate,

@@ -468,19 +468,24 @@ def robustness_study(
     for knob, vals in (values or {}).items():
         _check_knob(knob)
         chosen[knob] = tuple(vals)
-    from tqdm.auto import tqdm
+    from adaptive_ftc._feedback import EtaBar
 
     seeds = seeds[:1] if quick else seeds
-    bar = tqdm(
-        [(s, k) for s in scenarios for k in chosen],
+    sweeps = [(s, k) for s in scenarios for k in chosen]
+    # the ETA weighs a sweep by its runs (values x seeds)
+    cost = {k: float(len(chosen[k]) * len(seeds)) for k in chosen}
+    tables = []
+    with EtaBar(
+        len(sweeps),
+        cost=sum(cost[k] for _, k in sweeps),
         disable=not progress,
         desc="robustness sweeps",
         unit="sweep",
-    )
-    tables = []
-    for name, knob in bar:
-        bar.set_postfix_str(f"{name} {knob}")
-        tables.append(robustness_sweep(name, knob, chosen[knob], seeds=seeds, jobs=jobs))
+    ) as bar:
+        for name, knob in sweeps:
+            bar.note(f"{name} {knob}")
+            tables.append(robustness_sweep(name, knob, chosen[knob], seeds=seeds, jobs=jobs))
+            bar.tick(cost[knob])
     return pd.concat(tables, ignore_index=True)
 
 
@@ -844,8 +849,7 @@ def delay_margin_study(
     law only, a third of each scenario's horizon (final window a quarter of that), 20 %
     resolution.
     """
-    from tqdm.auto import tqdm
-
+    from adaptive_ftc._feedback import EtaBar
     from adaptive_ftc.controllers.constraints import ConstraintAware
 
     if laws is None:
@@ -855,7 +859,17 @@ def delay_margin_study(
             laws["constraint-aware (lag 20 ms)"] = "lag 20 ms"
     rows = []
     jobs = [(s, lab, law) for s in scenarios for lab, law in laws.items()]
-    for name, label, law in tqdm(jobs, disable=not progress, desc="delay margins", unit="law"):
+    # the ETA weighs a margin by its scenario's duration (each bisection step is one run)
+    weight = {s: _span(s) for s in scenarios}
+    bar = EtaBar(
+        len(jobs),
+        cost=sum(weight[s] for s, _, _ in jobs),
+        disable=not progress,
+        desc="delay margins",
+        unit="law",
+    )
+    for name, label, law in jobs:
+        bar.note(f"{name} {label}")
         sc = load_scenario(name)
         if law == "ideal":
             law = ConstraintAware.from_hardware(plant=sc.loop.plant, lam=sc.loop.controller.lam)
@@ -871,4 +885,16 @@ def delay_margin_study(
             kw.setdefault("resolution", 0.2)
         dm = delay_margin(sc, constraint_aware=law, **kw)
         rows.append({**dm.row(), "law": label})
+        bar.tick(weight[name])
+    bar.close()
     return pd.DataFrame(rows, columns=_DELAY_COLUMNS)
+
+
+def _span(name: str) -> float:
+    """The duration of a scenario (s), or 1 for one that does not load (the study reports
+    it)."""
+    try:
+        sc = load_scenario(name)
+    except Exception:  # noqa: BLE001 - an estimate; the study itself raises the error
+        return 1.0
+    return max(float(sc.loop.t_final) - float(sc.loop.t0), 1e-9)

@@ -32,7 +32,12 @@ def add_parser(subparsers):
         + ")",
     )
     st.add_argument("--out", default="study", help="output folder (default: ./study)")
-    st.add_argument("--quick", action="store_true", help="3 values per knob, one noise seed")
+    st.add_argument(
+        "--quick",
+        action="store_true",
+        help="robustness: 3 values per knob, one noise seed; delay-margin: the thesis law "
+        "only, a third of each horizon, 20 %% resolution",
+    )
     st.add_argument(
         "--scenario",
         action="append",

@@ -191,7 +191,7 @@ def run_campaign(
     >>> run.summary["success_rate"]["adaptive"]  # doctest: +SKIP
     0.93
     """
-    from tqdm.auto import tqdm
+    from adaptive_ftc._feedback import EtaBar
 
     if not isinstance(spec, CampaignSpec):
         spec = load_campaign(spec)
@@ -209,7 +209,24 @@ def run_campaign(
 
     resumed = sum(runs_in(c) for c in done)
     start = time.perf_counter()
-    bar = tqdm(total=n_runs, initial=resumed, disable=not progress, desc=spec.name, unit="run")
+    # the ETA counts the runs of this session only (a resumed campaign's earlier runs are not
+    # part of the measured rate); with max_chunks, only the chunks this call runs
+    todo = n_runs - resumed
+    if max_chunks is not None:
+        todo = sum(
+            runs_in(c)
+            for c in itertools.islice(
+                (c for c in range(spec.n_chunks) if c not in done), max(0, int(max_chunks))
+            )
+        )
+    bar = EtaBar(
+        n_runs,
+        cost=float(todo),
+        initial=resumed,
+        disable=not progress,
+        desc=spec.name,
+        unit="run",
+    )
     old = signal.getsignal(signal.SIGTERM)
     handler_set = False
     try:
@@ -228,7 +245,7 @@ def run_campaign(
         for c, rows in source:
             store.write_part(store.to_table(rows, spec), out, c)
             now += len(rows)
-            bar.update(len(rows))
+            bar.tick(len(rows), n=len(rows))
     finally:
         bar.close()
         if handler_set:

@@ -146,6 +146,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             initial_state=tuple(x0),
             failures=kept + tuple(failures),
             name=f"{spec.name}[{index}]",
+            # the base's annunciations belong to its own failures (issue 31)
+            annunciations=base.annunciations if spec.keep_base else (),
         )
     except (ConfigurationError, ExpressionError, ValueError) as exc:
         loop, error = None, str(exc)

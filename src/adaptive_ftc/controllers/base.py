@@ -198,6 +198,8 @@ class AdaptiveController(ABC):
             updates["b_max"] = float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0
         if ca.input_gain is None:
             updates["input_gain"] = self.nominal_input_gain(loop)
+        if ca.gain_growth is None:
+            updates["gain_growth"] = self.loop_gain_growth()
         if ca.loop_rate is None:
             updates["loop_rate"], gain, least = self.measured_loop_rate(loop)
             if ca.loop_gain is None and gain > 0:
@@ -205,6 +207,11 @@ class AdaptiveController(ABC):
             if ca.min_loop_gain is None and least > 0:
                 updates["min_loop_gain"] = least
         return replace(self, constraint_aware=replace(ca, **updates))
+
+    def loop_gain_growth(self) -> float:
+        """The factor by which the law's loop gain can grow along the run over the one at
+        ``t0`` (``ConstraintAware.gain_growth``): 1; §4.4 overrides it."""
+        return 1.0
 
     @staticmethod
     def nominal_input_gain(loop) -> float:

@@ -20,7 +20,15 @@ design, not another design) it derives, by the rules below, one configuration
    1/s on hypersonic-direct-s1, 73 on the manipulator, 48 on the spacecraft, 12700 on the
    wing rock; without a loop the proxy ``K``). The hardware admits
    ``w_max = min(C_CAP w0, C_LAG/lag, C_SAMPLE/T, C_MARGIN rate/(b_max A_RATE),
-   C_NOISE/noise)`` (:meth:`ConstraintAware.omega_max`). The adaptation gains are scaled by
+   C_DELAY/(lag + T/2 + tau_d), C_NOISE/noise, sqrt(C_NOISE_DENSITY/n_d))``
+   (:meth:`ConstraintAware.omega_max`): the lags of the loop add up (the actuator's, half a
+   sample of hold, the time constant ``tau_d`` of the ``s'`` estimate; with rate or travel
+   limits the command filter's ``1/omega_f`` too, against ``C_DELAY_LIMITED``), and noise
+   counts by its std and by its density ``n_d = noise sqrt(2/f)`` at the rate ``f`` the law
+   sees it (a 100 Hz controller sees the same std 3x denser than a 1 kHz sensor). §4.4's
+   loop gain ``alpha0 |rho| |Pi|^2 b`` grows with ``rho``: under a non-ideal model ``rho`` is
+   projected on ``|rho| <= RHO_FACTOR |rho0|`` and the loop is sized for that bound
+   (:meth:`SignEstimation.rho_bound`). The adaptation gains are scaled by
    ``r = min(1, w_max/g)`` (every gain of ``theta``; ``k -> r k``) and the robust term's
    slope ``k0/eps0`` by ``r_K`` so that ``sqrt(r g r_K K) <= w_max`` (``eps0 -> eps0/r_K``):
    a loop whose adaptation is already slow keeps its gain and only its robust term is
@@ -58,9 +66,15 @@ design, not another design) it derives, by the rules below, one configuration
    back-calculation below). With ``input_gain = 0``: **anti-windup by back-calculation on
    the estimates** (Åström & Rundqwist, ACC 1989): ``theta' += -k_aw Pi (u0c -
    u0_reachable) / |Pi|^2`` pulls the law's command back to what the filter can deliver.
-4. **Noise**: the law sees its measurements (regressor inputs, errors, ``s``) through a
-   first-order prefilter at ``C_MEASURE w_max``, and its adaptation signal ``q`` through
-   ``qf' = w_q (q - qf)`` at ``C_PREFILTER w_max``.
+4. **Noise**: where the std bound ``C_NOISE/noise`` is the one that binds, the law sees its
+   measurements (regressor inputs, errors, ``s``) through a first-order prefilter at
+   ``C_MEASURE w_max``, and its adaptation signal ``q`` through ``qf' = w_q (q - qf)`` at
+   ``C_PREFILTER w_max``. Below that noise the lower loop rate alone quiets the command:
+   measured on the hypersonic-hardware campaign, the two prefilters' lags (12 and 25 ms at
+   ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
+   5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
+   travel limits the loop was lost, error 0.12 rad), while the same law without them stayed
+   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error.
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
@@ -92,8 +106,11 @@ Guarantees (which holds for which combination):
   2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
   bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
   loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure).
-- *noise*: the prefilters and the lower bandwidth bound the noise in the command (linear
-  filtering), with sigma-modification keeping the estimates bounded; no dead-zone.
+- *noise*: the lower bandwidth (and, where the std bound binds, the prefilters) bound the
+  noise in the command (linear filtering), with sigma-modification keeping the estimates
+  bounded; no dead-zone.
+- *§4.4*: with a non-ideal model ``|rho| <= RHO_FACTOR |rho0|`` at all times (projection);
+  the sign estimate can still cross zero (from ``-rho0`` to ``+rho0``, as in the ideal runs).
 - *projection*: ``|theta| <= theta_max`` at all times whatever the disturbance.
 
 All of this is measured, case by case, in docs/hardware.md ("Designs under real hardware")
@@ -114,10 +131,40 @@ __all__ = ["ConstraintAware", "Configuration"]
 
 #: ``w_max <= C_LAG / lag``: the law's loop rate below the actuator's bandwidth.
 C_LAG = 1.0
+#: ``w_max (lag + T/2 + tau_d) <= C_DELAY``: the law's loop rate within the phase the *sum*
+#: of the loop's lags admits (the actuator's lag, half a sample of hold, the time constant
+#: ``tau_d`` of the ``s'`` estimate). Each bound above takes one lag alone; combined they add
+#: (a 13 ms lag at 100 Hz with a 20 ms ``s'`` filter passed every single bound at ``w`` = 20
+#: and limit-cycled).
+C_DELAY = 1.0
+#: ... and ``w_max (lag + T/2 + tau_d + 1/omega_f) <= C_DELAY_LIMITED`` where rate or travel
+#: limits are declared (the command filter's lag ``1/omega_f >= max(1/(C_FILTER w), lag,
+#: T/C_EULER)`` counts too, and the hedged loop has less margin): measured on the
+#: hypersonic-hardware campaign, member 7 (lag 13 ms, 100 Hz, rate 30 rad/s, travel 0.87;
+#: 58 ms in all) limit-cycles at ``w`` = 18-20 (0.53 rad of fast content) and is quiet at 15
+#: (5e-4 rad); with noise, a loop near that margin amplifies it (member 40: lag 39 ms,
+#: 100 Hz, 4.5e-3 rad/s on q: 2.1e-2 rad of fast content at 0.8, 9.5e-3 at 0.7; member 60:
+#: 1.8e-2 at 0.8, 1.3e-2 at 0.7).
+C_DELAY_LIMITED = 0.7
+#: the default time constant of the ``s'`` estimate (s) of a continuous controller with
+#: noise (``SolverOptions.filter_tau_for``: ``max(S_FILTER_TAU, 2 T)``; a digital controller's
+#: ``s'`` is always filtered, a continuous noiseless one's is exact).
+S_FILTER_TAU = 0.01
 #: ``w_max <= C_SAMPLE / T``: the law's loop rate per sample (forward Euler of the laws).
 C_SAMPLE = 0.75
 #: ``w_max <= C_NOISE / noise`` (noise: std of the measured ``s``).
 C_NOISE = 0.15
+#: ``w_max^2 n_d <= C_NOISE_DENSITY``, with ``n_d = noise sqrt(2 / f)`` the density (per root
+#: hertz) of the noise the law sees, held at ``f = min(noise_rate, 1/T)``. The std bound above
+#: treats 1 kHz and 100 Hz noise alike; a digital controller sees the same std in a band 10
+#: (at 100 Hz) to 20 times narrower, i.e. a 3-4.5x larger density. Measured on the
+#: hypersonic-hardware campaign (first 100 members): 8 of the 23 members at 100 Hz with
+#: 3.5-4.9e-3 rad/s of noise on q had 0.0176-0.029 rad of fast content at ``w`` = 14-20
+#: (target 0.0173); on member 15 the fast content falls as ``w^2`` to ``w^2.5`` (1.8e-2,
+#: 9.9e-3, 4.0e-3, 1.9e-3 at ``w`` = 13.7, 10, 7, 5). The constant puts the 100 Hz members at
+#: ``w`` = 12-13 and leaves continuous loops with the catalogue's noise (1e-3 rad, 1e-2
+#: rad/s at 1 kHz: 14.8) to the std bound.
+C_NOISE_DENSITY = 0.1
 #: ``w_max <= rate_u0 / A_RATE``: a command oscillation of amplitude ``A_RATE`` at the loop
 #: rate stays within the rate limit (the describing function of a rate limiter: no phase
 #: loss below it).
@@ -156,8 +203,12 @@ C_FILTER = 4.0
 C_MEASURE = 4.0
 #: the prefilter of the adaptation signal, in multiples of ``w_max``.
 C_PREFILTER = 2.0
-#: a digital filter's bandwidth is at most ``C_EULER / T``.
-C_EULER = 0.5
+#: a digital filter's bandwidth is at most ``C_EULER / T``: forward Euler of ``x' = w (u -
+#: x)`` has its pole at ``1 - w T``, stable below 2 and monotone (no ringing) up to 1. Round 2
+#: used 0.5; at 50 Hz the command filter's floor ``T / C_EULER`` (40 ms) was then the largest
+#: lag of the loop's budget (``C_DELAY_LIMITED``), and campaign member 65 (10 ms lag, 50 Hz,
+#: a stuck elevator) tracked to 8.9e-4 rad instead of 4.1e-4.
+C_EULER = 1.0
 #: anti-windup rate (1/s), in multiples of the command filter's bandwidth.
 C_AW = 1.0
 #: decay rate of the compensated error, in multiples of ``w_max``: slow, so the part of the
@@ -166,6 +217,13 @@ C_AW = 1.0
 C_HEDGE = 0.1
 #: the command filter keeps this fraction of the declared rate and travel (margin).
 C_MARGIN = 0.9
+#: §4.4 (sign estimation): the estimate ``rho`` of the control direction multiplies the law's
+#: loop gain (``alpha0 |rho| |Pi|^2 b``). Under a non-ideal model it is projected on
+#: ``|rho| <= RHO_FACTOR |rho0|`` and the rule sizes the loop for that bound, not for
+#: ``rho0``: measured on hypersonic-sign-s1-rho0pos at 100 Hz, ``rho`` ran from 1 to 146 in
+#: 0.2 s (the loop, sized at ``rho0``, sped up with it and diverged); in the ideal runs
+#: ``|rho|`` stays within 1.0 (0.87-1.0 after its first 0.05 s, from +1 or -1).
+RHO_FACTOR = 2.0
 
 
 class Configuration(NamedTuple):
@@ -288,6 +346,20 @@ class ConstraintAware:
     b_max
         The largest ``|R_ij|`` of the allocation (the rate and travel of ``u0`` are the
         actuators' divided by it); ``None``: the loop's, when compiled. Not a constraint.
+    gain_growth
+        The factor by which the law's loop gain can grow along the run over the one measured at
+        ``t0`` (§4.4: the projection bound of ``rho`` over ``|rho0|``, ``RHO_FACTOR``): the rule
+        scales the adaptation for the grown gain, while its cap ``C_CAP w0`` stays a tenth of
+        the thesis's loop rate. ``None``: the design's (:meth:`AdaptiveController.bound`; 1
+        but for §4.4). Not a constraint.
+    noise_rate
+        The rate (Hz) at which the sensors draw their noise (``Sensors.rate``; each sample
+        held until the next): with ``noise``, its density. Not a constraint alone.
+    derivative_lag
+        Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
+        ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
+        solver's default for this model, ``max(0.01, 2 sample_time)`` where the controller is
+        digital or the measurements noisy, else 0 (``s'`` exact). Not a constraint alone.
 
     Examples
     --------
@@ -309,6 +381,9 @@ class ConstraintAware:
     loop_gain: float | None = None
     min_loop_gain: float | None = None
     b_max: float | None = None
+    derivative_lag: float | None = None
+    noise_rate: float = 1000.0
+    gain_growth: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -330,6 +405,11 @@ class ConstraintAware:
             _number(owner, "b_max", self.b_max, allow_inf=False, positive=True)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
+        if self.derivative_lag is not None:
+            _number(owner, "derivative_lag", self.derivative_lag, allow_inf=False)
+        _number(owner, "noise_rate", self.noise_rate, allow_inf=True, positive=True)
+        if self.gain_growth is not None:
+            _number(owner, "gain_growth", self.gain_growth, allow_inf=False, positive=True)
 
     @property
     def is_ideal(self) -> bool:
@@ -360,6 +440,7 @@ class ConstraintAware:
         loop's sample time and the noise of ``s`` from the sensors' standard deviations on
         the first output's position and velocity states (``plant`` names them)."""
         lag, rate, travel, noise = 0.0, math.inf, math.inf, 0.0
+        extra: dict = {}
         if actuators is not None and plant is not None:
             tab = actuators.table(plant.n_actuators)
             lag = float(np.max(tab[:, 0]))  # a rate limiter's own linear band included
@@ -374,6 +455,7 @@ class ConstraintAware:
             sp = float(std[plant.position_index[0]])
             sv = float(std[plant.velocity_index[0]])
             noise = math.hypot(sv, lam1 * sp)
+            extra["noise_rate"] = float(sensors.rate)
         return cls(
             **{
                 "lag": lag,
@@ -381,6 +463,7 @@ class ConstraintAware:
                 "travel": travel,
                 "sample_time": float(sample_time),
                 "noise": noise,
+                **extra,
                 **overrides,
             }
         )
@@ -397,6 +480,15 @@ class ConstraintAware:
             **overrides,
         )
 
+    @property
+    def s_lag(self) -> float:
+        """The time constant of the ``s'`` estimate (:attr:`derivative_lag`, or its default)."""
+        if self.derivative_lag is not None:
+            return float(self.derivative_lag)
+        if self.sample_time > 0 or self.noise > 0:
+            return max(S_FILTER_TAU, 2.0 * self.sample_time)
+        return 0.0
+
     def omega_max(self, w0: float, b_max: float = 1.0) -> tuple[float, bool]:
         """The rule: the law's loop rate the hardware admits (``w0`` = ``k + k0/eps0``), and
         whether the noise bound is the one that binds."""
@@ -409,9 +501,39 @@ class ConstraintAware:
             w = min(w, C_SAMPLE / self.sample_time)
         if math.isfinite(self.rate):
             w = min(w, C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE)
-        if self.noise > 0 and C_NOISE / self.noise < w:
-            return C_NOISE / self.noise, True
+        # the lags of the loop add up (C_DELAY); with limits, the command filter's too:
+        # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
+        # filter's own floor (1/omega_f >= lag, T/C_EULER)
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        if delay > 0 and not self.limited:
+            w = min(w, C_DELAY / delay)
+        if self.limited:
+            lag_f = max(self.lag, self.sample_time / C_EULER)
+            if delay + lag_f > 0:
+                w = min(w, C_DELAY_LIMITED / (delay + lag_f))
+            if delay > 0:
+                w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
+        if self.noise > 0:
+            # the density bound lowers the loop rate only; where the std bound binds, the
+            # measurements are prefiltered too (configure)
+            w = min(w, math.sqrt(C_NOISE_DENSITY / self.noise_density))
+            if C_NOISE / self.noise < w:
+                return C_NOISE / self.noise, True
         return w, False
+
+    @property
+    def noise_density(self) -> float:
+        """The density (per root hertz) of the noise of ``s`` the law sees: ``noise sqrt(2 /
+        f)``, held at ``f = min(noise_rate, 1/sample_time)``."""
+        f = self.noise_rate
+        if self.sample_time > 0:
+            f = min(f, 1.0 / self.sample_time)
+        return self.noise * math.sqrt(2.0 / f)
+
+    @property
+    def limited(self) -> bool:
+        """A rate or travel limit is declared (the law's command is filtered)."""
+        return math.isfinite(self.rate) or math.isfinite(self.travel)
 
     def configure(
         self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
@@ -432,6 +554,7 @@ class ConstraintAware:
             # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
             # manipulator loses the arm with eta scaled below 0.3)
             big_k = w0 * w0 / g if w0 > g else g
+            g = g * (self.gain_growth or 1.0)  # the largest loop gain along the run (§4.4)
             scale = min(1.0, w / g)
             slope_scale = min(1.0, w * w / (scale * g) / big_k)
         lam_factor = 1.0
@@ -455,7 +578,7 @@ class ConstraintAware:
             if self.sample_time > 0:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
         omega_q = omega_m = math.inf
-        if self.noise > 0:
+        if noisy:
             omega_q = C_PREFILTER * w
             omega_m = C_MEASURE * w
             if self.sample_time > 0:
@@ -511,6 +634,14 @@ def hedged_q(q, s, xi, dxi, k, k0, eps0):
     limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
     2003)."""
     return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
+
+
+def project_interval(d, v, v_max):
+    """Projection of a scalar estimate on ``|v| <= v_max``: on or outside the boundary, an
+    outward ``v'`` is set to 0 (Lavretsky & Wise 2013, §11.4, in one dimension)."""
+    if abs(v) >= v_max and v * d > 0.0:
+        return 0.0
+    return d
 
 
 def project_ball(dY, Y, theta_max, at, size):

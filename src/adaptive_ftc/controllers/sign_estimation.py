@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.sim.layout import Misc
@@ -50,9 +52,25 @@ class SignEstimation(AdaptiveController):
         _positive(type(self).__name__, alpha0=self.alpha0, alpha1=self.alpha1)
         _nonnegative(type(self).__name__, sigma0=self.sigma0, sigma1=self.sigma1)
 
+    def rho_bound(self) -> float:
+        """The projection bound of ``rho`` (``inf``: none): ``RHO_FACTOR |rho0|`` under a
+        non-ideal constraint-aware model (:data:`~adaptive_ftc.controllers.constraints.
+        RHO_FACTOR`; ``rho0 = 0``: none), so that the loop gain ``alpha0 |rho| |Pi|^2 b``
+        the rule sizes the law for (:meth:`loop_gain_growth`) is a bound along the run."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or float(self.rho0) == 0.0:
+            return math.inf
+        return constraints.RHO_FACTOR * abs(float(self.rho0))
+
     def theta_gain(self) -> float:
         """``alpha0 |rho0|``: the law's gain at the initial ``rho``."""
         return float(self.alpha0) * abs(float(self.rho0))
+
+    def loop_gain_growth(self) -> float:
+        """The loop gain ``alpha0 |rho| |Pi|^2 b`` grows with ``|rho|``: with a bounded ``rho``
+        (:meth:`rho_bound`) at most ``bound / |rho0|`` times the one at ``t0``."""
+        bound = self.rho_bound()
+        return bound / abs(float(self.rho0)) if math.isfinite(bound) else 1.0
 
     def gains(self) -> SignGains:
         r = self.adaptation_scale  # 1 for the thesis law
@@ -65,10 +83,16 @@ class SignEstimation(AdaptiveController):
         g.y0_extra.append(float(self.rho0))
         g.use("theta_law", theta_law)
         g.use("rho_law", rho_law)
-        return [
+        lines = [
             "    # adaptive laws (4.54)-(4.55)",
             f"    rho = Y[{extra_at}]",
             f"    misc[{int(Misc.GAIN)}] = rho",
             f"    dY[{extra_at}] = rho_law(u0[0], q[0], rho, D.gains.alpha1, D.gains.sigma1)",
-            *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma0", "rho"),
         ]
+        bound = self.rho_bound()
+        if math.isfinite(bound):  # constraint-aware: rho projected on |rho| <= bound
+            g.use("project_interval", constraints.project_interval)
+            at = len(g.consts)
+            g.consts.append(bound)
+            lines.append(f"    dY[{extra_at}] = project_interval(dY[{extra_at}], rho, c[{at}])")
+        return [*lines, *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma0", "rho")]

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from adaptive_ftc.allocation.allocators import ALLOCATORS
+from adaptive_ftc.allocation.inloop import Annunciation
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers import DirectAdaptive, MimoDirectAdaptive
 from adaptive_ftc.controllers.constraints import ConstraintAware
@@ -53,6 +55,23 @@ _TOP = {
     "claims",
     "figure",
     "tags",
+    "allocation",
+}
+
+#: keys of a [[failures]] table that tell the allocator about it (issue 31), not the model
+_ANNUNCIATION_SCHEMA: dict[str, dict[str, Any]] = {
+    "annunciated": {
+        "type": "boolean",
+        "default": False,
+        "description": "a detector reports this failure to the allocator (else it is silent)",
+    },
+    "detection_delay": {
+        "type": "number",
+        "minimum": 0,
+        "maximum": 1e100,
+        "default": 0.0,
+        "description": "seconds from the onset until the allocator knows (annunciated only)",
+    },
 }
 
 
@@ -825,6 +844,7 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
     if len(ftabs) > MAX_FAILURES:
         ctx.add("failures", f"at most {MAX_FAILURES} [[failures]] tables; got {len(ftabs)}.")
         ftabs, failures_ok = [], False
+    annunciations: list[Annunciation] = []
     for i, ft in enumerate(ftabs):
         where = f"failures.{i + 1}"
         try:
@@ -836,9 +856,21 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             if not _choice(ctx, where, "failure model", fmodel, list(FAILURE_MODELS)):
                 raise _Problems
             ft.pop("model")
+            known = _annunciation_keys(ft, ctx, where)
             failures.append(_component(FAILURE_MODELS[fmodel], ft, ctx, where))
+            if known is not None:
+                f = failures[-1]
+                annunciations.append(
+                    _build(
+                        Annunciation,
+                        dict(actuator=f.actuator, onset=f.onset, recovery=f.recovery, delay=known),
+                        ctx,
+                        where,
+                    )
+                )
         except _Problems:
             failures_ok = False
+    allocator = _allocator(data.get("allocation"), ctx)
     # ---------------------------------------------------------------- hardware
     hardware: dict[str, Any] = {}
     for key, cls in (("actuators", Actuators), ("sensors", Sensors)):
@@ -906,6 +938,8 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
             adapt=adapt,
             name=name,
             **hardware,
+            **({"allocator": allocator} if allocator is not None else {}),
+            **({"annunciations": tuple(annunciations)} if annunciations else {}),
         ),
         ctx,
         "",
@@ -953,6 +987,52 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
         source=path,
         text=text,
     )
+
+
+def _annunciation_keys(ft: dict[str, Any], ctx: _Ctx, where: str) -> float | None:
+    """Pop ``annunciated`` and ``detection_delay`` from a [[failures]] table: the detection
+    delay of an annunciated failure, ``None`` for a silent one."""
+    known = ft.pop("annunciated", False)
+    delay = ft.pop("detection_delay", None)
+    bad = False
+    for key, value in (("annunciated", known), ("detection_delay", delay)):
+        if value is None:
+            continue
+        why = _check_value(value, _ANNUNCIATION_SCHEMA[key])
+        if why:
+            ctx.add(where, f"`{key}`: {why}. {_fix(_ANNUNCIATION_SCHEMA[key])}")
+            bad = True
+    if bad:
+        raise _Problems
+    if delay is not None and known is not True:
+        ctx.add(
+            where,
+            "`detection_delay` is given but the failure is silent: add `annunciated = true` "
+            "(a detector reports it after the delay) or remove `detection_delay`.",
+        )
+        raise _Problems
+    return float(delay or 0.0) if known else None
+
+
+def _allocator(table: Any, ctx: _Ctx):
+    """``[allocation]``: ``kind = "fixed"`` (default: the thesis's ``u = R^T u0``), ``"pinv"``,
+    ``"wls"`` or ``"adaptive"`` with the allocator's settings (:mod:`adaptive_ftc.allocation`)."""
+    if table is None:
+        return None
+    tab = ctx.table(table, "allocation")
+    if tab is None:
+        return None
+    tab = dict(tab)
+    kind = tab.pop("kind", "fixed")
+    if not _choice(ctx, "allocation", "allocation kind", kind, list(ALLOCATORS)):
+        return None
+    if kind == "fixed":
+        ctx.keys(tab, set(), "allocation")
+        return None
+    try:
+        return _component(ALLOCATORS[kind], tab, ctx, "allocation")
+    except _Problems:
+        return None
 
 
 def _reference_checked(outputs: list[Any], plant: Any, ctx: _Ctx) -> list[Any] | None:
@@ -1178,7 +1258,7 @@ def scenario_schema() -> dict[str, Any]:
     Examples
     --------
     >>> sorted(scenario_schema()["propertyNames"]["enum"])[:3]
-    ['actuators', 'claims', 'controller']
+    ['actuators', 'allocation', 'claims']
     """
     from adaptive_ftc._version import __version__
 
@@ -1244,7 +1324,7 @@ def scenario_schema() -> dict[str, Any]:
         sch = _class_schema(cls)
         fails.append(
             obj(
-                {"model": {"const": key}, **sch["properties"]},
+                {"model": {"const": key}, **sch["properties"], **_ANNUNCIATION_SCHEMA},
                 ["model", *sch["required"]],
                 {"title": f"failure '{key}'"},
             )
@@ -1270,6 +1350,23 @@ def scenario_schema() -> dict[str, Any]:
             ["sample_time"],
             {"description": "sample-and-hold controller period in seconds"},
         ),
+        "allocation": {
+            "oneOf": [
+                obj(
+                    {
+                        "kind": {"const": key}
+                        if key != "fixed"
+                        else {"const": key, "default": "fixed"},
+                        **({} if key == "fixed" else _class_schema(cls)["properties"]),
+                    },
+                    ["kind"] if key != "fixed" else (),
+                    {"title": f"allocation '{key}'"},
+                )
+                for key, cls in ALLOCATORS.items()
+            ],
+            "description": "control allocator (docs/allocation.md); default: the thesis's fixed "
+            "u = R^T u0",
+        },
     }
     props = dict(sorted(props.items()))
     partial = {k: _without_required(v) for k, v in props.items()}

@@ -82,9 +82,14 @@ def iter_simulate(
         raise ConfigurationError(f"`window` must be a positive integer; got {window!r}.")
     bar = None
     if progress:
-        from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
+        if hasattr(loops, "__len__"):  # runs of one solver: the ETA counts them as equals
+            from adaptive_ftc._feedback import EtaBar
 
-        bar = tqdm(total=len(loops) if hasattr(loops, "__len__") else None, desc="simulations")
+            bar = EtaBar(len(loops), desc="simulations", unit="run")
+        else:  # an open stream: no total, no ETA
+            from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
+
+            bar = tqdm(total=None, desc="simulations")
     source = iter(loops)
     pending: deque = deque()
     pool = ThreadPoolExecutor(max_workers=jobs)
@@ -98,7 +103,9 @@ def iter_simulate(
             loop = next(source, None)
             if loop is not None:  # the next run starts before the caller takes this result
                 pending.append(pool.submit(simulate, loop, solver))
-            if bar is not None:
+            if hasattr(bar, "tick"):
+                bar.tick()
+            elif bar is not None:
                 bar.update()
             yield result
     finally:

@@ -430,7 +430,7 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
     sensor rate) adds the sample instants ``t0 + k T``.
     """
     t0, t1 = float(loop.t0), float(loop.t_final)
-    fail = loop.failures.breakpoints(t0, t1)
+    fail = _with_annunciations(loop, loop.failures.breakpoints(t0, t1))
     period = loop.sample_time
     if not period and loop.sensors is not None and loop.sensors.has_noise:
         period = 1.0 / float(loop.sensors.rate)
@@ -748,6 +748,7 @@ def generate(loop: ClosedLoop, *, sdot: str = "exact"):
             float(loop.sample_time),
             loop.has_actuator_dynamics,
             sdot,
+            loop.allocator,
         )
         hash(key)
     except TypeError:  # an unhashable allocation or reference: not remembered
@@ -886,8 +887,9 @@ def _work_layout(b: Build, *, ny_all: int) -> dict[str, slice]:
         "scr": ny_all if (b.sampled or b.has_act) else 1,
         "fc": 3 * m,
     }
+    sizes.update(b.work)  # the parts' own buffers (an allocator's), after those
     work, at = {}, 0
-    for name in _WORK:
+    for name in (*_WORK, *b.work):
         work[name] = slice(at, at + sizes[name])
         at += sizes[name]
     return work
@@ -939,6 +941,8 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     act_at = len(values)
     meas_at = act_at + act_table.size
     c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
+    if "c:alloc" in st.layout:  # the allocator's table of annunciated failures, per interval
+        c_all = _with_known_table(loop, st.layout["c:alloc"].start, bps, m, c_all)
     inst_at = Header.head() + fphase.size
     samp_at = inst_at + inst.size
     env_at = st.layout["c:envelope"]
@@ -959,6 +963,27 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     data = LoopData(c=c_all, i=ints, p=st.plant_p)
     layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns), "loaded": st.loaded}
     return st.text, data, g, layout
+
+
+def _with_annunciations(loop: ClosedLoop, times: tuple[float, ...]) -> tuple[float, ...]:
+    """``times`` with the instants where the allocator learns of a failure (onset +
+    detection delay) or takes a recovered actuator back: the integration restarts there (the
+    fixed allocation ignores annunciations: no restart)."""
+    if not loop.annunciations or loop.allocator is None:
+        return times
+    from adaptive_ftc.allocation.inloop import breakpoints
+
+    return breakpoints(loop.annunciations, times, float(loop.t0), float(loop.t_final))
+
+
+def _with_known_table(loop: ClosedLoop, at: int, bps, m: int, c_all: np.ndarray) -> np.ndarray:
+    """``c_all`` with the per-interval table of annunciated failures appended and its place
+    written at ``c[ALLOC]``."""
+    from adaptive_ftc.allocation.inloop import known_table
+
+    table = known_table(loop.annunciations, bps, m, loop.R)
+    c_all[at] = float(c_all.size)
+    return np.concatenate([c_all, table.ravel()])
 
 
 def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
@@ -1084,19 +1109,20 @@ def _initial_state(loop: ClosedLoop, g: Generator, where: LoopLayout) -> np.ndar
     """``y0`` before the s' filter and ``jump`` set theirs: the plant's initial state, theta0,
     the design's initial states (or ``adaptive_initial``) and the actuators' positions."""
     nx = g.nx
-    theta, design = where.states["theta"], where.states["design"]
+    theta = where.states["theta"]
+    filt = where.states["s_filter"].start  # the design's, allocator's, constraint-aware states
     y0 = np.zeros(where.n_states)
     y0[:nx] = loop.initial_state
     y0[theta] = loop.controller.theta0
-    y0[design] = g.y0_extra
+    y0[theta.stop : filt] = g.y0_extra
     if loop.adaptive_initial:
-        n_ad = design.stop - nx
+        n_ad = filt - nx
         if len(loop.adaptive_initial) != n_ad:
             raise ConfigurationError(
                 f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
                 f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
             )
-        y0[nx : design.stop] = loop.adaptive_initial
+        y0[nx:filt] = loop.adaptive_initial
     if loop.actuators is not None and loop.actuators.initial:
         at = where.states["actuator_position"].start
         y0[at : at + g.m] = loop.actuators.initial

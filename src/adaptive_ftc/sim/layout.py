@@ -118,7 +118,7 @@ class SignalTable(enum.IntEnum):
 
 #: the named blocks of ``D.c`` after the expressions' constants, in order: name -> the
 #: generated module's constant for its start. A part fills the blocks it owns; ``delay`` is
-#: present only when an actuator has an input delay.
+#: present only when an actuator has an input delay, ``alloc`` only with an allocator.
 PARAMS: Mapping[str, str] = {
     "lam": "LAM",
     "k": "K",
@@ -134,6 +134,7 @@ PARAMS: Mapping[str, str] = {
     "gains": "GAINS",
     "plant": "PLANT",
     "delay": "DELAY",
+    "alloc": "ALLOC",
 }
 
 

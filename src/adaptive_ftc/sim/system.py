@@ -103,6 +103,15 @@ class ClosedLoop:
         Failures compiled into the loop that never act (set by :meth:`without_failures`): the
         failure-free run of a scenario shares the compiled code of the failing one, so it
         costs no compilation of its own.
+    allocator
+        How the virtual control becomes actuator commands (:mod:`adaptive_ftc.allocation`):
+        ``None`` (default) is the thesis's fixed ``u = R^T u0``; a ``PseudoInverse``,
+        ``WeightedLeastSquares`` or ``AdaptiveAllocation`` distributes ``v = R R^T u0``
+        through the effectiveness matrix it believes.
+    annunciations
+        Failures a detector reports to the allocator
+        (:class:`~adaptive_ftc.allocation.inloop.Annunciation`: actuator, onset, recovery,
+        detection delay); the others are silent, known only to the plant.
     """
 
     plant: Plant
@@ -120,6 +129,8 @@ class ClosedLoop:
     sensors: Sensors | None = None
     sample_time: float = 0.0
     dormant_failures: tuple = ()
+    allocator: object = None
+    annunciations: tuple = ()
 
     def __post_init__(self) -> None:
         plant = self.plant
@@ -241,6 +252,12 @@ class ClosedLoop:
                 f"Design '{self.controller.design}' is single-output but plant '{plant.name}' "
                 f"has {p} outputs; use the 'mimo' design."
             )
+        if self.allocator is not None or self.annunciations:
+            from adaptive_ftc.allocation.inloop import check_allocator
+
+            alloc, anns = check_allocator(self.allocator, self.R, m, self.annunciations)
+            object.__setattr__(self, "allocator", alloc)
+            object.__setattr__(self, "annunciations", anns)
 
     @property
     def has_actuator_dynamics(self) -> bool:
@@ -290,6 +307,7 @@ class ClosedLoop:
             self,
             failures=FailureSchedule((), self.plant.n_actuators),
             dormant_failures=self.dormant_failures + tuple(self.failures.failures),
+            annunciations=(),
             name=f"{self.name} (failure-free)" if self.name else "failure-free",
         )
 

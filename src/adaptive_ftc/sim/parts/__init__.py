@@ -2,10 +2,10 @@
 and :mod:`.skeleton` for the hooks they fill).
 
 :func:`parts` lists them in build order: the order in which they emit code (their numbers'
-places in ``D.c`` follow it) and claim states (plant, theta, the design's states, the s'
-filter, then actuators, held values and delay states) and the order of their helpers
-(``tables``) in the module. A new part is a new module here and
-one entry in :func:`parts`.
+places in ``D.c`` follow it) and claim states (plant, theta, the design's states, the
+allocator's, the constraint-aware option's, the s' filter, then actuators, held values and
+delay states), and the order of their helpers (``tables``) in the module. A new part is a
+new module here and one entry in :func:`parts`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from adaptive_ftc.sim.parts.actuator import Actuator
 from adaptive_ftc.sim.parts.allocation import Allocation
 from adaptive_ftc.sim.parts.approximator import Approximator
 from adaptive_ftc.sim.parts.base import Build, Part, StateAllocator
+from adaptive_ftc.sim.parts.constraint_aware import ConstraintAware
 from adaptive_ftc.sim.parts.delay import Delay
 from adaptive_ftc.sim.parts.design import Design
 from adaptive_ftc.sim.parts.failures import Failures
@@ -33,8 +34,9 @@ def parts() -> tuple[Part, ...]:
         Plant(),
         Approximator(),
         Design(),
-        SDot(),
         Allocation(),
+        ConstraintAware(),
+        SDot(),
         Failures(),
         Actuator(),
         Sensor(),

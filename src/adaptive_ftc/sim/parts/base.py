@@ -71,6 +71,8 @@ class Build:
     #: the regressors' parameter blocks (phi offset, state index, size), set by the
     #: approximator, used by the design law
     blocks: list = field(default_factory=list)
+    #: work buffers of parts beyond ``layout.WORK`` (name -> size), after those
+    work: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         loop = self.loop

@@ -1,9 +1,9 @@
 """Design-law part: the design's control law and compensator (after ``u0``), its adaptive
-laws, its own states after the regressors' (kappa, tau, rho, filters...), the constraint-aware
-option's parts, its robust-term settings and its gains (a NamedTuple rebuilt from ``D.c``).
+laws, its own states after the regressors' (kappa, tau, rho...), its robust-term settings and
+its gains (a NamedTuple rebuilt from ``D.c``).
 
-The design itself emits the lines (``emit_control`` / ``emit_adapt`` /
-``emit_constraint_aware`` of :class:`~adaptive_ftc.controllers.base.AdaptiveController`)."""
+The design itself emits the lines (``emit_control`` / ``emit_adapt`` of
+:class:`~adaptive_ftc.controllers.base.AdaptiveController`)."""
 
 from __future__ import annotations
 
@@ -21,25 +21,18 @@ class Design(Part):
     def build(self, b: Build) -> None:
         g, ctrl = b.g, b.ctrl
         extra_at = b.states.size
-        control = ctrl.emit_control(g, b.blocks, extra_at)
-        adapt = ctrl.emit_adapt(g, b.blocks, extra_at)
-        self.measure: list[str] = []
-        if ctrl.constraint_aware is not None:  # its states after the design's own
-            ca_control, ca_pre, ca_post, self.measure = ctrl.emit_constraint_aware(
-                g, b.blocks, extra_at + len(g.y0_extra)
-            )
-            control = control + ca_control
-            adapt = ca_pre + adapt + ca_post
+        n0 = len(g.y0_extra)
         # ``gains(D).x`` at each use: building them once per call (``gs = gains(D)``) ran
         # 1.5 % slower (the NamedTuple then lives across the whole right-hand side)
-        self.control = [ln.replace("D.gains.", "gains(D).") for ln in control]
-        self.adapt = [ln.replace("D.gains.", "gains(D).") for ln in adapt]
-        b.states.claim("design", len(g.y0_extra), controller=True)
+        self.control = gains_per_use(ctrl.emit_control(g, b.blocks, extra_at))
+        self.adapt = gains_per_use(ctrl.emit_adapt(g, b.blocks, extra_at))
+        b.states.claim("design", len(g.y0_extra) - n0, controller=True)
 
     def rhs(self, b: Build) -> dict[str, list[str]]:
-        stop = b.states["design"].stop - b.g.free_running
+        # the adaptive states stop, but for the free-running filters of the constraint-aware
+        # option (the last ones before the s' filter)
+        stop = b.states["s_filter"].start - b.g.free_running
         return {
-            "measure_override": self.measure,
             "control": self.control,
             "freeze": [
                 "    if c[ADAPT] == 0.0:  # adaptation frozen",
@@ -78,6 +71,11 @@ class Design(Part):
             "adapt": (1.0 if b.loop.adapt else 0.0,),
             "gains": self.gains,
         }
+
+
+def gains_per_use(lines: list[str]) -> list[str]:
+    """A design's lines with its gains read from ``D.c`` where they are used."""
+    return [ln.replace("D.gains.", "gains(D).") for ln in lines]
 
 
 def per_output(value, p: int, name: str) -> tuple[float, ...]:

@@ -36,7 +36,10 @@ RHS_HOOKS: tuple[str, ...] = (
     "freeze",  # while adaptation is frozen: ... (design law)
     "frozen_hold",  # ... the held derivatives (sampler)
     "freeze_end",  # ... return (design law)
+    "allocator_adapt",  # the adaptive allocator's estimate (allocation)
+    "adapt_pre",  # the constraint-aware laws before the design's (constraint-aware)
     "adapt",  # the adaptive laws (design law)
+    "adapt_post",  # ... and after them (constraint-aware)
     "after_adapt",  # between samples: the held derivatives (sampler)
 )
 
