@@ -101,11 +101,17 @@ def test_template_text_is_what_follows_the_marker_with_one_core_per_method():
     assert adaptive.specialise(pasted) == text
     assert "def integrate_dopri5(" in text and "def bind(" not in text
     assert "def _solve(" not in text
-    names = {name: _names_used(text, name) for name, *_ in adaptive._CORES}
-    # each entry point's core keeps only its own method's steps once Python drops dead blocks
-    assert "_A21" in names["integrate_dopri5"] and "_lu_solve_t" not in names["integrate_dopri5"]
-    assert "_lu_solve_t" in names["integrate_rodasp"] and "_A21" not in names["integrate_rodasp"]
-    assert {"_A21", "_lu_solve_t"} <= names["integrate_auto"]
+    steps = {name: f"_steps_{name.removeprefix('integrate_')}" for name, *_ in adaptive._CORES}
+    for name, loop in steps.items():  # each entry point drives its own copy of the step loop
+        assert loop in _names_used(text, name)
+    names = {name: _names_used(text, loop) for name, loop in steps.items()}
+    # each copy keeps only its own method's steps once Python drops dead blocks
+    dopri5, rosenbrock = {"_dopri5_step", "_dopri5_control"}, {"_rosenbrock_step", "_jacobian"}
+    assert dopri5 <= names["integrate_dopri5"] and not rosenbrock & names["integrate_dopri5"]
+    assert rosenbrock <= names["integrate_rodasp"] and not dopri5 & names["integrate_rodasp"]
+    assert rosenbrock <= names["integrate_rodas5p"] and not dopri5 & names["integrate_rodas5p"]
+    assert dopri5 | rosenbrock | {"_stiffness_test"} <= names["integrate_auto"]
+    assert "_stiffness_test" not in names["integrate_dopri5"]
     # the cores are the entry points: no wrapper makes numba link and optimise them twice
     assert not re.search(r"\b_solve_(dopri5|rodasp|rodas5p|auto)\b", text)
 

@@ -183,7 +183,7 @@ def remove_stale_staging(out: str | Path) -> list[Path]:
     """Remove the staging folders in ``out`` left by killed runs on this machine (their owning
     process, recorded in the folder name, is gone). Folders of live processes, of other
     machines (a shared file system) and of unknown form are kept. Returns the removed paths."""
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(out))
     except OSError:

@@ -16,6 +16,10 @@ longer on a busy machine.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from adaptive_ftc.sim.system import ClosedLoop
 
 #: CPU seconds to compile one new loop structure (its ``rhs``, gain and signals modules).
 SECONDS_PER_STRUCTURE = 2.5
@@ -23,7 +27,7 @@ SECONDS_PER_STRUCTURE = 2.5
 SECONDS_SHARED = 8.0
 
 
-def compile_plan(loops: Iterable[tuple[object, str]]) -> tuple[int, float]:
+def compile_plan(loops: Iterable[tuple[ClosedLoop, str]]) -> tuple[int, float]:
     """``(n, seconds)``: the distinct structures among ``(loop, sdot)`` pairs that are not
     compiled yet, and the CPU seconds their compilation is expected to take."""
     from adaptive_ftc.sim import codegen

@@ -1036,7 +1036,10 @@ def _activity(c, r, baselines):
     return _result(c, ok, worst[1], worst[2], detail, worst[3])
 
 
-_EVALUATORS: dict[str, Callable[[dict[str, Any], SimResult, SimResult | None], ClaimResult]] = {
+#: kind -> evaluator(params, run, baseline runs by name: evaluate_claim's ``baselines``)
+_EVALUATORS: dict[
+    str, Callable[[dict[str, Any], SimResult, dict[str, SimResult | None]], ClaimResult]
+] = {
     "tracking": _tracking,
     "rate_tracking": _rate_tracking,
     "recovery": _recovery,

@@ -29,6 +29,7 @@ import math
 import signal
 import sys
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -106,9 +107,37 @@ class _HelpFormatter(argparse.HelpFormatter):
 
 def _solver_methods() -> tuple[str, ...]:
     """Every method name :class:`~adaptive_ftc.SolverOptions` accepts."""
-    from adaptive_ftc.registry import SOLVERS
+    from adaptive_ftc.sim import solvers
 
-    return SOLVERS
+    return solvers.names()
+
+
+class _Deferred(Sequence):
+    """A sequence of choices read on first use (``load``): building the parser, ``aftc --help``
+    and an error in another argument then import nothing heavy (the registry imports the
+    engine and numpy); argparse reads the choices only to check a value or to print the
+    ``%(choices)s`` of a help text."""
+
+    def __init__(self, load: Callable[[], Sequence[str]]) -> None:
+        self._load = load
+        self._items: tuple[str, ...] | None = None
+
+    def _get(self) -> tuple[str, ...]:
+        if self._items is None:
+            self._items = tuple(self._load())
+        return self._items
+
+    def __getitem__(self, index):
+        return self._get()[index]
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __contains__(self, value) -> bool:
+        return value in self._get()
+
+    def __iter__(self):
+        return iter(self._get())
 
 
 def _add_figure_options(parser: argparse.ArgumentParser, default: str) -> None:
@@ -174,9 +203,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default="out", help="output folder (default: ./out)")
     r.add_argument(
         "--method",
-        choices=_solver_methods(),
+        choices=_Deferred(_solver_methods),
         metavar="METHOD",
-        help="override the solver: " + ", ".join(_solver_methods()) + " (docs/solvers.md)",
+        help="override the solver: %(choices)s (docs/solvers.md)",
     )
     r.add_argument(
         "--dt",
@@ -669,7 +698,7 @@ def _thesis_law_claims(sc, results: dict) -> list:
     )
 
 
-def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: list = ()) -> None:
+def _write_claims_csv(path: Path, sc, verdicts: list, thesis_verdicts: Sequence = ()) -> None:
     import csv
 
     from adaptive_ftc.reproduce import _claim_row  # one row format with reproduce's claims.csv

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import ast
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,7 +51,7 @@ FUNCTIONS: dict[str, int] = {
 _INTERNAL = {"_lt": 2, "_inside": 3}
 _CONSTANTS = {"pi": math.pi, "e": math.e}
 
-_NUMPY = {
+_NUMPY: dict[str, Callable[..., Any]] = {
     "sin": np.sin,
     "cos": np.cos,
     "tan": np.tan,
@@ -544,7 +544,8 @@ class Expression:
     text: str
     variables: tuple[str, ...]
     context: str = field(default="", compare=False)
-    node: Node = field(default=None, compare=False, repr=False)  # type: ignore[assignment]
+    # None until __post_init__ parses the text
+    node: Node = field(default=None, compare=False, repr=False)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
         if self.node is None:

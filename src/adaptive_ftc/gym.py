@@ -330,9 +330,11 @@ class ScenarioEnv(gymnasium.Env):
                 f"The episode has ended at t = {st.time:g} s; call reset() to start another."
             )
         a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.size != self.action_space.shape[0] or not np.all(np.isfinite(a)):
+        shape = self.action_space.shape
+        assert shape is not None  # a Box's shape is always set
+        if a.size != shape[0] or not np.all(np.isfinite(a)):
             raise ConfigurationError(
-                f"The action must be {self.action_space.shape[0]} finite numbers (one per "
+                f"The action must be {shape[0]} finite numbers (one per "
                 f"actuator: {', '.join(self.action_names)}); got {action!r}."
             )
         sample = st.sample()
@@ -398,6 +400,7 @@ class ScenarioEnv(gymnasium.Env):
         from adaptive_ftc.campaigns.sampling import draw_member
 
         spec = self.campaign
+        assert spec is not None  # called by reset() only for an environment over a campaign
         if member is not None:
             if isinstance(member, bool) or not isinstance(member, (int, np.integer)):
                 raise ConfigurationError(

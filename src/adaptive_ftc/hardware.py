@@ -66,7 +66,7 @@ sensor gives.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -329,6 +329,7 @@ def _frozen(v):
 
 def _resolve(value, aliases: Mapping[str, int], n: int, name: str, *, nonnegative: bool):
     out = np.zeros(n)
+    items: Iterable[tuple[int | str, float]]  # (state index or name, value)
     if isinstance(value, dict):
         items = value.items()
     else:

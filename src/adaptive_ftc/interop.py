@@ -159,7 +159,7 @@ def to_control(
     )
 
     def phase_of(t: float) -> int:
-        return int(min(max(np.searchsorted(bps, t, side="right") - 1, 0), last))
+        return int(min(max(int(np.searchsorted(bps, t, side="right")) - 1, 0), last))
 
     def updfcn(t, x, u, params):
         dy = np.zeros(ny)

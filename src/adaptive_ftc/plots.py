@@ -55,6 +55,7 @@ from adaptive_ftc._units import actuator_unit, output_unit, rate_unit, state_uni
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.lines import Line2D
+    from matplotlib.typing import RcKeyType
 
     from adaptive_ftc.sim.result import SimResult
 
@@ -120,7 +121,7 @@ _ZOOM_FRACTION = 0.01  # events shorter than this fraction of the time axis get 
 #: beyond-thesis figures, the robustness study figure and the campaign figures are all drawn and
 #: saved inside :func:`figure_style`, on figures from :func:`new_figure` (constrained layout:
 #: legends outside the panels, wrapped titles and tick labels all fit the canvas).
-STYLE: dict[str, Any] = {
+STYLE: dict[RcKeyType, Any] = {
     "font.size": 9.0,
     "axes.titlesize": 10.0,
     "axes.labelsize": 9.5,
@@ -264,7 +265,8 @@ def _legend(ax: Axes) -> None:
 
 def _finish(fig: Figure, axes: Sequence[Axes], title: str | None) -> Figure:
     for ax in axes:
-        if ax.get_subplotspec() is not None and ax.get_subplotspec().is_last_row():
+        spec = ax.get_subplotspec()
+        if spec is not None and spec.is_last_row():
             ax.set_xlabel("time (s)")
     if title:
         fig.suptitle(wrap_title(title, fig.get_figwidth()))
@@ -688,8 +690,12 @@ def _zoom_panel(
     _legend(ax)
     step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     how = "re-simulated, a sample" if dense else "recorded samples,"
-    ax.get_legend().set_title(
-        f"zoom on {a:.3g} to {b:.3g} s\n({how} every {step:.2g} s)", prop={"size": 8.5}
+    legend = ax.get_legend()
+    assert legend is not None  # the panel's three lines are labelled
+    # matplotlib takes a dict for prop (FontProperties._from_any); its stubs do not say so
+    legend.set_title(
+        f"zoom on {a:.3g} to {b:.3g} s\n({how} every {step:.2g} s)",
+        prop={"size": 8.5},  # type: ignore[arg-type]
     )
 
 
@@ -983,12 +989,15 @@ def save_figure(
     first = None
     for fmt in fmts:
         target = path.with_suffix(f".{fmt}")
-        extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS}} if fmt == "png" else {}
+        extra: dict[str, Any] = (
+            {"pil_kwargs": {"compress_level": PNG_COMPRESS}} if fmt == "png" else {}
+        )
         with figure_style():
             fp.figure.savefig(
                 target, dpi=dpi or DPI, format=fmt, metadata=_metadata(fmt, title), **extra
             )
         first = first or target
+    assert first is not None  # check_formats gives at least one format
     return first
 
 

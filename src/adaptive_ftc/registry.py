@@ -42,6 +42,7 @@ from adaptive_ftc.plants import PLANTS as _PLANTS
 from adaptive_ftc.plants import Plant
 from adaptive_ftc.plants.custom import check_plant as _check_equations
 from adaptive_ftc.sim import engine as _engine
+from adaptive_ftc.sim import solvers as _solvers
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
@@ -63,8 +64,9 @@ DESIGNS: Mapping[str, type[AdaptiveController]] = MappingProxyType(_DESIGNS)
 FAILURE_MODELS: Mapping[str, type[Failure]] = MappingProxyType(_FAILURE_MODELS)
 #: Baselines by name, in report order (:class:`~adaptive_ftc.baselines.Baseline`).
 BASELINES: Mapping[str, _baselines.Baseline] = MappingProxyType(_baselines.BASELINE_TABLE)
-#: Integration methods by the name ``SolverOptions.method`` takes.
-SOLVERS: tuple[str, ...] = tuple(_engine._METHODS)
+#: Integration methods by the name ``SolverOptions.method`` takes (the registry of
+#: :mod:`adaptive_ftc.sim.solvers`, which has each method's kind and summary).
+SOLVERS: tuple[str, ...] = tuple(_solvers.names())
 
 
 def _raise(what: str, problems: list[str]) -> None:

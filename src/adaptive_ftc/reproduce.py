@@ -183,11 +183,12 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     from adaptive_ftc.sim.compose import generate
 
     by_name = {sc.name: sc for sc in scenarios}
-    memo: dict[tuple[str, bool], str] = {}
+    memo: dict[tuple[str, bool | None], str] = {}
 
     def key(name: str, variant: str) -> tuple[str, str]:
         sc = by_name[name]
-        exact = variant in ("nominal-inverse", "oracle")  # one loop for both (oracle: a number)
+        # one loop for both (oracle: a number); None: a loop of its own
+        exact: bool | None = variant in ("nominal-inverse", "oracle")
         solver = baseline_solver(variant, sc.solver) if variant in _DESIGN_BASELINES else sc.solver
         if variant == "thesis_law":
             exact = None  # its own loop (the option removed)
@@ -208,7 +209,9 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     plants = [by_name[name].loop.plant.name for name, _ in tasks]
     # the shared integrators' compile cost, largest first (measured on a cold run: auto 4.7 s,
     # Rodas5P 3.5 s, DOPRI5 1.2 s and its helpers, RK4 0.8 s)
-    cost = {"auto": 4, "rodas5p": 3, "rodasp": 3, "dopri5": 2, "rk4": 1}
+    from adaptive_ftc.sim.solvers import METHODS
+
+    cost = {m.name: m.compile_cost for m in METHODS}
     first_of_method: dict[str, int] = {}
     for i, (_, method) in enumerate(keys):
         first_of_method.setdefault(method, i)
@@ -235,7 +238,7 @@ def _compile_order(scenarios: Sequence[Scenario], tasks: list[tuple[str, str]]):
     ]
     # second runs in the order their loops were first run: the first of them is not the loop
     # the other worker may still be compiling
-    where = {}
+    where: dict[str, int] = {}
     for n, i in enumerate(openers + round_robin):
         where.setdefault(keys[i][0], n)
     later.sort(key=lambda item: (item[0], where.get(keys[item[1]][0], 0), item[1]))

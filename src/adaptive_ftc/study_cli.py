@@ -4,10 +4,35 @@ studies, so the studies cannot import the figures)."""
 
 from __future__ import annotations
 
-import pandas as pd
+from collections.abc import Callable
 
-from adaptive_ftc import studies
 from adaptive_ftc.errors import ConfigurationError
+
+
+class _Help(str):
+    """A help text whose ``{names}`` are filled in when argparse prints it (``aftc study
+    --help``), not when the parser is built: the default scenarios live in
+    :mod:`adaptive_ftc.studies`, which imports pandas and the engine, and ``aftc --help`` or
+    any other command should not pay for that."""
+
+    _fill: Callable[[], dict[str, str]]
+
+    def __new__(cls, text: str, fill: Callable[[], dict[str, str]]):
+        self = super().__new__(cls, text)
+        self._fill = fill
+        return self
+
+    def __mod__(self, params):  # argparse expands a help text with ``help % params``
+        return str.__mod__(str(self).format(**self._fill()), params)
+
+
+def _defaults() -> dict[str, str]:
+    from adaptive_ftc import studies
+
+    return {
+        "delay": ", ".join(studies.DELAY_SCENARIOS),
+        "study": ", ".join(studies.STUDY_SCENARIOS),
+    }
 
 
 def add_parser(subparsers):
@@ -27,9 +52,7 @@ def add_parser(subparsers):
         "scenarios",
         nargs="*",
         metavar="SCENARIO",
-        help="scenarios (as --scenario; delay-margin default: "
-        + ", ".join(studies.DELAY_SCENARIOS)
-        + ")",
+        help=_Help("scenarios (as --scenario; delay-margin default: {delay})", _defaults),
     )
     st.add_argument("--out", default="study", help="output folder (default: ./study)")
     st.add_argument(
@@ -41,7 +64,7 @@ def add_parser(subparsers):
     st.add_argument(
         "--scenario",
         action="append",
-        help="scenario to sweep (repeatable; default: " + ", ".join(studies.STUDY_SCENARIOS) + ")",
+        help=_Help("scenario to sweep (repeatable; default: {study})", _defaults),
     )
     st.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
     st.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -52,6 +75,9 @@ def cli_main(args) -> int:
     """Run ``aftc study robustness``; print the break points; return the exit status."""
     from pathlib import Path
 
+    import pandas as pd
+
+    from adaptive_ftc import studies
     from adaptive_ftc.study_plots import save_delay_margin_figure, save_robustness_figure
 
     if args.jobs is not None and args.jobs < 1:

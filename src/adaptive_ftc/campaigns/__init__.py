@@ -6,19 +6,46 @@
 See ``docs/campaigns.md`` for the spec format and the results folder.
 """
 
-from adaptive_ftc.campaigns.replay import replay_member
-from adaptive_ftc.campaigns.runner import CampaignRun, outcome, run_campaign, run_chunk
-from adaptive_ftc.campaigns.sampling import Member, draw_member, severity
-from adaptive_ftc.campaigns.spec import (
-    DESIGN_VARIANTS,
-    CampaignError,
-    CampaignSpec,
-    Dist,
-    list_campaigns,
-    load_campaign,
-    register_design,
-)
-from adaptive_ftc.campaigns.store import read_results
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from adaptive_ftc.campaigns.replay import replay_member
+    from adaptive_ftc.campaigns.runner import CampaignRun, outcome, run_campaign, run_chunk
+    from adaptive_ftc.campaigns.sampling import Member, draw_member, severity
+    from adaptive_ftc.campaigns.spec import (
+        DESIGN_VARIANTS,
+        CampaignError,
+        CampaignSpec,
+        Dist,
+        list_campaigns,
+        load_campaign,
+        register_design,
+    )
+    from adaptive_ftc.campaigns.store import read_results
+
+#: ``{public name: module that defines it}``: imported on first use (PEP 562), so that the
+#: ``aftc`` command line can build its parser without importing numpy, pandas or the compiler
+_LAZY: dict[str, str] = {
+    "replay_member": "adaptive_ftc.campaigns.replay",
+    "CampaignRun": "adaptive_ftc.campaigns.runner",
+    "outcome": "adaptive_ftc.campaigns.runner",
+    "run_campaign": "adaptive_ftc.campaigns.runner",
+    "run_chunk": "adaptive_ftc.campaigns.runner",
+    "Member": "adaptive_ftc.campaigns.sampling",
+    "draw_member": "adaptive_ftc.campaigns.sampling",
+    "severity": "adaptive_ftc.campaigns.sampling",
+    "DESIGN_VARIANTS": "adaptive_ftc.campaigns.spec",
+    "CampaignError": "adaptive_ftc.campaigns.spec",
+    "CampaignSpec": "adaptive_ftc.campaigns.spec",
+    "Dist": "adaptive_ftc.campaigns.spec",
+    "list_campaigns": "adaptive_ftc.campaigns.spec",
+    "load_campaign": "adaptive_ftc.campaigns.spec",
+    "register_design": "adaptive_ftc.campaigns.spec",
+    "read_results": "adaptive_ftc.campaigns.store",
+}
 
 __all__ = [
     "DESIGN_VARIANTS",
@@ -38,3 +65,16 @@ __all__ = [
     "run_chunk",
     "severity",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -137,7 +137,7 @@ def _with_noise(sensors: Sensors | None, noise: dict[str, float], seed: int) -> 
     """The base sensors with the drawn noise of some states (the others keep theirs)."""
     base = sensors or Sensors()
     old = base.noise
-    if not isinstance(old, dict):  # one number per state: by alias, so drawn names override
+    if isinstance(old, tuple):  # one number per state: by alias, so drawn names override
         old = {f"x{i + 1}": float(v) for i, v in enumerate(old)}
     return dataclasses.replace(base, noise={**old, **noise}, seed=seed)
 

@@ -82,7 +82,8 @@ def replay_member(
     stored = table[table["index"] == index]
     out = Path(out)
     (out / "data").mkdir(parents=True, exist_ok=True)
-    results, rows, matches = {}, {}, {}
+    results, rows = {}, {}
+    matches: dict[str, bool | None] = {}  # None: the stored chunk has not run
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DivergenceWarning)
         for d in designs:

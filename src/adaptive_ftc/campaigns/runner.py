@@ -9,9 +9,10 @@ import math
 import signal
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from adaptive_ftc.campaigns.spec import CampaignSpec, load_campaign
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.result import SimResult
+
+if TYPE_CHECKING:
+    from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["CampaignRun", "outcome", "run_campaign", "run_chunk"]
 
@@ -92,9 +96,12 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
         row[key] = bool(value) if key == "activity_record_ok" else float(value)
     row["peak_command_final"] = float(m.get("peak_command_max", math.nan))
     reason = result.reason  # where and what stopped the run, never parsed from the message
-    stopped = reason is not None and result.status != "completed"
-    row["divergence_time"] = float(reason.time) if stopped and reason.time is not None else math.nan
-    row["divergence_signal"] = (reason.signal or reason.expression) if stopped else ""
+    if reason is not None and result.status != "completed":
+        row["divergence_time"] = float(reason.time) if reason.time is not None else math.nan
+        row["divergence_signal"] = reason.signal or reason.expression
+    else:
+        row["divergence_time"] = math.nan
+        row["divergence_signal"] = ""
     rec = recovery_times(result, spec.recovery_tolerance)
     row["worst_recovery_time"] = max(rec) if rec else 0.0
     rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []
@@ -120,7 +127,8 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
     lo = chunk * spec.chunk_size
     hi = min(spec.runs, lo + spec.chunk_size)
     members: list[Member] = [draw_member(spec, i) for i in range(lo, hi)]
-    loops, slots = [], []
+    loops: list[ClosedLoop] = []
+    slots: list[int | None] = []  # each run's place in loops (None: an invalid member)
     for mem in members:
         for d in spec.designs:
             if mem.loop is not None:
@@ -199,7 +207,7 @@ def run_campaign(
         spec.activity.thresholds(spec)
     out = store.prepare_folder(spec, out)
     done = store.finished_chunks(spec, out)
-    pending = (c for c in range(spec.n_chunks) if c not in done)  # lazy: n_chunks may be large
+    pending: Iterator[int] = (c for c in range(spec.n_chunks) if c not in done)  # lazy: many
     if max_chunks is not None:
         pending = itertools.islice(pending, max(0, int(max_chunks)))
     n_runs = spec.runs * len(spec.designs)

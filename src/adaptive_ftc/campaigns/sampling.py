@@ -121,8 +121,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             drawn.append(d)
         x0 = list(base.initial_state)
         cols: dict[str, Any] = {}
-        for i, d in spec.initial_state:
-            x0[i] = float(d.draw(rng))
+        for i, dist in spec.initial_state:
+            x0[i] = float(dist.draw(rng))
             cols[f"x0_{plant.state_names[i]}"] = x0[i]
         reference = base.reference
         if spec.reference_amplitude is not None:
@@ -130,8 +130,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             cols["reference_amplitude"] = amp
             reference = tuple(f"({amp!r})*({r})" for r in reference)
         gains = {}
-        for key, d in spec.gains:
-            gains[key] = d.draw(rng)
+        for key, dist in spec.gains:
+            gains[key] = dist.draw(rng)
             cols[f"gain_{key}"] = float(gains[key])
         ctrl = dataclasses.replace(base.controller, **gains) if gains else base.controller
         kept = tuple(base.failures.failures) if spec.keep_base else ()
@@ -169,15 +169,15 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         "severity": float(max(sevs)) if sevs and not all(map(math.isnan, sevs)) else math.nan,
     }
     for j in range(spec.max_failures):
-        f = failures[j] if j < len(failures) else None
-        head[f"f{j + 1}_actuator"] = f.actuator if f else 0
-        head[f"f{j + 1}_model"] = type(f).model if f else ""
-        head[f"f{j + 1}_onset"] = float(f.onset) if f else math.nan
-        rec = f.recovery if f is not None else None
+        fj = failures[j] if j < len(failures) else None
+        head[f"f{j + 1}_actuator"] = fj.actuator if fj else 0
+        head[f"f{j + 1}_model"] = type(fj).model if fj else ""
+        head[f"f{j + 1}_onset"] = float(fj.onset) if fj else math.nan
+        rec = fj.recovery if fj is not None else None
         head[f"f{j + 1}_recovery"] = float(rec) if rec is not None else math.nan
-        head[f"f{j + 1}_ramp"] = float(f.ramp) if f else math.nan
-        head[f"f{j + 1}_severity"] = sevs[j] if f else math.nan
-        head[f"f{j + 1}_params"] = json.dumps(drawn[j], sort_keys=True) if f else "{}"
+        head[f"f{j + 1}_ramp"] = float(fj.ramp) if fj else math.nan
+        head[f"f{j + 1}_severity"] = sevs[j] if fj else math.nan
+        head[f"f{j + 1}_params"] = json.dumps(drawn[j], sort_keys=True) if fj else "{}"
     return Member(
         index=int(index),
         failures=tuple(failures),

@@ -617,7 +617,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
     # success criterion
     st = data.get("success", {})
     _keys(st, _SUCCESS_KEYS, "success", problems)
-    succ = {}
+    succ: dict[str, float] = {}
     for key, default in (
         ("rms_error_final", None),
         ("final_window", 0.1 * (t_final - loop.t0)),

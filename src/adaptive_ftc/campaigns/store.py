@@ -374,7 +374,7 @@ def finished_chunks(spec: CampaignSpec, out: Path) -> set[int]:
     """Chunks whose part file is present (part files are only ever complete)."""
     # one listing of parts/, not one stat per chunk (a campaign may have 1e5 chunks)
     parts = Path(out) / "parts"
-    done = set()
+    done: set[int] = set()
     try:
         entries = list(os.scandir(parts))
     except FileNotFoundError:
@@ -397,15 +397,32 @@ def write_part(table, out: Path, chunk: int) -> Path:
     return path
 
 
+#: Rows per row group of ``results.parquet``. The parts are small (one chunk each); copied one
+#: row group per part, a 100,000-member table had 2,000 row groups, and reading it (the summary)
+#: cost about 4 KiB per member in per-group overhead, ten times the rows' own size. Parts are
+#: gathered into groups of this many rows instead (a bounded buffer: ~30 MB of rows).
+RESULTS_ROW_GROUP = 65_536
+
+
 def write_results(spec: CampaignSpec, out: Path) -> Path:
-    """Concatenate the part files into ``results.parquet`` (streamed, one part at a time)."""
-    _, pq = _pa()
+    """Concatenate the part files into ``results.parquet``: streamed, a few parts at a time,
+    into row groups of :data:`RESULTS_ROW_GROUP` rows."""
+    pa, pq = _pa()
     path = Path(out) / "results.parquet"
+    sch = schema(spec)
 
     def write(tmp: str) -> None:
-        with pq.ParquetWriter(tmp, schema(spec)) as writer:
+        with pq.ParquetWriter(tmp, sch) as writer:
+            pending: list[Any] = []
+            rows = 0
             for c in range(spec.n_chunks):
-                writer.write_table(pq.read_table(part_path(out, c), schema=schema(spec)))
+                table = pq.read_table(part_path(out, c), schema=sch)
+                pending.append(table)
+                rows += table.num_rows
+                if rows >= RESULTS_ROW_GROUP or c == spec.n_chunks - 1:
+                    group = pa.concat_tables(pending).combine_chunks()
+                    writer.write_table(group, row_group_size=max(1, group.num_rows))
+                    pending, rows = [], 0
 
     _atomic_write(path, write)
     return path

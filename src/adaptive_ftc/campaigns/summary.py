@@ -471,17 +471,17 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
     width = 100.0 * (SEVERITY_BINS[1] - SEVERITY_BINS[0])
     for k, d in enumerate(designs):
         off = (k - (len(designs) - 1) / 2) * min(3.0, 0.5 * width / max(1, len(designs)))
-        xs, rates, lo, hi = [], [], [], []
+        xs, rates, below, above = [], [], [], []
         for b in range(len(centers)):
             sel = (df["design"] == d) & (bins == b)
             r = _rate_record(ok[sel])  # an empty bin is NaN: the line breaks there
             xs.append(centers[b] + off)
             rates.append(100 * r["rate"])
-            lo.append(100 * (r["rate"] - r["ci_low"]))
-            hi.append(100 * (r["ci_high"] - r["rate"]))
+            below.append(100 * (r["rate"] - r["ci_low"]))
+            above.append(100 * (r["ci_high"] - r["rate"]))
         if np.isfinite(rates).any():
             ax.errorbar(
-                xs, rates, yerr=[lo, hi], fmt="o-", capsize=3, color=colours[d], label=d, ms=4
+                xs, rates, yerr=[below, above], fmt="o-", capsize=3, color=colours[d], label=d, ms=4
             )
     ax.set_xticks(
         centers,
@@ -522,7 +522,7 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
         ax.set_xlim(lo - 0.02 * (div - lo), div + 0.06 * (div - lo))
     _log_ticks(axes[-1], lo, hi, div)
     axes[-1].set_xlabel(f"final-window RMS tracking error ({unit}, log scale)")
-    handles, labels = {}, []
+    handles: dict[str, Any] = {}  # label -> its first handle
     for ax in axes:
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab, h)
@@ -531,7 +531,8 @@ def _draw(df, threshold: float | None, unit: str, focus: str | None) -> dict[str
     figs["error_histogram"] = fig
 
     # 4. worst runs of the design in focus
-    focus = focus if focus in designs else designs[0]
+    if focus is None or focus not in designs:
+        focus = designs[0]
     worst = _worst(df, focus, 10)
     fig = new_figure(7.0, 1.1 + 0.27 * max(3, len(worst)))
     ax = fig.subplots()

@@ -36,7 +36,7 @@ def as_tuple(value, n: int, name: str, owner: str) -> tuple[float, ...]:
     return out
 
 
-def _positive(owner: str, **values: float) -> None:
+def _positive(owner: str, **values: float | tuple[float, ...]) -> None:
     for key, v in values.items():
         vals = v if isinstance(v, tuple) else (v,)
         for x in vals:

@@ -432,7 +432,7 @@ class ConstraintAware:
         sensors=None,
         sample_time: float = 0.0,
         plant=None,
-        lam: float = 1.0,
+        lam: float | tuple[float, ...] = 1.0,
         **overrides,
     ) -> ConstraintAware:
         """The model that believes the declared hardware: the largest lag (or ``1/omega`` of

@@ -2,16 +2,33 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, NamedTuple
 
+import numpy as np
+
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
-from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.base import (
+    AdaptiveController,
+    _nonnegative,
+    _positive,
+    as_tuple,
+)
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["MimoDirectAdaptive"]
+
+
+#: the normalised loop gain of a digital law per sample: ``g T <= C_SAMPLE_NORMALISED``. The
+#: sampled law sees ``s`` one sample late (``theta`` by forward Euler, ``s'`` by the sampled
+#: dirty derivative), so its proportional loop is ``s[k+1] = s[k] - g T s[k-1]``, with poles
+#: of modulus ``sqrt(g T)``: 0.71 at 1/2 (the shared rule's ``0.75/T`` gives 0.87; measured,
+#: the manipulator at 50 Hz loses the arm after the 12 s failure with it, and tracks to
+#: 2.3e-2 rad with 1/2).
+C_SAMPLE_NORMALISED = 0.5
 
 
 class MimoGains(NamedTuple):
@@ -36,10 +53,22 @@ class MimoDirectAdaptive(AdaptiveController):
     regressor: FuzzyBasis | LinearRegressor | tuple
     eta: float = 0.001
     sigma: float = 0.01
+    #: constraint-aware only, filled by :meth:`bound` from the loop (not a setting): each
+    #: output's loop gain ``b_i eta |Pi_i|^2`` (:meth:`measured_loop_rate`); not compared, so
+    #: ``replace(bound_design, constraint_aware=None)`` equals the thesis design
+    output_gains: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
         super().__post_init__()
         _positive(type(self).__name__, eta=self.eta)
+        if not isinstance(self.output_gains, tuple) or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0
+            for v in self.output_gains
+        ):
+            raise ConfigurationError(
+                "`output_gains` of MimoDirectAdaptive is filled by bound(loop) (a tuple of "
+                f"loop gains >= 0, one per output); leave it out. Got {self.output_gains!r}."
+            )
         _nonnegative(type(self).__name__, sigma=self.sigma)
         regs = self.regressor if isinstance(self.regressor, tuple) else (self.regressor,)
         if not regs or not all(isinstance(r, (FuzzyBasis, LinearRegressor)) for r in regs):
@@ -69,12 +98,160 @@ class MimoDirectAdaptive(AdaptiveController):
         return float(self.eta)
 
     def gains(self) -> MimoGains:
+        ca = self.constraint_aware
+        if ca is not None and not ca.is_ideal:
+            # constraint-aware: the normalised law bounds the loop gain at every state
+            # (:meth:`normalization`), so eta keeps the thesis's value
+            return MimoGains(float(self.eta), float(self.sigma))
         return MimoGains(float(self.eta) * self.adaptation_scale, float(self.sigma))
+
+    def _output_gains(self, loop, zero_error: bool) -> np.ndarray:
+        """``b_i eta |Pi_i|^2`` per output at the loop's initial state, or
+        (``zero_error``) with the outputs and their rates on the reference at ``t0``."""
+        from adaptive_ftc.sim.compose import assemble
+
+        thesis = replace(
+            loop,
+            controller=replace(self, constraint_aware=None),
+            actuators=None,
+            sensors=None,
+            sample_time=0.0,
+            adaptive_initial=(),
+            adapt=True,
+        )
+        a = assemble(thesis)
+        y = np.array(a.y0, dtype=float)
+        plant = loop.plant
+        if zero_error:
+            ref = np.zeros(3 * plant.n_outputs)
+            a.module.reference_at(float(loop.t0), a.data.c, ref)
+            for i in range(plant.n_outputs):
+                y[plant.position_index[i]] = ref[3 * i]
+                y[plant.velocity_index[i]] = ref[3 * i + 1]
+        phi = a.regressor_values(loop.t0, y)
+        G = np.asarray(plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        p = len(a.theta_slices)
+        b = np.abs(np.sum(R * G, axis=1)) if G.shape == R.shape else np.ones(p)
+        x = abs(float(self.theta_gain()))
+        return np.array(
+            [float(b[i]) * x * float(np.sum(phi[sl] ** 2)) for i, sl in enumerate(a.theta_slices)]
+        )
+
+    def measured_loop_rate(self, loop) -> tuple[float, float, float]:
+        """As :meth:`AdaptiveController.measured_loop_rate`, with each output's loop gain
+        the larger of its values at the initial state and at zero tracking error (the
+        operating point the law is designed for: the manipulator's raw fuzzy basis has
+        ``|Pi|^2`` 57x larger there, 605 1/s on joint 2 against 10.7 at ``t0``); the
+        smallest gain is the smaller of the two (what ``lam`` must stay below)."""
+        g0 = self._output_gains(loop, zero_error=False)
+        g1 = self._output_gains(loop, zero_error=True)
+        p = len(g0)
+        k = as_tuple(self.k, p, "k", type(self).__name__)
+        k0 = as_tuple(self.k0, p, "k0", type(self).__name__)
+        rate, gain = 0.0, 0.0
+        for i in range(p):
+            g = max(g0[i], g1[i])
+            ri = max(g, math.sqrt(g * (k[i] + k0[i] / float(self.eps0))))
+            if ri > rate:
+                rate, gain = ri, g
+        least = float(np.min(np.minimum(g0, g1)))
+        return (float(rate), float(gain), least) if rate > 0 else (self.loop_rate(), 0.0, 0.0)
+
+    def bound(self, loop):
+        """:meth:`AdaptiveController.bound`, with each output's loop gain recorded
+        (``output_gains``) for the per-output smoothing of :meth:`robust_settings`."""
+        out = super().bound(loop)
+        if out is self or self.output_gains:
+            return out
+        g0 = self._output_gains(loop, zero_error=False)
+        g1 = self._output_gains(loop, zero_error=True)
+        return replace(out, output_gains=tuple(float(v) for v in np.maximum(g0, g1)))
+
+    def robust_settings(self) -> tuple:
+        """:meth:`AdaptiveController.robust_settings`, then, constraint-aware, each output's
+        slope of the robust term's linear band set by its own loop gain: the shared rule
+        scales every output's slope ``K_i = k_i + k0_i/eps0`` by the factor of the fastest
+        output, so that ``sqrt(g K) <= w`` there; an output with a smaller loop gain ``g_i``
+        admits ``K_i' = w^2 / g_i`` (at most its thesis ``K_i``, never below the shared
+        rule's), reached by raising its ``k0_i`` at the common ``eps0`` (the spacecraft:
+        roll and yaw have ``g`` = 0.04 and 0.05 1/s against pitch's 0.11, and the shared
+        rule left them 12x below their admitted slope, lagging the reference by 0.02 rad)."""
+        lam, k, k0, eps0 = super().robust_settings()
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not self.output_gains or ca.noise > 0:
+            # with noise the raised slope multiplies the noise the adaptation integrates
+            # (measured: the spacecraft with 1e-3 rad chatters at 88 N m): the shared rule's
+            return lam, k, k0, eps0
+        p = len(self.output_gains)
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else 1.0)
+        owner = type(self).__name__
+        k_t, k0_t = as_tuple(self.k, p, "k", owner), as_tuple(self.k0, p, "k0", owner)
+        k_s, k0_s = as_tuple(k, p, "k", owner), as_tuple(k0, p, "k0", owner)
+        out = []
+        for i, g in enumerate(self.output_gains):
+            thesis = k_t[i] + k0_t[i] / float(self.eps0)
+            target = min(thesis, w * w / g) if g > 0 else thesis
+            out.append(max(k0_s[i], (target - k_s[i]) * float(eps0)))
+        return lam, k, tuple(out), eps0
+
+    def normalization(self, loop) -> tuple[float, ...]:
+        """Constraint-aware only: ``c_i`` of the normalised law of each output, ``theta_i' =
+        eta Pi_i q_i / (1 + c_i |Pi_i|^2)`` with ``c_i = eta b_i / w`` (``eta`` the thesis's
+        gain, ``b_i = |d s_i'/d u0_i|`` of the healthy plant at its initial state, ``w`` the
+        loop rate the hardware admits, :meth:`ConstraintAware.omega_max`): the proportional
+        loop gain ``g/(1 + g/w)``, ``g = b_i eta |Pi_i(z)|^2``, stays below ``w`` at every
+        state, not only at the initial one (the manipulator's raw fuzzy basis: ``|Pi|^2`` is
+        57x larger at zero error than at its initial state), and is unchanged where it is far
+        below ``w`` (the normalised gradient law, Ioannou & Sun 1996, §4.3.4 and §8.5).
+        ``()``: none (the thesis law, an ideal model). A digital law's ``w`` is at most
+        ``C_SAMPLE_NORMALISED / T``."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal:
+            return ()
+        ctrl = self.bound(loop)
+        ca = ctrl.constraint_aware
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        b_max = float(np.abs(R).max()) if R.size else 1.0
+        w0 = ca.loop_rate if ca.loop_rate is not None else ctrl.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else b_max)
+        G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
+        p = R.shape[0]
+        b = np.abs(np.sum(R * G, axis=1)) if G.shape == R.shape else np.ones(p)
+        if ca.sample_time > 0:
+            w = min(w, C_SAMPLE_NORMALISED / ca.sample_time)
+        return tuple(float(self.eta * bi / w) for bi in b)
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)
-        return [
-            "    # adaptive laws (3.37), one per output",
+        norm = self.normalization(g.loop)
+        if not norm:
+            return [
+                "    # adaptive laws (3.37), one per output",
+                f"    misc[{int(Misc.GAIN)}] = 1.0",
+                *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
+            ]
+        g.use("normaliser", normaliser)
+        c0 = len(g.consts)
+        g.consts.extend(norm)
+        lines = [
+            "    # adaptive laws (3.37), one per output, normalised (constraint-aware)",
             f"    misc[{int(Misc.GAIN)}] = 1.0",
-            *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
         ]
+        for r, (o, at, size) in enumerate(blocks):
+            gain = f"normaliser(phi, c[{c0 + r}], {o}, {size})"
+            lines.append(
+                f"    theta_law(dY, Y, phi, q[{r}], D.gains.eta, D.gains.sigma, {gain}, {o},"
+                f" {at}, {size})"
+            )
+        return lines
+
+
+def normaliser(phi, c, off, size):
+    """``1 / (1 + c |Pi|^2)``: the normalisation of the constraint-aware MIMO law
+    (:meth:`MimoDirectAdaptive.normalization`)."""
+    acc = 0.0
+    for l in range(size):
+        acc += phi[off + l] * phi[off + l]
+    return 1.0 / (1.0 + c * acc)

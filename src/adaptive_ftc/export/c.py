@@ -25,12 +25,16 @@ import math
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export.controller_side import controller_side
 from adaptive_ftc.export.pyc import DOUBLE, PARAMS, PTR, Field, Source, Translator, c_float
+
+if TYPE_CHECKING:
+    from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = ["ExportedC", "export_c", "controller_loop"]
 
@@ -67,7 +71,7 @@ class ExportedC:
     state_names: tuple[str, ...]
 
 
-def controller_loop(scenario, sample_time: float | None = None):
+def controller_loop(scenario, sample_time: float | None = None) -> tuple[ClosedLoop, float]:
     """The closed loop whose controller :func:`export_c` exports and the ``s'`` filter's time
     constant: ``scenario`` (a :class:`~adaptive_ftc.scenarios.loader.Scenario`, a catalogue name
     or a file) with ``sample_time`` when given."""
@@ -248,7 +252,9 @@ class _Library:
         tr = Translator(self.resolve, self.fields(), self.gain_names, pfx)
         ctrl = Source(self.controller_def(), "<generated loop module: rhs>", 0, self.constants)
         cname = tr.function(ctrl, [DOUBLE, PTR, PARAMS, PTR, PTR], name=f"{pfx}__controller")
-        ref = tr.function(self.resolve("reference"), [DOUBLE, PARAMS, PTR], f"{pfx}__reference")
+        reference = self.resolve("reference")
+        assert reference is not None  # every generated loop module defines reference()
+        ref = tr.function(reference, [DOUBLE, PARAMS, PTR], f"{pfx}__reference")
         used = tr.fields_used | {"lam", "k", "k0", "R", "eps0", "filter_tau", "adapt"}
         fields = [f for f in self.fields() if f.name in used]
         self.last_fields = fields  # the params struct's fields (the FMU's parameters)
@@ -505,9 +511,13 @@ def _module_constants(tree: ast.Module) -> dict:
 def _imported_names(tree: ast.Module) -> dict[str, str]:
     """``name -> module`` of the ``from adaptive_ftc... import name`` lines (the laws and the
     guarded math the generated module jits under their own names)."""
-    out = {}
+    out: dict[str, str] = {}
     for node in tree.body:
-        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("adaptive_ftc"):
+        if (
+            isinstance(node, ast.ImportFrom)
+            and node.module is not None
+            and node.module.startswith("adaptive_ftc")
+        ):
             for a in node.names:
                 if a.asname is None:
                     out[a.name] = node.module

@@ -203,7 +203,9 @@ def _variables(lib: _Library, fields):
     plant = lib.loop.plant
     units = tuple(plant.units) + ("",) * plant.n_states
     pos, vel = plant.position_index, plant.velocity_index
-    names, xml, refs = [], [], []
+    names: list[str] = []
+    xml: list[str] = []
+    refs: list[str] = []
 
     def add(name, causality, variability, ref, unit="", start=None, desc="", initial=None):
         vr = len(names)
@@ -264,7 +266,9 @@ def _loop_variables(lib: _Library):
     the last communication point (a break time of the loop)."""
     plant = lib.loop.plant
     units = tuple(plant.units) + ("",) * plant.n_states
-    names, xml, refs = [], [], []
+    names: list[str] = []
+    xml: list[str] = []
+    refs: list[str] = []
 
     def add(name, variability, ref, unit, desc):
         vr = len(names)

@@ -62,7 +62,11 @@ def loop_source(lib: _Library, dt: float | None = None) -> tuple[str, dict]:
         if pt is not None:
             pattern_src += [f"def pattern{n + 1}(t, x, u, c, o):", f"    return {pt[0]}"]
     ptree = ast.parse("\n".join(pattern_src))
-    pdefs = {d.name: Source(d, "<failure patterns>") for d in ptree.body}
+    pdefs = {
+        d.name: Source(d, "<failure patterns>")
+        for d in ptree.body
+        if isinstance(d, ast.FunctionDef)  # all of them (narrows the type)
+    }
 
     classes = {
         alias: tuple(_class_fields(lib, alias)) for alias in lib.g.classes if alias != "Gains"

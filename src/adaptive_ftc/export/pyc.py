@@ -153,7 +153,8 @@ class Translator:
         self.fields = sorted(fields, key=lambda f: f.start)
         self.gains = gains
         self.prefix = prefix
-        self.done: dict[tuple, tuple[str, str]] = {}  # (name, arg types) -> (C name, ret)
+        # (name, arg types) -> (C name, return type: None until translated, or void)
+        self.done: dict[tuple, tuple[str, object]] = {}
         self.order: list[str] = []  # C function definitions, callees first
         self.protos: list[str] = []
         self.fields_used: set[str] = set()
@@ -537,19 +538,19 @@ class Translator:
             parts = [self._expr(fn, v) for v in node.values]
             return "(" + op.join(t for t, _ in parts) + ")", LONG
         if isinstance(node, ast.Compare):
-            parts = []
+            tests: list[str] = []
             left = node.left
-            for op, right in zip(node.ops, node.comparators, strict=True):
-                cop = _CMPOPS.get(type(op))
+            for cmpop, right in zip(node.ops, node.comparators, strict=True):
+                cop = _CMPOPS.get(type(cmpop))
                 if cop is None:
-                    raise self._refuse(fn, node, f"the comparison {type(op).__name__}")
+                    raise self._refuse(fn, node, f"the comparison {type(cmpop).__name__}")
                 lt, lty = self._expr(fn, left)
                 rt, rty = self._expr(fn, right)
                 if _arr(lty) or _arr(rty) or PARAMS in (lty, rty):
                     raise self._refuse(fn, node, "a comparison of arrays")
-                parts.append(f"{lt} {cop} {rt}")
+                tests.append(f"{lt} {cop} {rt}")
                 left = right
-            return "(" + " && ".join(parts) + ")", LONG
+            return "(" + " && ".join(tests) + ")", LONG
         if isinstance(node, ast.IfExp):
             test, _ = self._expr(fn, node.test)
             a, at = self._expr(fn, node.body)
@@ -568,7 +569,8 @@ class Translator:
         """A tuple (or NamedTuple) of consecutive numbers of one array, ``a[B + 0], a[B + 1],
         ...`` (a field may be a tuple of them too): a pointer to the first (the callee reads
         them in place). A NamedTuple's field places are remembered for ``p.field``."""
-        flat, places = [], []
+        flat: list[ast.expr] = []
+        places: list[tuple[int, int | None]] = []  # (offset, size) per field
         for e in elts:
             inner = e.elts if isinstance(e, ast.Tuple) else None
             places.append((len(flat), None if inner is None else len(inner)))
@@ -650,6 +652,7 @@ class Translator:
 
     def _subscript(self, fn: _Fn, node: ast.Subscript, store: bool) -> tuple[str, str]:
         base = node.value
+        bty: str | None  # the base's C type (None: unknown, refused below)
         if (
             isinstance(base, ast.Attribute)
             and isinstance(base.value, ast.Name)
@@ -657,7 +660,11 @@ class Translator:
         ):
             btext, bty = self._expr(fn, base)  # D.c, D.i of a flat loop's data
         elif isinstance(base, ast.Name) or self._is_params_attr(fn, base):
-            bname = base.id if isinstance(base, ast.Name) else base.value.id
+            if isinstance(base, ast.Name):
+                bname = base.id
+            else:  # P.c of a params argument P (see _is_params_attr)
+                assert isinstance(base, ast.Attribute) and isinstance(base.value, ast.Name)
+                bname = base.value.id
             bty = fn.types.get(bname)
             if bty == PARAMS:
                 if store:
@@ -707,7 +714,7 @@ class Translator:
                 return f"{pname}->{f.name}[{idx}]", DOUBLE
         raise self._refuse(fn, node, f"a place of the parameters ({const}) that is not exported")
 
-    def _split(self, fn: _Fn, node) -> tuple[int | None, str | None]:
+    def _split(self, fn: _Fn, node) -> tuple[int, str | None]:
         """An index ``A + B + ...`` as (the sum of its constant terms, C text of the rest)."""
         terms: list = []
 

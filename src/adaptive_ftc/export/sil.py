@@ -28,11 +28,17 @@ import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export.c import controller_loop, export_c
+
+if TYPE_CHECKING:
+    from adaptive_ftc.sim.compose import Assembled
+    from adaptive_ftc.sim.result import SimResult
+    from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
     "CFLAGS",
@@ -101,7 +107,8 @@ class CompiledController:
         n = n_y + n_s
         self._started_at = 8 * (2 * n + n_work)  # the layout of <prefix>_state
         self.state = ctypes.create_string_buffer(self._started_at + 64)
-        buf = np.frombuffer(self.state, dtype=np.float64, count=2 * n + n_work)
+        # a view of the ctypes buffer (numpy's stubs list no ctypes arrays: the memoryview)
+        buf = np.frombuffer(memoryview(self.state), dtype=np.float64, count=2 * n + n_work)
         self.n_y = n_y
         self.states = buf[n_y:n]  # the controller's states (state.Y[NY:])
         self.u = np.zeros(n_u)
@@ -130,9 +137,9 @@ class CompiledController:
 
 @dataclass
 class _Setup:
-    loop: object
-    asm: object
-    result: object  # the simulator's digital run, recorded at every sample
+    loop: ClosedLoop
+    asm: Assembled
+    result: SimResult  # the simulator's digital run, recorded at every sample
     ctrl: CompiledController
     dt: float
     ny: int
@@ -207,7 +214,9 @@ def verify(
     W = asm.work()
     k1, k2, k3, k4 = (np.zeros_like(Y) for _ in range(4))
     ref = np.zeros(3 * s.loop.plant.n_outputs)
-    cmds, plant, states = [], [], []
+    cmds: list[np.ndarray] = []
+    plant: list[np.ndarray] = []
+    states: list[np.ndarray] = []
     if s.loop.sensors is not None:
         # the simulator starts the s' filter from the true initial state, the C from its first
         # measurement (bias, noise): the C is started where the simulator starts

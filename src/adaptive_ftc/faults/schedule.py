@@ -171,7 +171,7 @@ def check_compensability(
     state_names: Iterable[str] = (),
     t0: float = 0.0,
     known_sign: bool = False,
-    gains: Sequence[float] | None = None,
+    gains: Sequence[float] | np.ndarray | None = None,
 ) -> CompensabilityReport:
     """Check the rank condition ``rank(rho(x, t) R^T) = p`` (3.6) on every interval.
 

@@ -70,7 +70,7 @@ def _outputs(owner: str, outputs: Any, states: tuple[str, ...]) -> tuple[tuple[i
     return tuple(pos), tuple(vel)
 
 
-def _set_names(p: Plant, owner: str, states, acts, pos, vel) -> None:
+def _set_names(p: CustomPlant | ExpressionPlant, owner: str, states, acts, pos, vel) -> None:
     """Check the units and store the validated names and output indices on plant ``p``."""
     if p.units and len(p.units) != len(states):
         raise ConfigurationError(
@@ -215,7 +215,7 @@ def plant(
 
     def wrap(func: Callable) -> CustomPlant:
         return CustomPlant(
-            name=name or getattr(func, "__name__", "custom"),
+            name=name or str(getattr(func, "__name__", "custom")),
             states=tuple(states),
             outputs=outputs,
             actuators=tuple(actuators),

@@ -225,11 +225,13 @@ class FlexibleSpacecraft(Plant):
         return tuple(f"wheel{j + 1}" for j in range(6))
 
     def parameter_values(self) -> SpacecraftParams:
-        return SpacecraftParams(
-            *self.inertia,
-            *np.ravel(self.coupling).tolist(),
-            *self.modal_frequencies,
-            *self.modal_damping,
-            self.orbital_rate,
-            float(self.disturbance),
+        return SpacecraftParams._make(  # from one flat sequence (sizes mypy cannot count)
+            (
+                *self.inertia,
+                *np.ravel(self.coupling).tolist(),
+                *self.modal_frequencies,
+                *self.modal_damping,
+                self.orbital_rate,
+                float(self.disturbance),
+            )
         )

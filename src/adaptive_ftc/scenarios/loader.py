@@ -181,7 +181,7 @@ def _type_schema(annotation: str) -> dict[str, Any]:
     return {}  # not expressible: checked by the class itself
 
 
-def _class_schema(cls: type, skip: set[str] = frozenset()) -> dict[str, Any]:
+def _class_schema(cls: type, skip: frozenset[str] | set[str] = frozenset()) -> dict[str, Any]:
     """``properties``/``required`` of a component class, from its dataclass fields."""
     props: dict[str, Any] = {}
     required = []
@@ -410,7 +410,7 @@ def _unset(base: dict[str, Any], unset: Any, path: Path, name: str) -> dict[str,
     out = _copy_tables(base)
     for dotted in unset:
         keys = dotted.split(".")
-        table = out
+        table: dict[str, Any] | None = out
         for key in keys[:-1]:
             table = table.get(key) if isinstance(table, dict) else None
         if not isinstance(table, dict) or keys[-1] not in table:
@@ -807,16 +807,16 @@ def _load(data: dict[str, Any], text: str, path: Path, ctx: _Ctx) -> Scenario:
                     if not regs or len(regs) > 100:
                         ctx.add("controller.regressor", "give 1 to 100 [[controller.regressor]].")
                         raise _Problems
-                    reg = []
+                    each = []
                     bad = False
                     for i, r in enumerate(regs):
                         try:
-                            reg.append(_regressor(r, ctx, f"controller.regressor.{i + 1}"))
+                            each.append(_regressor(r, ctx, f"controller.regressor.{i + 1}"))
                         except _Problems:
                             bad = True
                     if bad:
                         raise _Problems
-                    reg = tuple(reg)
+                    reg = tuple(each)
                 else:
                     reg = _regressor(regs, ctx, "controller.regressor")
                 if regs is not None:
@@ -1270,6 +1270,7 @@ def scenario_schema() -> dict[str, Any]:
             out.update(extra)
         return out
 
+    cls: type  # a plant's, a regressor's, a design's, a failure model's class in turn
     plants = []
     for key, cls in PLANTS.items():
         sch = _class_schema(cls)

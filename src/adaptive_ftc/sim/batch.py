@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence, Sized
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.engine import SolverOptions, simulate
@@ -80,9 +81,9 @@ def iter_simulate(
     window = 4 * jobs if window is None else window
     if isinstance(window, bool) or not isinstance(window, int) or window < 1:
         raise ConfigurationError(f"`window` must be a positive integer; got {window!r}.")
-    bar = None
+    bar: Any = None  # an EtaBar (a known number of runs) or a tqdm bar (an open stream)
     if progress:
-        if hasattr(loops, "__len__"):  # runs of one solver: the ETA counts them as equals
+        if isinstance(loops, Sized):  # runs of one solver: the ETA counts them as equals
             from adaptive_ftc._feedback import EtaBar
 
             bar = EtaBar(len(loops), desc="simulations", unit="run")
@@ -100,9 +101,9 @@ def iter_simulate(
                 break
         while pending:
             result = pending.popleft().result()
-            loop = next(source, None)
-            if loop is not None:  # the next run starts before the caller takes this result
-                pending.append(pool.submit(simulate, loop, solver))
+            following = next(source, None)
+            if following is not None:  # the next run starts before the caller takes this result
+                pending.append(pool.submit(simulate, following, solver))
             if hasattr(bar, "tick"):
                 bar.tick()
             elif bar is not None:

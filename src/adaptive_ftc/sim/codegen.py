@@ -51,8 +51,6 @@ _BEGIN = "# --- template: begin ---"
 _lock = threading.RLock()
 _modules: dict[str, types.ModuleType] = {}
 _kept: dict[str, tuple] = {}
-#: the integrators a loop module may define
-_METHODS = ("rk4", "dopri5", "rodasp", "rodas5p", "auto")
 _stats = {"generated": 0, "loaded": 0, "in_memory": 0}
 
 
@@ -249,7 +247,7 @@ def _source_hash(modules: list[str]) -> str:
         h = hashlib.sha256()
         for name, path, _, size in stamps:
             h.update(name.encode())
-            if size:
+            if path and size:  # a size is only read from a path
                 h.update(Path(path).read_bytes())
         digest = _hashes[stamp] = h.hexdigest()
     return digest
@@ -286,9 +284,11 @@ def is_cached(
     import numba
     from numba.core.caching import UserProvidedCacheLocator
 
-    if numba.config.CACHE_DIR:  # numba then keeps every index there
+    # numba.config sets its settings at import (mypy does not see them)
+    numba_dir = numba.config.CACHE_DIR  # type: ignore[attr-defined]
+    if numba_dir:  # numba then keeps every index there
         sub = UserProvidedCacheLocator.get_suitable_cache_subpath(str(folder / "x.py"))
-        places.insert(0, Path(numba.config.CACHE_DIR) / sub)
+        places.insert(0, Path(numba_dir) / sub)
     return any(any(p.glob(f"{kind}_{key}*.nbi")) for p in places)
 
 
@@ -365,7 +365,7 @@ def load_module(
         if folder is None:
             module = types.ModuleType(name)
             module.__dict__.update(inject or {})
-            module.CACHE = False
+            module.CACHE = False  # type: ignore[attr-defined]  # read by the generated code
             sys.modules[name] = module
             try:
                 exec(compile(source, f"<generated loop {key}>", "exec"), module.__dict__)
@@ -384,7 +384,7 @@ def load_module(
             if spec is None or spec.loader is None:  # pragma: no cover
                 raise ConfigurationError(f"Cannot load the generated loop module {path}.")
             module = importlib.util.module_from_spec(spec)
-            module.CACHE = True
+            module.CACHE = True  # type: ignore[attr-defined]  # read by the generated code
             # must be importable by name before it runs, or numba's cache cannot find it
             sys.modules[name] = module
             try:
@@ -402,9 +402,11 @@ def load_module(
 def stats() -> dict[str, int]:
     """Counters of this process: modules generated (written), loaded, compiled in memory, and
     numba compilations of loop entry points (``compiled``; 0 when every loop hit the cache)."""
+    from adaptive_ftc.sim.solvers import compiled_entries
+
     compiled = 0
     for mod in list(_modules.values()):
-        for fn in ("rhs", "control_gain", "signals", *(f"integrate_{m}" for m in _METHODS)):
+        for fn in ("rhs", "control_gain", "signals", *compiled_entries()):
             disp = getattr(mod, fn, None)
             if disp is not None and hasattr(disp, "stats"):
                 compiled += sum(disp.stats.cache_misses.values())

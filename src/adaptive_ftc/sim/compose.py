@@ -581,7 +581,8 @@ def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
     )
     found = module.__dict__.get("_ADDRESSES")
     if found is None:
-        found = module._ADDRESSES = (fptr.address(module.value), fptr.address(module.slope))
+        found = (fptr.address(module.value), fptr.address(module.slope))
+        module._ADDRESSES = found  # type: ignore[attr-defined]  # remembered on the module
     return found
 
 
@@ -1014,6 +1015,7 @@ def _measurements(loop: ClosedLoop, sample_index: np.ndarray) -> np.ndarray:
     """Measurement offset ``bias + noise`` per (interval, state); noise sample ``k`` holds on
     sample interval ``k`` (drawn in time order, so a shorter run sees the same noise)."""
     sensors = loop.sensors
+    assert sensors is not None  # called for a loop with sensors only (has_meas)
     n = loop.plant.n_states
     std, bias = sensors.per_state(loop.plant.aliases(), n)
     n_rows = len(sample_index)

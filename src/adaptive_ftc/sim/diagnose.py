@@ -20,6 +20,9 @@ import numpy as np
 from adaptive_ftc.sim.status import RunStatus, StatusReason
 
 if TYPE_CHECKING:  # pragma: no cover
+    from collections.abc import Callable
+
+    from adaptive_ftc.faults import Failure
     from adaptive_ftc.sim.compose import Assembled
     from adaptive_ftc.sim.engine import SolverOptions
     from adaptive_ftc.sim.system import ClosedLoop
@@ -87,9 +90,9 @@ def stop_outcome(
     if y_rhs is not None:
         # a step-size underflow at a plant derivative past the bound: a singular equation
         huge = pole if code == 2 else math.inf
-        found = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method, huge)
-        if found is not None:
-            return found
+        stopped = _nonfinite_rhs(loop, asm, t_rhs, t_stop, y_rhs, method, huge)
+        if stopped is not None:
+            return stopped
     if code == 1:
         if value is not None and math.isfinite(value):
             return RunStatus.DIVERGED, StatusReason(
@@ -157,7 +160,7 @@ def _candidates(loop: ClosedLoop):
                 f"the {kind} failure of actuator {f.actuator} (onset {f.onset:g} s)",
                 _unwrap(f.pattern()),
                 e,
-                (lambda t, f=f: f.onset <= t < f.end),
+                _acting(f),
             )
         )
     return out
@@ -179,6 +182,11 @@ def _unwrap(text: str) -> str:
 
 def _always(t: float) -> bool:
     return True
+
+
+def _acting(f: Failure) -> Callable[[float], bool]:
+    """Whether ``f`` acts at ``t`` (from its onset to its end)."""
+    return lambda t: f.onset <= t < f.end
 
 
 def _env(loop: ClosedLoop, asm: Assembled, t: float, y: np.ndarray | None, actuator: int):

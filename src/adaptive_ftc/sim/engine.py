@@ -10,22 +10,25 @@ import threading
 import time
 import warnings
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
+from adaptive_ftc.sim import solvers
 from adaptive_ftc.sim.compile_errors import clear_compile_errors
 from adaptive_ftc.sim.compose import Assembled, assemble
 from adaptive_ftc.sim.result import SimResult, signal_block
 from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["SolverOptions", "integrate_only", "simulate"]
+__all__ = ["CompiledLoop", "Integration", "SolverOptions", "integrate_only", "simulate"]
 
-_SCIPY_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+# the names of the registry (sim/solvers.py), by kind
+_SCIPY_METHODS = solvers.names("scipy")
 #: Compiled adaptive-step methods (``sim/templates/adaptive.py``; evidence in docs/solvers.md).
-_ADAPTIVE_METHODS = ("dopri5", "rodasp", "rodas5p", "auto")
-_METHODS = ("rk4", *_ADAPTIVE_METHODS, "accurate", *_SCIPY_METHODS)
+_ADAPTIVE_METHODS = solvers.names("adaptive")
+_METHODS = solvers.names()
 #: Time constant (s) of a continuous controller's s' filter (``SolverOptions.filter_tau``).
 DEFAULT_FILTER_TAU = 0.01
 
@@ -80,13 +83,7 @@ class SolverOptions:
     divergence_bound: float = 1e8
 
     def __post_init__(self) -> None:
-        if self.method not in _METHODS:
-            from adaptive_ftc.errors import did_you_mean
-
-            raise ConfigurationError(
-                f"Unknown solver method {self.method!r}."
-                f"{did_you_mean(str(self.method), _METHODS)} Use one of {', '.join(_METHODS)}."
-            )
+        solvers.method(self.method)  # a clear error naming the registered methods
         if isinstance(self.atol, (list, tuple, np.ndarray)):
             atol = tuple(self.atol)
             if not atol:
@@ -144,9 +141,7 @@ class SolverOptions:
     @property
     def compiled_method(self) -> str | None:
         """The compiled integrator this setting runs (``None`` for a scipy method)."""
-        if self.method == "accurate":
-            return "auto"
-        return self.method if self.method in ("rk4", *_ADAPTIVE_METHODS) else None
+        return solvers.method(self.method).compiled
 
     def atol_for(self, n: int, names=None) -> np.ndarray:
         """The absolute tolerance of each of the ``n`` states (``names``: their names, for the
@@ -243,47 +238,41 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
     >>> result.status
     'completed'
     """
-    solver = solver or SolverOptions()
-    asm, t_rec, Y, phases, nrec, outcome, wall, stats = _integrate(
-        loop, solver, envelope=False, t_eval=t_eval
-    )
-    status, reason = outcome
-    T = t_rec[:nrec]
-    Y = Y[:nrec]
-    phases = phases[:nrec]
-    signals = signal_block(loop, nrec)
-    if nrec:
-        # the signals' pass over the records also finds the first one outside the envelope
-        first = asm.signals(T, Y, phases, signals)
-        cut, env_reason = _envelope_cut(loop, Y, T, nrec, first=first)
-        if env_reason is not None:
-            status, reason = RunStatus.DIVERGED, env_reason
-        T, Y, phases, signals = T[:cut], Y[:cut], phases[:cut], signals[:cut]
+    compiled = CompiledLoop.build(loop, solver or SolverOptions(), t_eval=t_eval)
+    run = compiled.integrate()
+    T, Y, phases, signals, status, reason = compiled.recorded(run)
     message = describe(status, reason, _run_label(loop))
     result = SimResult.from_run(
         loop,
-        asm,
+        compiled.asm,
         T,
         Y,
         phases,
         signals=signals,
-        solver=solver,
+        solver=compiled.solver,
         message=message,
-        wall_time=wall,
+        wall_time=run.wall,
         status=status,
         reason=reason,
     )
-    result.meta["steps"] = int(stats[0])
-    if stats[1] >= 0:  # -1: not known (scipy's implicit methods do not count them)
-        result.meta["rejected_steps"] = int(stats[1])
-    result.meta["rhs_evaluations"] = int(stats[2])
-    result.meta["jacobian_evaluations"] = int(stats[3])
-    result.meta["lu_decompositions"] = int(stats[4])
+    result.meta.update(_counts(run.stats))
     if status is RunStatus.INTERRUPTED:
         raise SimulationInterrupted(result, message)
     if message:
         warnings.warn(message, DivergenceWarning, stacklevel=2)
     return result
+
+
+def _counts(stats: np.ndarray) -> dict[str, int]:
+    """The integrator's statistics for ``SimResult.meta`` (``rejected_steps`` absent where the
+    method does not count them: -1)."""
+    counts = {"steps": int(stats[0])}
+    if stats[1] >= 0:  # -1: not known (scipy's implicit methods do not count them)
+        counts["rejected_steps"] = int(stats[1])
+    counts["rhs_evaluations"] = int(stats[2])
+    counts["jacobian_evaluations"] = int(stats[3])
+    counts["lu_decompositions"] = int(stats[4])
+    return counts
 
 
 def integrate_only(loop: ClosedLoop, solver: SolverOptions | None = None):
@@ -292,101 +281,133 @@ def integrate_only(loop: ClosedLoop, solver: SolverOptions | None = None):
     The cheapest way to get a trajectory (used by benchmarks and campaigns that only need the
     states); :func:`simulate` adds the signals and the labelled :class:`SimResult`.
     """
-    solver = solver or SolverOptions()
-    _, t_rec, Y, phases, nrec, _, _, _ = _integrate(loop, solver)
-    return t_rec[:nrec], Y[:nrec], phases[:nrec]
+    compiled = CompiledLoop.build(loop, solver or SolverOptions())
+    run = compiled.integrate()
+    nrec, _ = _envelope_cut(loop, run.Y, compiled.t_rec, run.nrec)
+    return compiled.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
 
 
-def _integrate(loop: ClosedLoop, solver: SolverOptions, *, envelope: bool = True, t_eval=None):
-    """Integrate ``loop``; ``envelope``: cut the records at the first one outside the plant's
-    envelope (:func:`simulate` does it in the signals' pass instead)."""
-    if not isinstance(loop, ClosedLoop):
-        raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
-    from adaptive_ftc.sim.budget import check_run_size
+class Integration(NamedTuple):
+    """What one integration of a :class:`CompiledLoop` left: the record rows (``Y``,
+    ``phases``; the first ``nrec`` are records), how it ended, its wall time and the
+    integrator's counts ``[accepted, rejected (-1: unknown), rhs, Jacobians, LUs]``."""
 
-    check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
-    asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau_for(loop))
-    if t_eval is None:
-        t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
-    else:
-        t_rec = _user_times(loop, t_eval)
-    bps = np.array(asm.breakpoints)
-    n = asm.y0.size
-    names = (
-        [_state_label(loop, asm, i) for i in range(n)] if isinstance(solver.atol, tuple) else None
-    )
-    atol = solver.atol_for(n, names)
-    stats = np.zeros(5, dtype=np.int64)
-    start = time.perf_counter()
-    method = solver.compiled_method
-    if method is not None:
+    Y: np.ndarray
+    phases: np.ndarray
+    nrec: int
+    status: RunStatus
+    reason: StatusReason | None
+    wall: float
+    stats: np.ndarray
+
+
+@dataclass(frozen=True)
+class CompiledLoop:
+    """A closed loop compiled for one solver setting: it owns the loop's compiled structure and
+    numbers (``asm``), the record times and the tolerances, and integrates it.
+
+    One run reads: :meth:`build` (size check, compile or cache load, record grid), then
+    :meth:`integrate` (the compiled integrator of the solver's method, or scipy), then
+    :meth:`recorded` (the signals' pass, cut at the plant's envelope).
+    """
+
+    loop: ClosedLoop
+    solver: SolverOptions
+    asm: Assembled
+    t_rec: np.ndarray
+    atol: np.ndarray
+
+    @classmethod
+    def build(cls, loop: ClosedLoop, solver: SolverOptions, *, t_eval=None) -> CompiledLoop:
+        """Check the run's size, compile (or load) ``loop``'s structure, set the record times."""
+        if not isinstance(loop, ClosedLoop):
+            raise ConfigurationError(f"simulate() needs a ClosedLoop; got {type(loop).__name__}.")
+        from adaptive_ftc.sim.budget import check_run_size
+
+        check_run_size(loop, solver)  # refuse runs that could not finish or fit in memory
+        asm = assemble(loop, sdot=solver.sdot_for(loop), filter_tau=solver.filter_tau_for(loop))
+        if t_eval is None:
+            t_rec = _record_times(loop.t0, loop.t_final, solver.record_dt)
+        else:
+            t_rec = _user_times(loop, t_eval)
+        n = asm.y0.size
+        names = None
+        if isinstance(solver.atol, tuple):
+            names = [_state_label(loop, asm, i) for i in range(n)]
+        return cls(loop, solver, asm, t_rec, solver.atol_for(n, names))
+
+    def integrate(self) -> Integration:
+        """Integrate from ``loop.t0`` to ``loop.t_final``, restarting at every break."""
+        stats = np.zeros(5, dtype=np.int64)
+        start = time.perf_counter()
+        if self.solver.compiled_method is not None:
+            Y, phases, nrec, outcome = self._run_compiled(stats)
+        else:
+            bps = np.array(self.asm.breakpoints)
+            Y, phases, nrec, outcome = _integrate_scipy(
+                self.asm, bps, self.t_rec, self.solver, self.loop, self.atol, stats
+            )
+        wall = time.perf_counter() - start
+        return Integration(Y, phases, nrec, outcome[0], outcome[1], wall, stats)
+
+    def recorded(self, run: Integration):
+        """The records of ``run`` with their signals, cut at the first one outside the plant's
+        envelope: ``(T, Y, phases, signals, status, reason)``."""
+        nrec = run.nrec
+        T, Y, phases = self.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
+        signals = signal_block(self.loop, nrec)
+        status, reason = run.status, run.reason
+        if nrec:
+            # the signals' pass over the records also finds the first one outside the envelope
+            first = self.asm.signals(T, Y, phases, signals)
+            cut, env_reason = _envelope_cut(self.loop, Y, T, nrec, first=first)
+            if env_reason is not None:
+                status, reason = RunStatus.DIVERGED, env_reason
+            T, Y, phases, signals = T[:cut], Y[:cut], phases[:cut], signals[:cut]
+        return T, Y, phases, signals, status, reason
+
+    def _run_compiled(self, stats: np.ndarray):
+        """The compiled integrator's run: ``(Y, phases, nrec, (status, reason))``."""
+        asm, solver, t_rec = self.asm, self.solver, self.t_rec
+        method = solver.compiled_method
+        assert method is not None  # only compiled methods reach here (scipy's take the other path)
         # rows past the last record are never read: not zeroed (4 MB a 120 s run)
         Y = np.empty((t_rec.size, asm.y0.size))
         phases = np.empty(t_rec.size, dtype=np.int64)
-        W = asm.work()
+        args = (asm.data, asm.work())
         bound = float(solver.divergence_bound)
+        outputs = (Y, phases, stats)
+        integrator = asm.integrator(method)
+        bps = np.array(asm.breakpoints)
         if method == "rk4":
-
-            def run(stop):
-                return asm.integrator("rk4")(
-                    asm.y0,
-                    bps,
-                    float(solver.dt),
-                    t_rec,
-                    asm.data,
-                    W,
-                    bound,
-                    stop,
-                    Y,
-                    phases,
-                    stats,
-                    *np.empty((8, asm.y0.size)),  # scratch: 8 separate rows
-                )
-        else:
-            integrator = asm.integrator(method)
-            h_max = float(min(solver.max_step, 1e300))
+            scratch = tuple(np.empty((8, asm.y0.size)))  # 8 separate rows
 
             def run(stop):
                 return integrator(
-                    asm.y0,
-                    bps,
-                    t_rec,
-                    asm.data,
-                    W,
-                    float(solver.rtol),
-                    atol,
-                    h_max,
-                    bound,
-                    stop,
-                    Y,
-                    phases,
-                    stats,
+                    asm.y0, bps, float(solver.dt), t_rec, *args, bound, stop, *outputs, *scratch
                 )
+        else:
+            tol = (float(solver.rtol), self.atol, float(min(solver.max_step, 1e300)))
 
-        nrec, code, t_stop, bad = _compiled_call(loop, run)
+            def run(stop):
+                return integrator(asm.y0, bps, t_rec, *args, *tol, bound, stop, *outputs)
+
+        nrec, code, t_stop, bad = _compiled_call(self.loop, run)
         nrec = int(nrec)
         if code == 0:
-            outcome = (RunStatus.COMPLETED, None)
-        else:
-            # codes 1 and 2 leave the state at the stop in the row after the last record
-            kept = int(code) in (1, 2) and nrec < t_rec.size
-            outcome = _stop(
-                loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
-                Y[nrec].copy() if kept else None,
-            )  # fmt: skip
-            if outcome[0] is RunStatus.STEP_UNDERFLOW and method != "rk4":
-                from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
+            return Y, phases, nrec, (RunStatus.COMPLETED, None)
+        # codes 1 and 2 leave the state at the stop in the row after the last record
+        kept = int(code) in (1, 2) and nrec < t_rec.size
+        status, reason = _stop(
+            self.loop, asm, solver, t_rec, Y, nrec, int(code), float(t_stop), int(bad),
+            Y[nrec].copy() if kept else None,
+        )  # fmt: skip
+        if status is RunStatus.STEP_UNDERFLOW and method != "rk4":
+            from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
 
-                if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
-                    outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
-    else:
-        Y, phases, nrec, outcome = _integrate_scipy(asm, bps, t_rec, solver, loop, atol, stats)
-    wall = time.perf_counter() - start
-    if envelope:
-        nrec, env_reason = _envelope_cut(loop, Y, t_rec, nrec)
-        if env_reason is not None:
-            outcome = (RunStatus.DIVERGED, env_reason)
-    return asm, t_rec, Y, phases, nrec, outcome, wall, stats
+            if int(stats[0]) + int(stats[1]) >= MAX_STEPS:  # the count, not the size
+                reason = replace(reason, step_limit=MAX_STEPS)
+        return Y, phases, nrec, (status, reason)
 
 
 def _stop(loop, asm, solver, t_rec, Y, nrec, code, t_stop, bad, y_stop):
@@ -558,7 +579,7 @@ def _integrate_scipy(
     def blowup(t, y):
         return bound - np.max(np.abs(y))
 
-    blowup.terminal = True
+    blowup.terminal = True  # type: ignore[attr-defined]  # scipy's event protocol
     for ph in range(nph):
         a, b = float(bps[ph]), float(bps[ph + 1])
         asm.module.jump(a, y, ph, asm.data, W)  # e.g. a digital controller's sample
@@ -600,24 +621,32 @@ def _integrate_scipy(
         phases[r : r + ngood] = ph
         r += ngood
         if sol.status != 0 or ngood < ys.shape[1]:
-            if sol.t_events and len(sol.t_events[0]):
-                t_bad, yb = float(sol.t_events[0][0]), sol.y_events[0][0]
-            elif ngood < ys.shape[1]:
-                t_bad, yb = float(sol.t[ngood]), ys[:, ngood]
-            else:
-                t_bad, yb = (
-                    float(sol.t[-1]) if sol.t.size else a,
-                    (sol.y[:, -1] if sol.t.size else y),
-                )
-            off = ~(np.abs(yb) < bound)
-            bad = int(np.argmax(off)) if off.any() else 0
-            # a state over the bound (the event, a recorded sample) or the solver's failure
-            code = 1 if off.any() else 2
-            status, reason = _stop(
-                loop, asm, solver, t_rec, Y, r, code, t_bad, bad, np.array(yb, dtype=float)
-            )
-            if sol.status == -1:
-                reason = replace(reason, detail=str(sol.message))
-            return Y, phases, r, (status, reason)
+            outcome = _scipy_stop(loop, asm, solver, t_rec, Y, r, sol, ys, ngood, a, y)
+            return Y, phases, r, outcome
         y = sol.y[:, -1].copy()
     return Y, phases, r, (RunStatus.COMPLETED, None)
+
+
+def _scipy_stop(loop, asm, solver, t_rec, Y, r, sol, ys, ngood, a, y):
+    """The (status, reason) of a scipy interval that stopped early (``sol``): a state over the
+    bound (the event, or a recorded sample ``ys[:, ngood]``) or the solver's own failure."""
+    bound = solver.divergence_bound
+    if sol.t_events and len(sol.t_events[0]):
+        t_bad, yb = float(sol.t_events[0][0]), sol.y_events[0][0]
+    elif ngood < ys.shape[1]:
+        t_bad, yb = float(sol.t[ngood]), ys[:, ngood]
+    else:
+        t_bad, yb = (
+            float(sol.t[-1]) if sol.t.size else a,
+            (sol.y[:, -1] if sol.t.size else y),
+        )
+    off = ~(np.abs(yb) < bound)
+    bad = int(np.argmax(off)) if off.any() else 0
+    # a state over the bound (the event, a recorded sample) or the solver's failure
+    code = 1 if off.any() else 2
+    status, reason = _stop(
+        loop, asm, solver, t_rec, Y, r, code, t_bad, bad, np.array(yb, dtype=float)
+    )
+    if sol.status == -1:
+        reason = replace(reason, detail=str(sol.message))
+    return status, reason

@@ -31,13 +31,14 @@ def _loop_level() -> Iterator[None]:
     from numba.core import config
     from numba.core.compiler_lock import global_compiler_lock
 
+    # numba.core.config sets its settings (OPT among them) at import: mypy does not see them
     with global_compiler_lock:  # re-entrant: callees compile inside their caller's compile
-        before = config.OPT
-        config.OPT = type(before)(LOOP_OPT)
+        before = config.OPT  # type: ignore[attr-defined]
+        config.OPT = type(before)(LOOP_OPT)  # type: ignore[attr-defined]
         try:
             yield
         finally:
-            config.OPT = before
+            config.OPT = before  # type: ignore[attr-defined]
 
 
 def at_loop_level(decorator: Callable) -> Callable:

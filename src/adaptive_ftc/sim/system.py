@@ -51,7 +51,7 @@ def _input_gains(plant: Plant) -> np.ndarray | None:
     for attr in ("actuator_gains", "b"):
         value = getattr(plant, attr, None)
         try:
-            gains = np.asarray([float(v) for v in value], dtype=float)  # type: ignore[union-attr]
+            gains = np.asarray([float(v) for v in value], dtype=np.float64)  # type: ignore[union-attr]
         except (TypeError, ValueError):
             continue
         if gains.shape == (plant.n_actuators,) and np.all(np.isfinite(gains)):

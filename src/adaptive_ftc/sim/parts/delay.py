@@ -23,6 +23,7 @@ class Delay(Part):
         from adaptive_ftc.hardware import pade_realization
 
         loop = b.loop
+        assert loop.actuators is not None  # has_delay
         delays = loop.actuators.delays(b.m)
         if b.sampled:
             self.values = tuple(float(round(d / loop.sample_time)) for d in delays)

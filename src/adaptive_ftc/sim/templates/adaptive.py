@@ -14,9 +14,21 @@ per machine. (A function passed as an argument would defeat numba's disk cache.)
 Everything above the marker is a stand-in so that this file imports, lints and can be tested
 on its own; :func:`bind` executes the template against any jitted ``rhs``.
 
-Entry points (same signature; each is its own copy of the core ``_solve``, pasted by
-:func:`specialise` with the other method's code dropped, so a ``dopri5`` loop compiles no
-Rosenbrock code: on hypersonic-direct-s1 the whole cold compile fell from 11-12 s to 8.4 s)::
+Structure: one driver and per-method step functions. The driver is ``_solve`` (the run: scratch
+arrays, breaks, records at interval starts and at the end) with ``_steps`` (one interval: step
+size, stop flag, step-size underflow, acceptance, divergence check, records, the switch between
+explicit and Rosenbrock steps). A method brings its step functions: DOPRI5 ``_dopri5_step``
+(tableau constants ``_A*``, ``_E*``), ``_dopri5_dense``, ``_dopri5_control``, ``_dopri5_retry``;
+the Rosenbrock methods ``_jacobian``, ``_rosenbrock_step`` over ``_rodasp_stages`` or
+``_rodas5p_stages`` (tableaus ``_R*``, ``_P*``), ``_rosenbrock_dense``, ``_rosenbrock_control``,
+``_rosenbrock_retry``; ``auto`` adds ``_stiffness_test`` and ``_nonstiff_test``. The step
+functions are inlined into ``_steps`` by numba (``inl``) and share one :class:`Work` of scratch
+arrays; ``_steps`` runs without reference counting (``hot``). The arithmetic is that of the
+single core it replaced, in the same order (every catalogue trajectory bit-identical).
+
+Entry points (same signature; each is its own copy of the driver, pasted by :func:`specialise`
+with the other method's code dropped, so a ``dopri5`` loop compiles no Rosenbrock code: on
+hypersonic-direct-s1 the whole cold compile fell from 11-12 s to 8.4 s)::
 
     integrate_dopri5(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop,
                      out_Y, out_phase, stats) -> (nrec, status, t_stop, bad)
@@ -91,8 +103,14 @@ from pathlib import Path
 import numba
 
 TEMPLATE_MARKER = "# --- template: begin ---"
+#: the line after which the template's per-method part starts (:func:`specialise`)
+PER_METHOD = "# --- per method: begin ---"
 
 jit = numba.njit(nogil=True, error_model="numpy")
+#: the interval loop: allocates nothing, so it runs without reference counting
+hot = numba.njit(nogil=True, error_model="numpy", _nrt=False)  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
+#: the step functions: inlined into the interval loop by numba (``inline="always"``)
+inl = numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always")  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
 
 #: the docstring of every entry point after its first line
 _ENTRY_DOC = """    Returns ``(n_recorded, status, t_stop, bad_index)``; the arguments, statuses and
@@ -154,32 +172,38 @@ _DOCS = {
 
 
 def specialise(text: str) -> str:
-    """Paste the core ``_solve`` of ``text`` once per entry point, named ``integrate_<method>``,
-    with its method constants as literals (Python drops a block under ``if False``), so that
-    ``integrate_dopri5`` compiles no Rosenbrock code and ``integrate_rodasp`` no Dormand-Prince
-    code.
+    """Paste the per-method part of ``text`` (after ``# --- per method: begin ---``: the driver
+    ``_solve`` and its interval loop ``_steps``) once per entry point, as ``integrate_<method>``
+    and ``_steps_<method>``, with its method constants as literals (Python drops a block under
+    ``if False``), so that ``integrate_dopri5`` compiles no Rosenbrock code and
+    ``integrate_rodasp`` no Dormand-Prince code. The step functions before the marker are
+    shared.
 
     Measured on hypersonic-direct-s1 (``dopri5``): the core's own compile time fell from 3.7 s
-    (both methods, one core) to about 1.5 s. The cores are the entry points themselves: a
-    wrapper calling the core cost numba a second optimisation and code generation of the whole
-    linked loop (0.5-1 s per loop on a cold cache).
+    (both methods, one core) to about 1.5 s. The entry points are the drivers themselves (no
+    wrapper: a wrapper calling the core cost numba a second optimisation and code generation
+    of the whole linked loop).
     """
-    head, rest = text.split("@jit\ndef _solve(", 1)
-    body, _, tail = rest.partition("\n\n\n")
-    signature, doc_rest = body.split('"""', 1)
-    doc_rest = doc_rest.split('"""', 1)[1]
+    head, core = text.split(PER_METHOD + "\n", 1)
     cores = []
     for name, dopri5, rodasp, switch, rodas5p in _CORES:
-        core = f'@jit\ndef {name}({signature}"""{_DOCS[name]}\n\n{_ENTRY_DOC}"""{doc_rest}'
+        body = re.sub(
+            r'(def _solve\([^"]*)"""[^"]*"""',
+            lambda m, name=name: f'{m.group(1)}"""{_DOCS[name]}\n\n{_ENTRY_DOC}"""',  # type: ignore[misc]
+            core,
+            count=1,
+        )
+        body = re.sub(r"\b_solve\b", name, body)
+        body = re.sub(r"\b_steps\b", f"_steps_{name.removeprefix('integrate_')}", body)
         for const, value in (
             ("_DOPRI5", dopri5),
             ("_RODASP", rodasp),
             ("_SWITCH", switch),
             ("_RODAS5P", rodas5p),
         ):
-            core = re.sub(rf"\b{const}\b", str(value), core)
-        cores.append(core)
-    return head + "\n\n\n".join(cores) + ("\n\n\n" + tail if tail else "\n")
+            body = re.sub(rf"\b{const}\b", str(value), body)
+        cores.append(body.strip("\n"))
+    return head + "\n\n\n".join(cores) + "\n"
 
 
 def template_text() -> str:
@@ -218,6 +242,8 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
         leaves_envelope=numba.njit(_no_envelope),
         make_work=make_work,
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
+        hot=numba.njit(nogil=True, error_model="numpy", _nrt=False),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
+        inl=numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always"),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
     )
     exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
     return mod
@@ -229,6 +255,7 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
 # automatic switching between DOPRI5 and RODASP. Needs the module globals ``rhs``,
 # ``make_work`` and ``jit``.
 import math  # noqa: E402
+from typing import NamedTuple  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -331,7 +358,7 @@ _PH = np.array(
 )
 
 
-@jit
+@inl
 def _keep_stop(r, out_Y, Y):
     """Leave the state where a run stopped early in the row after the last record (never read
     as a record; the engine reads it to say why the run stopped)."""
@@ -340,7 +367,7 @@ def _keep_stop(r, out_Y, Y):
             out_Y[r, i] = Y[i]
 
 
-@jit
+@inl
 def _first_bad(Y, bound, D):
     for i in range(Y.size):
         if not (abs(Y[i]) < bound):  # catches nan too
@@ -348,7 +375,7 @@ def _first_bad(Y, bound, D):
     return leaves_envelope(Y, D)  # a plant state outside the plant's envelope
 
 
-@jit
+@inl
 def _err_max(e, y0, y1, rtol, atol):
     """Max-norm of ``e`` scaled by ``atol + rtol max(|y0|, |y1|)``; inf if not finite."""
     m = 0.0
@@ -485,7 +512,7 @@ def _lu_solve_t2(A, piv, dinv, b, c):
             c[p] = tmp
 
 
-@jit
+@inl
 def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     """Write the records ``t_rec[r] < limit`` of the step ``[t, t1]``; returns the new ``r``.
 
@@ -511,7 +538,7 @@ def _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase):
     return r
 
 
-@jit
+@inl
 def _dense_terms(k1, k2, k3, k4, k5, i):
     """The two RODASP dense-output combinations of the stages at component ``i``."""
     h2 = _RH21 * k1[i] + _RH22 * k2[i] + _RH23 * k3[i] + _RH24 * k4[i] + _RH25 * k5[i]
@@ -519,7 +546,7 @@ def _dense_terms(k1, k2, k3, k4, k5, i):
     return h2, h3
 
 
-@jit
+@inl
 def _dense_terms5(ks, i):
     """The three Rodas5P dense-output combinations ``K1, K2, K3`` of the stages at ``i``."""
     a = 0.0
@@ -533,454 +560,558 @@ def _dense_terms5(ks, i):
     return a, b, c
 
 
+class Work(NamedTuple):
+    """The scratch arrays of one run, allocated once by :func:`_work` (nothing per step)."""
+
+    Y: np.ndarray  # the state at the step's start
+    yn: np.ndarray  # the state at the step's end
+    yt: np.ndarray  # a stage's state
+    ysti: np.ndarray  # DOPRI5's 6th stage state; the Rosenbrock dense output's defect
+    f0: np.ndarray  # f(t, Y)
+    fs: np.ndarray  # a stage's f
+    ft: np.ndarray  # df/dt (Rosenbrock)
+    dy: np.ndarray  # DOPRI5's error estimate; RODASP's increment
+    k1: np.ndarray  # the stages (DOPRI5: k2..k7, f0 being k1; RODASP: k1..k6)
+    k2: np.ndarray
+    k3: np.ndarray
+    k4: np.ndarray
+    k5: np.ndarray
+    k6: np.ndarray
+    k7: np.ndarray  # f(t1, yn): the next step's f0
+    ks: np.ndarray  # Rodas5P's 8 stages
+    rc: np.ndarray  # the accepted step's dense-output coefficients (:func:`_record`)
+    JT: np.ndarray  # the Jacobian, transposed
+    A: np.ndarray  # (I / (gamma h) - J)^T and its LU factors
+    piv: np.ndarray
+    dinv: np.ndarray
+    pv: np.ndarray  # power-iteration vector (auto)
+    pw: np.ndarray  # its product with J; the dense output's slope check
+
+
+@jit
+def _work(y0, stages):
+    """The scratch arrays of one run from ``y0``; ``stages`` rows for Rodas5P's stages."""
+    n = y0.size
+    return Work(
+        y0.copy(), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+        np.empty(n), np.empty(n), np.empty((stages, n)), np.zeros((5, n)), np.empty((n, n)),
+        np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty(n),
+        np.full(n, 1.0 / math.sqrt(max(n, 1))), np.empty(n),
+    )  # fmt: skip
+
+
+# ============================================================================ Dormand-Prince 5(4)
+@inl
+def _dopri5_step(t, t1, hh, ph, D, W, rtol, atol, w, stats):
+    """One Dormand-Prince 5(4) step from ``(t, w.Y)`` (``f(t, Y)`` in ``w.f0``): the new state
+    in ``w.yn``, ``f(t1, yn)`` in ``w.k7`` (first same as last); returns the error's norm."""
+    Y, yt, ysti, yn, f0, dy = w.Y, w.yt, w.ysti, w.yn, w.f0, w.dy
+    k2, k3, k4, k5, k6, k7 = w.k2, w.k3, w.k4, w.k5, w.k6, w.k7
+    n = Y.size
+    for i in range(n):
+        yt[i] = Y[i] + hh * _A21 * f0[i]
+    rhs(t + _C2 * hh, yt, ph, D, W, k2)
+    for i in range(n):
+        yt[i] = Y[i] + hh * (_A31 * f0[i] + _A32 * k2[i])
+    rhs(t + _C3 * hh, yt, ph, D, W, k3)
+    for i in range(n):
+        yt[i] = Y[i] + hh * (_A41 * f0[i] + _A42 * k2[i] + _A43 * k3[i])
+    rhs(t + _C4 * hh, yt, ph, D, W, k4)
+    for i in range(n):
+        yt[i] = Y[i] + hh * (_A51 * f0[i] + _A52 * k2[i] + _A53 * k3[i] + _A54 * k4[i])
+    rhs(t + _C5 * hh, yt, ph, D, W, k5)
+    for i in range(n):
+        ysti[i] = Y[i] + hh * (
+            _A61 * f0[i] + _A62 * k2[i] + _A63 * k3[i] + _A64 * k4[i] + _A65 * k5[i]
+        )
+    rhs(t1, ysti, ph, D, W, k6)
+    for i in range(n):
+        yn[i] = Y[i] + hh * (
+            _A71 * f0[i] + _A73 * k3[i] + _A74 * k4[i] + _A75 * k5[i] + _A76 * k6[i]
+        )
+    rhs(t1, yn, ph, D, W, k7)
+    stats[2] += 6
+    for i in range(n):
+        dy[i] = hh * (
+            _E1 * f0[i] + _E3 * k3[i] + _E4 * k4[i] + _E5 * k5[i] + _E6 * k6[i] + _E7 * k7[i]
+        )
+    return _err_max(dy, Y, yn, rtol, atol)
+
+
+@inl
+def _dopri5_dense(hh, w):
+    """The accepted step's dense-output coefficients into ``w.rc`` (HNW I, II.6 (6.12))."""
+    Y, yn, f0, rc = w.Y, w.yn, w.f0, w.rc
+    k3, k4, k5, k6, k7 = w.k3, w.k4, w.k5, w.k6, w.k7
+    for i in range(Y.size):
+        ydiff = yn[i] - Y[i]
+        bspl = hh * f0[i] - ydiff
+        rc[1, i] = ydiff
+        rc[2, i] = bspl
+        rc[3, i] = ydiff - hh * k7[i] - bspl
+        rc[4, i] = hh * (
+            _D1 * f0[i] + _D3 * k3[i] + _D4 * k4[i] + _D5 * k5[i] + _D6 * k6[i] + _D7 * k7[i]
+        )
+
+
+@inl
+def _dopri5_control(err, hh, facold, reject_last):
+    """Hairer's PI step control after an accepted step: ``(next step, facold)``."""
+    fac11 = err**0.17
+    fac = fac11 / facold**0.04
+    fac = max(0.1, min(5.0, fac / 0.9))
+    hnew = hh / fac
+    if reject_last:
+        hnew = min(hnew, hh)
+    return hnew, max(err, 1e-4)
+
+
+@inl
+def _dopri5_retry(err, hh):
+    """The step to try after a rejected DOPRI5 step."""
+    if err < math.inf:
+        return hh / min(5.0, err**0.17 / 0.9)
+    return 0.1 * hh
+
+
+@inl
+def _stiffness_test(hh, w, n_stiff, n_nonstiff):
+    """Hairer's stiffness test (HNW I, IV.2) on an accepted DOPRI5 step: ``h |k7 - k6| / |yn -
+    ysti| > 3.25`` on 15 steps says stiff. Returns ``(stiff, n_stiff, n_nonstiff)``."""
+    num = 0.0
+    den = 0.0
+    for i in range(w.Y.size):
+        num += (w.k7[i] - w.k6[i]) ** 2
+        den += (w.yn[i] - w.ysti[i]) ** 2
+    if den > 0.0 and hh * math.sqrt(num / den) > 3.25:
+        n_nonstiff = 0
+        n_stiff += 1
+        if n_stiff >= 15:
+            return True, 0, n_nonstiff
+    else:
+        n_nonstiff += 1
+        if n_nonstiff >= 6:
+            n_stiff = 0
+    return False, n_stiff, n_nonstiff
+
+
+# ============================================================================ Rosenbrock
+@inl
+def _jacobian(t, ph, D, W, w, stats):
+    """The finite-difference Jacobian at ``(t, w.Y)`` into ``w.JT`` (transposed: ``JT[j, i] =
+    df_i / dy_j``) and ``df/dt`` into ``w.ft``."""
+    Y, yt, fs, ft, f0, JT = w.Y, w.yt, w.fs, w.ft, w.f0, w.JT
+    n = Y.size
+    for i in range(n):
+        yt[i] = Y[i]
+    for j in range(n):
+        yj = Y[j]
+        delt = math.sqrt(_UROUND * max(1e-5, abs(yj)))
+        yt[j] = yj + delt
+        rhs(t, yt, ph, D, W, fs)
+        yt[j] = yj
+        delt = 1.0 / ((yj + delt) - yj)  # the step actually taken
+        for i in range(n):
+            JT[j, i] = (fs[i] - f0[i]) * delt
+    # df/dt by a central difference: a forward one (its O(delt) bias times the large f_tt of
+    # the wing-rock loops) tripled the rejected steps at rtol 1e-9. Where f(t + delt, y) equals
+    # f(t, y) bit for bit, the loop does not depend on t there (no moving reference or failure
+    # pattern): df/dt = 0 and the second evaluation is saved.
+    delt = 1e-5 * max(1.0, abs(t))
+    rhs(t + delt, Y, ph, D, W, fs)
+    moving = False
+    for i in range(n):
+        if fs[i] != f0[i]:
+            moving = True
+            break
+    if moving:
+        rhs(t - delt, Y, ph, D, W, ft)
+        for i in range(n):
+            ft[i] = (fs[i] - ft[i]) / (2.0 * delt)
+        stats[2] += n + 2
+    else:
+        for i in range(n):
+            ft[i] = 0.0
+        stats[2] += n + 1
+    stats[3] += 1
+
+
+@inl
+def _rosenbrock_matrix(fac, w, stats):
+    """Factor ``A = (I / (gamma h) - J)^T`` (``fac = 1 / (gamma h)``) in place; False if
+    singular. :func:`_lu_solve_t` then solves with its transpose."""
+    A, JT = w.A, w.JT
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = -JT[i, j]
+        A[i, i] += fac
+    stats[4] += 1
+    return _lu_factor(A, w.piv, w.dinv)
+
+
+@inl
+def _rodasp_stages(t, t1, hh, ph, D, W, rtol, atol, w, stats):
+    """RODASP's six stages (``w.k1..k6``) and new state ``w.yn``; returns the error's norm."""
+    Y, yt, yn, fs, ft, dy = w.Y, w.yt, w.yn, w.fs, w.ft, w.dy
+    k1, k2, k3, k4, k5, k6 = w.k1, w.k2, w.k3, w.k4, w.k5, w.k6
+    A, piv, dinv = w.A, w.piv, w.dinv
+    n = Y.size
+    ihh = 1.0 / hh
+    for i in range(n):
+        k1[i] = w.f0[i] + hh * _RD1 * ft[i]
+    _lu_solve_t(A, piv, dinv, k1)
+    for i in range(n):
+        yt[i] = Y[i] + _RA21 * k1[i]
+    rhs(t + _RC2 * hh, yt, ph, D, W, fs)
+    for i in range(n):
+        k2[i] = fs[i] + hh * _RD2 * ft[i] + _RC21 * k1[i] * ihh
+    _lu_solve_t(A, piv, dinv, k2)
+    for i in range(n):
+        yt[i] = Y[i] + _RA31 * k1[i] + _RA32 * k2[i]
+    rhs(t + _RC3 * hh, yt, ph, D, W, fs)
+    for i in range(n):
+        k3[i] = fs[i] + hh * _RD3 * ft[i] + (_RC31 * k1[i] + _RC32 * k2[i]) * ihh
+    _lu_solve_t(A, piv, dinv, k3)
+    for i in range(n):
+        yt[i] = Y[i] + _RA41 * k1[i] + _RA42 * k2[i] + _RA43 * k3[i]
+    rhs(t + _RC4 * hh, yt, ph, D, W, fs)
+    for i in range(n):
+        k4[i] = fs[i] + hh * _RD4 * ft[i] + (_RC41 * k1[i] + _RC42 * k2[i] + _RC43 * k3[i]) * ihh
+    _lu_solve_t(A, piv, dinv, k4)
+    for i in range(n):
+        dy[i] = _RA51 * k1[i] + _RA52 * k2[i] + _RA53 * k3[i] + _RA54 * k4[i]
+        yt[i] = Y[i] + dy[i]
+    rhs(t1, yt, ph, D, W, fs)
+    for i in range(n):
+        k5[i] = fs[i] + (_RC51 * k1[i] + _RC52 * k2[i] + _RC53 * k3[i] + _RC54 * k4[i]) * ihh
+    _lu_solve_t(A, piv, dinv, k5)
+    for i in range(n):
+        dy[i] += k5[i]
+        yt[i] = Y[i] + dy[i]
+    rhs(t1, yt, ph, D, W, fs)
+    for i in range(n):
+        k6[i] = (
+            fs[i]
+            + (_RC61 * k1[i] + _RC62 * k2[i] + _RC63 * k3[i] + _RC64 * k4[i] + _RC65 * k5[i]) * ihh
+        )
+    _lu_solve_t(A, piv, dinv, k6)
+    for i in range(n):
+        yn[i] = Y[i] + dy[i] + k6[i]
+    stats[2] += 5
+    return _err_max(k6, Y, yn, rtol, atol)
+
+
+@inl
+def _rodas5p_stages(t, t1, hh, ph, D, W, rtol, atol, w, stats):
+    """Rodas5P's eight stages (``w.ks``) and new state ``w.yn``; returns the error's norm."""
+    Y, yt, yn, fs, ft, ks = w.Y, w.yt, w.yn, w.fs, w.ft, w.ks
+    A, piv, dinv = w.A, w.piv, w.dinv
+    n = Y.size
+    ihh = 1.0 / hh
+    for i in range(n):
+        ks[0, i] = w.f0[i] + hh * _PD[0] * ft[i]
+    _lu_solve_t(A, piv, dinv, ks[0])
+    for st in range(1, 8):
+        # stage sums as contiguous axpy sweeps over the stored stages
+        for i in range(n):
+            yt[i] = Y[i]
+        for j in range(st):
+            cf = _PA[st, j]
+            if cf != 0.0:
+                for i in range(n):
+                    yt[i] += cf * ks[j, i]
+        rhs(t + _PC[st] * hh, yt, ph, D, W, fs)
+        hd = hh * _PD[st]
+        for i in range(n):
+            ks[st, i] = fs[i] + hd * ft[i]
+        for j in range(st):
+            cf = _PCM[st, j] * ihh
+            for i in range(n):
+                ks[st, i] += cf * ks[j, i]
+        _lu_solve_t(A, piv, dinv, ks[st])
+    for i in range(n):
+        yn[i] = yt[i] + ks[7, i]
+    stats[2] += 7
+    return _err_max(ks[7], Y, yn, rtol, atol)
+
+
+@inl
+def _dense_error(t, t1, hh, fac, inside, ph, D, W, rtol, atol, w, stats, five):
+    """The dense-output check of a Rosenbrock step whose own error passed (``five``: Rodas5P,
+    else RODASP); leaves ``f(t1, yn)`` in ``w.k7``. Returns the interpolant's error norm.
+
+    The interpolant's slope at the step's end against ``h f(y1)``, filtered by ``(I - gamma h
+    J)^-1`` (stiff components damped); with a record ``inside`` the step, also the defect of the
+    interpolant at the step's middle, whose error there is about ``(I/(gamma h) - J)^-1`` times
+    the defect (``J^-1`` on stiff parts)."""
+    Y, yn, yt, ysti, pw, fs, k7 = w.Y, w.yn, w.yt, w.ysti, w.pw, w.fs, w.k7
+    k1, k2, k3, k4, k5, ks = w.k1, w.k2, w.k3, w.k4, w.k5, w.ks
+    n = Y.size
+    ihh = 1.0 / hh
+    rhs(t1, yn, ph, D, W, k7)
+    stats[2] += 1
+    for i in range(n):
+        if five:
+            h2, h3, h4 = _dense_terms5(ks, i)
+            pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3 - h4)
+        else:
+            h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
+            pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3)
+    if inside:
+        for i in range(n):
+            rc1 = yn[i] - Y[i]
+            if five:
+                h2, h3, h4 = _dense_terms5(ks, i)
+                yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * (h3 + 0.5 * h4))
+                ysti[i] = (rc1 + 0.25 * (h3 + h4)) * ihh
+            else:
+                h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
+                yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * h3)
+                ysti[i] = (rc1 + 0.25 * h3) * ihh
+        rhs(t + 0.5 * hh, yt, ph, D, W, fs)
+        stats[2] += 1
+        for i in range(n):
+            ysti[i] -= fs[i]
+        _lu_solve_t2(w.A, w.piv, w.dinv, pw, ysti)
+    else:
+        _lu_solve_t(w.A, w.piv, w.dinv, pw)
+    for i in range(n):
+        pw[i] *= fac * 0.25
+    edense = _err_max(pw, Y, yn, rtol, atol)
+    if inside:
+        edense = max(edense, _err_max(ysti, Y, yn, rtol, atol))
+    return edense
+
+
+@inl
+def _rosenbrock_step(t, t1, hh, inside, ph, D, W, rtol, atol, w, stats, five):
+    """One Rosenbrock step with the Jacobian in ``w.JT`` (``five``: Rodas5P, else RODASP).
+
+    Returns ``(err, edense, factored)``: the error's norm (``inf`` when the dense output fails
+    its check with a record ``inside``), the dense output's, and False if ``I / (gamma h) - J``
+    is singular."""
+    fac = 1.0 / ((_PG if five else _RG) * hh)
+    if not _rosenbrock_matrix(fac, w, stats):
+        return math.inf, 0.0, False
+    if five:
+        err = _rodas5p_stages(t, t1, hh, ph, D, W, rtol, atol, w, stats)
+    else:
+        err = _rodasp_stages(t, t1, hh, ph, D, W, rtol, atol, w, stats)
+    edense = 0.0
+    if err <= 1.0:
+        edense = _dense_error(t, t1, hh, fac, inside, ph, D, W, rtol, atol, w, stats, five)
+        if inside and edense > 1.0:
+            err = math.inf  # reject: a record falls inside the step
+    return err, edense, True
+
+
+@inl
+def _rosenbrock_dense(w, five):
+    """The accepted step's dense-output coefficients into ``w.rc`` (rodas.f's own; Rodas5P's
+    ``s^3 (1 - s)`` written as ``s^2 (1 - s) - s^2 (1 - s)^2``)."""
+    Y, yn, rc = w.Y, w.yn, w.rc
+    for i in range(Y.size):
+        rc[1, i] = yn[i] - Y[i]
+        if five:
+            h2, h3, h4 = _dense_terms5(w.ks, i)
+            rc[2, i] = h2
+            rc[3, i] = h3 + h4
+            rc[4, i] = -h4
+        else:
+            rc[2, i], rc[3, i] = _dense_terms(w.k1, w.k2, w.k3, w.k4, w.k5, i)
+            rc[4, i] = 0.0
+
+
+@inl
+def _rosenbrock_control(err, edense, hh, qexp, first, hacc, erracc, reject_last):
+    """Gustafsson's predictive step control after an accepted step, limited by the dense
+    output's error: ``(next step, erracc)``."""
+    e = max(err, 1e-10)
+    ratio = min(6.0, max(0.2, 0.9 * e**-qexp))
+    if not first:
+        rg = 0.9 * (hh / hacc) * (erracc / (e * e)) ** qexp
+        ratio = min(ratio, min(6.0, max(0.2, rg)))
+    if edense > 0.0:
+        ratio = min(ratio, max(0.2, 0.9 * edense**-qexp))
+    hnew = hh * ratio
+    if reject_last:
+        hnew = min(hnew, hh)
+    return hnew, max(1e-2, e)
+
+
+@inl
+def _rosenbrock_retry(err, edense, hh, qexp, factored):
+    """The step to try after a rejected Rosenbrock step."""
+    if not factored:
+        return 0.5 * hh
+    if edense > 1.0:  # the dense output failed its check
+        return hh * max(0.2, 0.9 * edense**-qexp)
+    if err < math.inf:
+        return hh * max(0.2, 0.9 * err**-qexp)
+    return 0.1 * hh
+
+
+@inl
+def _nonstiff_test(hh, w, n_stiff, n_nonstiff):
+    """Back to DOPRI5 when it would be cheaper for 5 accepted Rosenbrock steps: its stable step
+    is about ``3.3 / rho`` (``rho``: the spectral radius of J, by a few power iterations
+    continued from the last step's vector) at 6 evaluations, against ``hh`` at ``n + 8`` plus
+    an LU here. Returns ``(stiff, n_stiff, n_nonstiff)``."""
+    JT, pv, pw = w.JT, w.pv, w.pw
+    n = pv.size
+    rho = 0.0
+    for _ in range(6):
+        for i in range(n):
+            pw[i] = 0.0
+        for j in range(n):
+            v = pv[j]
+            for i in range(n):
+                pw[i] += JT[j, i] * v
+        nw = 0.0
+        for i in range(n):
+            nw += pw[i] * pw[i]
+        nw = math.sqrt(nw)
+        if not (nw > 0.0) or not (nw < math.inf):
+            break
+        rho = nw
+        for i in range(n):
+            pv[i] = pw[i] / nw
+    if rho * hh < 3.3 * (n + 8) / 6.0:
+        n_nonstiff += 1
+        if n_nonstiff >= 5:
+            return False, 0, 0
+        return True, n_stiff, n_nonstiff
+    return True, n_stiff, 0
+
+
+# ============================================================================ the driver
+@jit
+def _records_at(upto, ph, t_rec, r, Y, out_Y, out_phase):
+    """The records ``t_rec[r] <= upto`` (at the start of interval ``ph``, or at the end of the
+    run) take the state ``Y``; returns the new ``r``."""
+    while r < t_rec.size and t_rec[r] <= upto:
+        for i in range(Y.size):
+            out_Y[r, i] = Y[i]
+        out_phase[r] = ph
+        r += 1
+    return r
+
+
+# --- per method: begin ---
 @jit
 def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out_phase, stats):
     """Shared core, pasted as each ``integrate_<method>`` by :func:`specialise` with ``_DOPRI5``
     (Dormand-Prince steps), ``_RODASP`` (Rosenbrock steps) and ``_SWITCH`` (stiffness
     switching) written as literals: each entry point compiles only its method's code."""
-    n = y0.size
-    Y = y0.copy()
-    yn = np.empty(n)
-    yt = np.empty(n)
-    ysti = np.empty(n)
-    f0 = np.empty(n)
-    fs = np.empty(n)
-    ft = np.empty(n)
-    dy = np.empty(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    k7 = np.empty(n)
-    ks = np.empty((8 if _RODAS5P else 1, n))  # Rodas5P stages
-    rc = np.zeros((5, n))
-    JT = np.empty((n, n))  # the Jacobian, transposed
-    A = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
-    dinv = np.empty(n)
-    pv = np.full(n, 1.0 / math.sqrt(max(n, 1)))  # power-iteration vector (auto)
-    pw = np.empty(n)
+    w = _work(y0, 8 if _RODAS5P else 1)
     for i in range(5):
         stats[i] = 0
     if not (h_max > 0.0):
         h_max = math.inf
-    nrec = t_rec.size
-    # RODASP's dense output is of order 3 and loses accuracy on stiff components (Prothero-
-    # Robinson, 80 steps over 10 s at rtol 1e-6: 5e-4). Instead of capping the steps at the
-    # record spacing (as before: 1036 steps there, 10000 on the wing-rock loops), a step with a
-    # record inside is accepted only if its interpolant also meets the tolerance: see the
-    # dense-output check in the Rosenbrock branch.
-    r = 0
     nph = t_breaks.size - 1
-    t_end = t_breaks[nph]
-    bad = _first_bad(Y, bound, D)
+    bad = _first_bad(w.Y, bound, D)
     if bad >= 0:
-        _keep_stop(0, out_Y, Y)
+        _keep_stop(0, out_Y, w.Y)
         return 0, 1, t_breaks[0], bad
+    r = 0
     stiff = not _DOPRI5
-    # step-size exponent 1 / (q + 1) of the Rosenbrock error estimate of order q
-    qexp = 0.2 if _RODAS5P else 0.25
     nstep = 0
     for ph in range(nph):
         a = t_breaks[ph]
         b = t_breaks[ph + 1]
-        tol = 1e-9 * max(1.0, abs(b))
-        jump(a, Y, ph, D, W)  # e.g. a sampled controller's new command (no-op if continuous)
-        while r < nrec and t_rec[r] <= a + tol:
-            for i in range(n):
-                out_Y[r, i] = Y[i]
-            out_phase[r] = ph
-            r += 1
+        jump(a, w.Y, ph, D, W)  # e.g. a sampled controller's new command (no-op if continuous)
+        r = _records_at(a + 1e-9 * max(1.0, abs(b)), ph, t_rec, r, w.Y, out_Y, out_phase)
         if not (b > a):
             continue
-        t = a
-        rhs(t, Y, ph, D, W, f0)
-        order = 5.0 if (_RODAS5P or not stiff) else 4.0
-        h = _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, b - a, order, yt, k2)
-        stats[2] += 2
-        reject_last = False
-        first = True
-        facold = 1e-4
-        hacc = 0.0
-        erracc = 1e-2
-        jac_ok = False
-        n_stiff = 0
-        n_nonstiff = 0
-        while True:
-            if stop[0] != 0:
-                return r, 3, t, -1
-            if nstep >= MAX_STEPS or h < 10.0 * _UROUND * max(1.0, abs(t)):
-                _keep_stop(r, out_Y, Y)
-                return r, 2, t, -1
-            last = t + 1.01 * h >= b
-            t1 = b if last else t + h
-            hh = t1 - t
-            nstep += 1
-            if _DOPRI5 and not stiff:
-                # ---------------------------------------------- Dormand-Prince 5(4)
-                for i in range(n):
-                    yt[i] = Y[i] + hh * _A21 * f0[i]
-                rhs(t + _C2 * hh, yt, ph, D, W, k2)
-                for i in range(n):
-                    yt[i] = Y[i] + hh * (_A31 * f0[i] + _A32 * k2[i])
-                rhs(t + _C3 * hh, yt, ph, D, W, k3)
-                for i in range(n):
-                    yt[i] = Y[i] + hh * (_A41 * f0[i] + _A42 * k2[i] + _A43 * k3[i])
-                rhs(t + _C4 * hh, yt, ph, D, W, k4)
-                for i in range(n):
-                    yt[i] = Y[i] + hh * (_A51 * f0[i] + _A52 * k2[i] + _A53 * k3[i] + _A54 * k4[i])
-                rhs(t + _C5 * hh, yt, ph, D, W, k5)
-                for i in range(n):
-                    ysti[i] = Y[i] + hh * (
-                        _A61 * f0[i] + _A62 * k2[i] + _A63 * k3[i] + _A64 * k4[i] + _A65 * k5[i]
-                    )
-                rhs(t1, ysti, ph, D, W, k6)
-                for i in range(n):
-                    yn[i] = Y[i] + hh * (
-                        _A71 * f0[i] + _A73 * k3[i] + _A74 * k4[i] + _A75 * k5[i] + _A76 * k6[i]
-                    )
-                rhs(t1, yn, ph, D, W, k7)
-                stats[2] += 6
-                for i in range(n):
-                    dy[i] = hh * (
-                        _E1 * f0[i]
-                        + _E3 * k3[i]
-                        + _E4 * k4[i]
-                        + _E5 * k5[i]
-                        + _E6 * k6[i]
-                        + _E7 * k7[i]
-                    )
-                err = _err_max(dy, Y, yn, rtol, atol)
-                if err <= 1.0:
-                    bad = _first_bad(yn, bound, D)
-                    if bad >= 0:
-                        _keep_stop(r, out_Y, yn)
-                        return r, 1, t1, bad
-                    stats[0] += 1
-                    last_phase = ph == nph - 1
-                    limit = t1 + tol if (last and last_phase) else t1 - tol
-                    if r < nrec and t_rec[r] < limit:
-                        for i in range(n):
-                            ydiff = yn[i] - Y[i]
-                            bspl = hh * f0[i] - ydiff
-                            rc[1, i] = ydiff
-                            rc[2, i] = bspl
-                            rc[3, i] = ydiff - hh * k7[i] - bspl
-                            rc[4, i] = hh * (
-                                _D1 * f0[i]
-                                + _D3 * k3[i]
-                                + _D4 * k4[i]
-                                + _D5 * k5[i]
-                                + _D6 * k6[i]
-                                + _D7 * k7[i]
-                            )
-                        r = _record(
-                            r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase
-                        )
-                    # stiffness test (Hairer I, IV.2): h * |k7 - k6| / |yn - ysti|
-                    if _SWITCH:
-                        num = 0.0
-                        den = 0.0
-                        for i in range(n):
-                            num += (k7[i] - k6[i]) ** 2
-                            den += (yn[i] - ysti[i]) ** 2
-                        if den > 0.0 and hh * math.sqrt(num / den) > 3.25:
-                            n_nonstiff = 0
-                            n_stiff += 1
-                            if n_stiff >= 15:
-                                stiff = True
-                                n_stiff = 0
-                                first = True
-                        else:
-                            n_nonstiff += 1
-                            if n_nonstiff >= 6:
-                                n_stiff = 0
-                    fac11 = err**0.17
-                    fac = fac11 / facold**0.04
-                    fac = max(0.1, min(5.0, fac / 0.9))
-                    hnew = hh / fac
-                    if reject_last:
-                        hnew = min(hnew, hh)
-                    facold = max(err, 1e-4)
-                    reject_last = False
-                    for i in range(n):
-                        Y[i] = yn[i]
-                        f0[i] = k7[i]
-                    t = t1
-                    h = min(hnew, h_max)
-                    if last:
-                        break
-                else:
-                    stats[1] += 1
-                    if err < math.inf:
-                        h = hh / min(5.0, err**0.17 / 0.9)
-                    else:
-                        h = 0.1 * hh
-                    reject_last = True
+        r, code, t_stop, bad, stiff, nstep = _steps(
+            a, b, ph, ph == nph - 1, D, W, rtol, atol, h_max, bound, stop,
+            t_rec, r, out_Y, out_phase, stats, w, stiff, nstep,
+        )  # fmt: skip
+        if code != 0:
+            return r, code, t_stop, bad
+    t_end = t_breaks[nph]
+    upto = t_end + 1e-9 * max(1.0, abs(t_end))
+    return _records_at(upto, nph - 1, t_rec, r, w.Y, out_Y, out_phase), 0, t_end, -1
+
+
+@hot
+def _steps(
+    a, b, ph, last_phase, D, W, rtol, atol, h_max, bound, stop,
+    t_rec, r, out_Y, out_phase, stats, w, stiff, nstep,
+):  # fmt: skip
+    """Integrate ``[a, b]`` (interval ``ph``) from ``w.Y`` with a fresh step-size guess; returns
+    ``(r, status, t_stop, bad, stiff, nstep)`` (status 0: ``b`` reached)."""
+    Y, yn, f0 = w.Y, w.yn, w.f0
+    t, tol = a, 1e-9 * max(1.0, abs(b))
+    rhs(t, Y, ph, D, W, f0)
+    # explicit steps now: a literal where the method does not switch (so numba drops the other)
+    explicit = not stiff if _SWITCH else _DOPRI5
+    order = 5.0 if (_RODAS5P or explicit) else 4.0
+    h = _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, b - a, order, w.yt, w.k2)
+    stats[2] += 2
+    qexp = 0.2 if _RODAS5P else 0.25  # 1 / (q + 1), q: the Rosenbrock error estimate's order
+    reject_last, first, jac_ok = False, True, False
+    facold, hacc, erracc = 1e-4, 0.0, 1e-2
+    n_stiff = n_nonstiff = 0
+    while True:
+        if stop[0] != 0:
+            return r, 3, t, -1, stiff, nstep
+        if nstep >= MAX_STEPS or h < 10.0 * _UROUND * max(1.0, abs(t)):
+            _keep_stop(r, out_Y, Y)
+            return r, 2, t, -1, stiff, nstep
+        last = t + 1.01 * h >= b
+        t1 = b if last else t + h
+        hh, nstep = t1 - t, nstep + 1
+        limit = t1 + tol if (last and last_phase) else t1 - tol
+        inside = r < t_rec.size and t_rec[r] < limit  # a record falls inside the step
+        explicit = not stiff if _SWITCH else _DOPRI5
+        if _DOPRI5 and explicit:
+            err = _dopri5_step(t, t1, hh, ph, D, W, rtol, atol, w, stats)
+        elif _RODASP:
+            if not jac_ok:
+                _jacobian(t, ph, D, W, w, stats)
+                jac_ok = True
+            err, edense, factored = _rosenbrock_step(
+                t, t1, hh, inside, ph, D, W, rtol, atol, w, stats, _RODAS5P
+            )
+        if not (err <= 1.0):
+            stats[1] += 1
+            if _DOPRI5 and explicit:
+                h = _dopri5_retry(err, hh)
             elif _RODASP:
-                # ---------------------------------------------- RODASP
-                if not jac_ok:
-                    # finite-difference Jacobian, stored transposed: JT[j, i] = df_i / dy_j
-                    for i in range(n):
-                        yt[i] = Y[i]
-                    for j in range(n):
-                        yj = Y[j]
-                        delt = math.sqrt(_UROUND * max(1e-5, abs(yj)))
-                        yt[j] = yj + delt
-                        rhs(t, yt, ph, D, W, fs)
-                        yt[j] = yj
-                        delt = 1.0 / ((yj + delt) - yj)  # the step actually taken
-                        for i in range(n):
-                            JT[j, i] = (fs[i] - f0[i]) * delt
-                    # df/dt by a central difference: a forward one (its O(delt) bias times the
-                    # large f_tt of the wing-rock loops) tripled the rejected steps at rtol 1e-9.
-                    # Where f(t + delt, y) equals f(t, y) bit for bit, the loop does not depend
-                    # on t there (no moving reference or failure pattern): df/dt = 0 and the
-                    # second evaluation is saved.
-                    delt = 1e-5 * max(1.0, abs(t))
-                    rhs(t + delt, Y, ph, D, W, fs)
-                    moving = False
-                    for i in range(n):
-                        if fs[i] != f0[i]:
-                            moving = True
-                            break
-                    if moving:
-                        rhs(t - delt, Y, ph, D, W, ft)
-                        for i in range(n):
-                            ft[i] = (fs[i] - ft[i]) / (2.0 * delt)
-                        stats[2] += n + 2
-                    else:
-                        for i in range(n):
-                            ft[i] = 0.0
-                        stats[2] += n + 1
-                    stats[3] += 1
-                    jac_ok = True
-                fac = 1.0 / ((_PG if _RODAS5P else _RG) * hh)
-                ihh = 1.0 / hh
-                # A = (I / (gamma h) - J)^T, factored; _lu_solve_t solves with its transpose
-                for i in range(n):
-                    for j in range(n):
-                        A[i, j] = -JT[i, j]
-                    A[i, i] += fac
-                stats[4] += 1
-                if not _lu_factor(A, piv, dinv):
-                    stats[1] += 1
-                    h = 0.5 * hh
-                    reject_last = True
-                    continue
-                if _RODAS5P:
-                    for i in range(n):
-                        ks[0, i] = f0[i] + hh * _PD[0] * ft[i]
-                    _lu_solve_t(A, piv, dinv, ks[0])
-                    for st in range(1, 8):
-                        # stage sums as contiguous axpy sweeps over the stored stages
-                        for i in range(n):
-                            yt[i] = Y[i]
-                        for j in range(st):
-                            cf = _PA[st, j]
-                            if cf != 0.0:
-                                for i in range(n):
-                                    yt[i] += cf * ks[j, i]
-                        rhs(t + _PC[st] * hh, yt, ph, D, W, fs)
-                        hd = hh * _PD[st]
-                        for i in range(n):
-                            ks[st, i] = fs[i] + hd * ft[i]
-                        for j in range(st):
-                            cf = _PCM[st, j] * ihh
-                            for i in range(n):
-                                ks[st, i] += cf * ks[j, i]
-                        _lu_solve_t(A, piv, dinv, ks[st])
-                    for i in range(n):
-                        yn[i] = yt[i] + ks[7, i]
-                    stats[2] += 7
-                    err = _err_max(ks[7], Y, yn, rtol, atol)
-                else:
-                    for i in range(n):
-                        k1[i] = f0[i] + hh * _RD1 * ft[i]
-                    _lu_solve_t(A, piv, dinv, k1)
-                    for i in range(n):
-                        yt[i] = Y[i] + _RA21 * k1[i]
-                    rhs(t + _RC2 * hh, yt, ph, D, W, fs)
-                    for i in range(n):
-                        k2[i] = fs[i] + hh * _RD2 * ft[i] + _RC21 * k1[i] * ihh
-                    _lu_solve_t(A, piv, dinv, k2)
-                    for i in range(n):
-                        yt[i] = Y[i] + _RA31 * k1[i] + _RA32 * k2[i]
-                    rhs(t + _RC3 * hh, yt, ph, D, W, fs)
-                    for i in range(n):
-                        k3[i] = fs[i] + hh * _RD3 * ft[i] + (_RC31 * k1[i] + _RC32 * k2[i]) * ihh
-                    _lu_solve_t(A, piv, dinv, k3)
-                    for i in range(n):
-                        yt[i] = Y[i] + _RA41 * k1[i] + _RA42 * k2[i] + _RA43 * k3[i]
-                    rhs(t + _RC4 * hh, yt, ph, D, W, fs)
-                    for i in range(n):
-                        k4[i] = (
-                            fs[i]
-                            + hh * _RD4 * ft[i]
-                            + (_RC41 * k1[i] + _RC42 * k2[i] + _RC43 * k3[i]) * ihh
-                        )
-                    _lu_solve_t(A, piv, dinv, k4)
-                    for i in range(n):
-                        dy[i] = _RA51 * k1[i] + _RA52 * k2[i] + _RA53 * k3[i] + _RA54 * k4[i]
-                        yt[i] = Y[i] + dy[i]
-                    rhs(t1, yt, ph, D, W, fs)
-                    for i in range(n):
-                        k5[i] = (
-                            fs[i]
-                            + (_RC51 * k1[i] + _RC52 * k2[i] + _RC53 * k3[i] + _RC54 * k4[i]) * ihh
-                        )
-                    _lu_solve_t(A, piv, dinv, k5)
-                    for i in range(n):
-                        dy[i] += k5[i]
-                        yt[i] = Y[i] + dy[i]
-                    rhs(t1, yt, ph, D, W, fs)
-                    for i in range(n):
-                        k6[i] = (
-                            fs[i]
-                            + (
-                                _RC61 * k1[i]
-                                + _RC62 * k2[i]
-                                + _RC63 * k3[i]
-                                + _RC64 * k4[i]
-                                + _RC65 * k5[i]
-                            )
-                            * ihh
-                        )
-                    _lu_solve_t(A, piv, dinv, k6)
-                    for i in range(n):
-                        yn[i] = Y[i] + dy[i] + k6[i]
-                    stats[2] += 5
-                    err = _err_max(k6, Y, yn, rtol, atol)
-                last_phase = ph == nph - 1
-                limit = t1 + tol if (last and last_phase) else t1 - tol
-                edense = 0.0
-                if err <= 1.0:
-                    rhs(t1, yn, ph, D, W, k7)
-                    stats[2] += 1
-                    # dense-output check: the interpolant's slope at the step's end against
-                    # h f(y1), filtered by (I - gamma h J)^-1 (stiff components damped)
-                    for i in range(n):
-                        if _RODAS5P:
-                            h2, h3, h4 = _dense_terms5(ks, i)
-                            pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3 - h4)
-                        else:
-                            h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
-                            pw[i] = hh * k7[i] - (yn[i] - Y[i] - h2 - h3)
-                    inside = r < nrec and t_rec[r] < limit
-                    if inside:
-                        # defect of the interpolant at the step's middle; its error there is
-                        # about (I/(gamma h) - J)^-1 times the defect (J^-1 on stiff parts)
-                        for i in range(n):
-                            rc1 = yn[i] - Y[i]
-                            if _RODAS5P:
-                                h2, h3, h4 = _dense_terms5(ks, i)
-                                yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * (h3 + 0.5 * h4))
-                                ysti[i] = (rc1 + 0.25 * (h3 + h4)) * ihh
-                            else:
-                                h2, h3 = _dense_terms(k1, k2, k3, k4, k5, i)
-                                yt[i] = Y[i] + 0.5 * rc1 + 0.25 * (h2 + 0.5 * h3)
-                                ysti[i] = (rc1 + 0.25 * h3) * ihh
-                        rhs(t + 0.5 * hh, yt, ph, D, W, fs)
-                        stats[2] += 1
-                        for i in range(n):
-                            ysti[i] -= fs[i]
-                        _lu_solve_t2(A, piv, dinv, pw, ysti)
-                    else:
-                        _lu_solve_t(A, piv, dinv, pw)
-                    for i in range(n):
-                        pw[i] *= fac * 0.25
-                    edense = _err_max(pw, Y, yn, rtol, atol)
-                    if inside:
-                        edense = max(edense, _err_max(ysti, Y, yn, rtol, atol))
-                        if edense > 1.0:
-                            err = math.inf  # reject: a record falls inside the step
-                if err <= 1.0:
-                    bad = _first_bad(yn, bound, D)
-                    if bad >= 0:
-                        _keep_stop(r, out_Y, yn)
-                        return r, 1, t1, bad
-                    stats[0] += 1
-                    if r < nrec and t_rec[r] < limit:
-                        for i in range(n):  # the method's own dense output (rodas.f)
-                            rc[1, i] = yn[i] - Y[i]
-                            if _RODAS5P:  # s^3 (1 - s) = s^2 (1 - s) - s^2 (1 - s)^2
-                                h2, h3, h4 = _dense_terms5(ks, i)
-                                rc[2, i] = h2
-                                rc[3, i] = h3 + h4
-                                rc[4, i] = -h4
-                            else:
-                                rc[2, i], rc[3, i] = _dense_terms(k1, k2, k3, k4, k5, i)
-                                rc[4, i] = 0.0
-                        r = _record(
-                            r, t_rec, limit, t, t1, hh, tol, Y, yn, rc, ph, out_Y, out_phase
-                        )
-                    e = max(err, 1e-10)
-                    ratio = min(6.0, max(0.2, 0.9 * e**-qexp))
-                    if not first:  # Gustafsson's predictive controller
-                        rg = 0.9 * (hh / hacc) * (erracc / (e * e)) ** qexp
-                        ratio = min(ratio, min(6.0, max(0.2, rg)))
-                    first = False
-                    hacc = hh
-                    erracc = max(1e-2, e)
-                    if edense > 0.0:
-                        ratio = min(ratio, max(0.2, 0.9 * edense**-qexp))
-                    hnew = hh * ratio
-                    if reject_last:
-                        hnew = min(hnew, hh)
-                    reject_last = False
-                    if _SWITCH:
-                        # back to DOPRI5 when it would be cheaper: its stable step is about
-                        # 3.3 / rho (rho: spectral radius of J, by a few power iterations
-                        # continued from the last step's vector) at 6 evaluations, against hh
-                        # at n + 8 evaluations plus an LU here
-                        rho = 0.0
-                        for _ in range(6):
-                            for i in range(n):
-                                pw[i] = 0.0
-                            for j in range(n):
-                                v = pv[j]
-                                for i in range(n):
-                                    pw[i] += JT[j, i] * v
-                            nw = 0.0
-                            for i in range(n):
-                                nw += pw[i] * pw[i]
-                            nw = math.sqrt(nw)
-                            if not (nw > 0.0) or not (nw < math.inf):
-                                break
-                            rho = nw
-                            for i in range(n):
-                                pv[i] = pw[i] / nw
-                        if rho * hh < 3.3 * (n + 8) / 6.0:
-                            n_nonstiff += 1
-                            if n_nonstiff >= 5:
-                                stiff = False
-                                n_nonstiff = 0
-                                n_stiff = 0
-                                facold = 1e-4
-                        else:
-                            n_nonstiff = 0
-                    for i in range(n):
-                        Y[i] = yn[i]
-                        f0[i] = k7[i]
-                    t = t1
-                    jac_ok = False
-                    h = min(hnew, h_max)
-                    if last:
-                        break
-                else:
-                    stats[1] += 1
-                    if edense > 1.0:  # the dense output failed its check
-                        h = hh * max(0.2, 0.9 * edense**-qexp)
-                    elif err < math.inf:
-                        h = hh * max(0.2, 0.9 * err**-qexp)
-                    else:
-                        h = 0.1 * hh
-                    reject_last = True
-    while r < nrec and t_rec[r] <= t_end + 1e-9 * max(1.0, abs(t_end)):
-        for i in range(n):
-            out_Y[r, i] = Y[i]
-        out_phase[r] = nph - 1
-        r += 1
-    return r, 0, t_end, -1
+                h = _rosenbrock_retry(err, edense, hh, qexp, factored)
+            reject_last = True
+            continue
+        bad = _first_bad(yn, bound, D)
+        if bad >= 0:
+            _keep_stop(r, out_Y, yn)
+            return r, 1, t1, bad, stiff, nstep
+        stats[0] += 1
+        if _DOPRI5 and explicit:
+            if inside:
+                _dopri5_dense(hh, w)
+            if _SWITCH:
+                stiff, n_stiff, n_nonstiff = _stiffness_test(hh, w, n_stiff, n_nonstiff)
+                first = first or stiff
+            hnew, facold = _dopri5_control(err, hh, facold, reject_last)
+        elif _RODASP:
+            if inside:
+                _rosenbrock_dense(w, _RODAS5P)
+            hnew, erracc = _rosenbrock_control(
+                err, edense, hh, qexp, first, hacc, erracc, reject_last
+            )
+            first, hacc, jac_ok = False, hh, False
+            if _SWITCH:
+                stiff, n_stiff, n_nonstiff = _nonstiff_test(hh, w, n_stiff, n_nonstiff)
+                if not stiff:
+                    facold = 1e-4
+        if inside:
+            r = _record(r, t_rec, limit, t, t1, hh, tol, Y, yn, w.rc, ph, out_Y, out_phase)
+        for i in range(Y.size):
+            Y[i] = yn[i]
+            f0[i] = w.k7[i]
+        t, h, reject_last = t1, min(hnew, h_max), False
+        if last:
+            return r, 0, t, -1, stiff, nstep

@@ -56,28 +56,52 @@ def record_hermite(out_Y, r, tr, t, h, Y, k1, yn, fe):
         out_Y[r, i] = h00 * Y[i] + h10 * h * k1[i] + h01 * yn[i] + h11 * h * fe[i]
 
 
+@inl
+def rk4_step(t, t1, hh, ph, D, W, Y, k1, k2, k3, k4, yt, yn):
+    """One classical RK4 step from ``(t, Y)`` to ``t1 = t + hh``: the stages in ``k1..k4``, the
+    new state in ``yn`` (``yt``: the stages' state)."""
+    n = Y.size
+    rhs(t, Y, ph, D, W, k1)
+    for i in range(n):
+        yt[i] = Y[i] + 0.5 * hh * k1[i]
+    rhs(t + 0.5 * hh, yt, ph, D, W, k2)
+    for i in range(n):
+        yt[i] = Y[i] + 0.5 * hh * k2[i]
+    rhs(t + 0.5 * hh, yt, ph, D, W, k3)
+    for i in range(n):
+        yt[i] = Y[i] + hh * k3[i]
+    rhs(t1, yt, ph, D, W, k4)
+    for i in range(n):
+        yn[i] = Y[i] + hh / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@inl
+def rk4_records(r, t_rec, limit, tol, t, t1, hh, ph, D, W, Y, k1, yn, fe, out_Y, out_phase, stats):
+    """Write the records ``t_rec[r] < limit`` of the step ``[t, t1]``: the step's end state where
+    a record falls on it, else the cubic Hermite interpolant (``f(t1, yn)`` into ``fe``, once).
+    Returns the new ``r``."""
+    have_end = False
+    while r < t_rec.size and t_rec[r] < limit:
+        tr = t_rec[r]
+        if abs(tr - t1) <= tol:
+            for i in range(Y.size):
+                out_Y[r, i] = yn[i]
+        else:
+            if not have_end:
+                rhs(t1, yn, ph, D, W, fe)
+                stats[2] += 1
+                have_end = True
+            record_hermite(out_Y, r, tr, t, hh, Y, k1, yn, fe)
+        out_phase[r] = ph
+        r += 1
+    return r
+
+
 @hot
 def integrate_rk4(
-    y0,
-    t_breaks,
-    dt,
-    t_rec,
-    D,
-    W,
-    bound,
-    stop,
-    out_Y,
-    out_phase,
-    stats,
-    Y,
-    k1,
-    k2,
-    k3,
-    k4,
-    yt,
-    yn,
-    fe,
-):
+    y0, t_breaks, dt, t_rec, D, W, bound, stop, out_Y, out_phase, stats,
+    Y, k1, k2, k3, k4, yt, yn, fe,
+):  # fmt: skip
     """Classical RK4 with steps landing exactly on every break time.
 
     Records the state at the times ``t_rec`` (exactly where a step ends there, else by cubic
@@ -125,20 +149,9 @@ def integrate_rk4(
             t = a + st * h
             t1 = b if st == nsteps - 1 else a + (st + 1) * h
             hh = t1 - t
-            rhs(t, Y, ph, D, W, k1)
-            for i in range(n):
-                yt[i] = Y[i] + 0.5 * hh * k1[i]
-            rhs(t + 0.5 * hh, yt, ph, D, W, k2)
-            for i in range(n):
-                yt[i] = Y[i] + 0.5 * hh * k2[i]
-            rhs(t + 0.5 * hh, yt, ph, D, W, k3)
-            for i in range(n):
-                yt[i] = Y[i] + hh * k3[i]
-            rhs(t1, yt, ph, D, W, k4)
+            rk4_step(t, t1, hh, ph, D, W, Y, k1, k2, k3, k4, yt, yn)
             stats[0] += 1
             stats[2] += 4
-            for i in range(n):
-                yn[i] = Y[i] + hh / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             bad = first_bad(yn, bound, D)
             if bad >= 0:
                 keep_stop(r, out_Y, yn)
@@ -146,20 +159,8 @@ def integrate_rk4(
             last = ph == nph - 1 and st == nsteps - 1
             limit = t1 + tol if last else t1 - tol
             if r < nrec and t_rec[r] < limit:
-                have_end = False
-                while r < nrec and t_rec[r] < limit:
-                    tr = t_rec[r]
-                    if abs(tr - t1) <= tol:
-                        for i in range(n):
-                            out_Y[r, i] = yn[i]
-                    else:
-                        if not have_end:
-                            rhs(t1, yn, ph, D, W, fe)
-                            stats[2] += 1
-                            have_end = True
-                        record_hermite(out_Y, r, tr, t, hh, Y, k1, yn, fe)
-                    out_phase[r] = ph
-                    r += 1
+                r = rk4_records(r, t_rec, limit, tol, t, t1, hh, ph, D, W, Y, k1, yn, fe, out_Y,
+                                out_phase, stats)  # fmt: skip
             for i in range(n):
                 Y[i] = yn[i]
     while r < nrec and t_rec[r] <= t_end + 1e-9 * max(1.0, abs(t_end)):

@@ -1,0 +1,156 @@
+"""Peers on one loop (issue 29): the same members of the §2.3 hypersonic loop through each
+engine that is available, per core.
+
+Run: ``python benchmarks/bench_peers.py [--n 200] [--t-final 120] [--check 20] [--seed 0]``
+or ``--small`` (CI: 3 members of 8 s, no timing targets; checks that every engine runs and
+agrees).
+
+Engines, each on ONE thread so that its wall time is its per-core time:
+
+* ``batch``: this project's member-per-thread batch (:func:`iter_simulate`, ``jobs=1``);
+* ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
+  skipped with a message when no C compiler is found;
+* ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
+  (the engine's ``method="RK45"`` path; Dopri5 only: scipy has no fixed-step RK4; timed on
+  the first ``--check`` members only, as it is some 20x slower);
+* ``diffrax``: vmapped JAX, only when ``jax`` and ``diffrax`` are importable (never installed
+  in CI); this version has no JAX model of the loop yet, so it is reported as not run.
+
+Times are CPU seconds (this process's threads for the Python engines, the child process for
+C, start-up and input parsing included), so a loaded machine inflates them less than wall
+times.
+
+Methods: RK4 with dt = 1e-3 and Dopri5 with rtol = 1e-6, atol = 1e-9 (record_dt 0.01).
+Printed per engine and method: per-core seconds per member, that time relative to the C loop
+(RK4), and the max difference of each member's final state (relative above 1) from the single
+run of the same member: for ``batch`` its own :func:`simulate` (must be 0: the batch runs the
+single-run code), for the other engines this project's single run of the same method (the
+agreement between engines). ``--check K`` compares the first K members (single runs cost as
+much as the batch).
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cref import CReferenceError, build, failure_records, rk4_scenario, run_batch  # noqa: E402
+from bench_batch import draw_failures  # noqa: E402
+
+from adaptive_ftc import SolverOptions, iter_simulate, simulate  # noqa: E402
+
+METHODS = {
+    "RK4 dt 1e-3": SolverOptions(method="rk4", dt=1e-3, record_dt=0.01),
+    "Dopri5 1e-6/1e-9": SolverOptions(method="dopri5", rtol=1e-6, atol=1e-9, record_dt=0.01),
+}
+SCIPY = SolverOptions(method="RK45", rtol=1e-6, atol=1e-9, record_dt=0.01)
+
+
+def final_row(r) -> np.ndarray:
+    """[status, samples, final closed-loop state] of one result (the C batch's row)."""
+    state = np.concatenate([r.states[-1], r.adaptive[-1]]) if r.time.size else np.full(27, np.nan)
+    return np.concatenate([[0.0 if r.status == "completed" else 1.0, r.time.size], state])
+
+
+def max_diff(a: np.ndarray, b: np.ndarray) -> float:
+    """Max |a - b| over final states, relative where |b| > 1 (as bench_batch.py)."""
+    scale = np.maximum(1.0, np.abs(b[:, 2:]))
+    return float(np.nanmax(np.abs(a[:, 2:] - b[:, 2:]) / scale))
+
+
+def python_batch(loops, solver) -> tuple[float, np.ndarray]:
+    """Per-core seconds of the batch on one thread, and its rows."""
+    t = time.process_time()
+    rows = np.array([final_row(r) for r in iter_simulate(loops, solver, jobs=1)])
+    return time.process_time() - t, rows
+
+
+def singles(loops, solver) -> np.ndarray:
+    return np.array([final_row(simulate(loop, solver)) for loop in loops])
+
+
+def diffrax_note() -> str:
+    try:
+        import diffrax  # noqa: F401
+        import jax  # noqa: F401
+    except ImportError:
+        return "diffrax: skipped (jax and diffrax are not importable; pip install jax diffrax)"
+    return "diffrax: importable, but this version has no JAX model of the loop: not run"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--n", type=int, default=200, help="members (default 200)")
+    ap.add_argument("--t-final", type=float, default=120.0, help="seconds per run (default 120)")
+    ap.add_argument("--check", type=int, default=20, help="members compared with single runs")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the failure draws")
+    ap.add_argument("--small", action="store_true", help="CI: 3 members of 8 s, no targets")
+    args = ap.parse_args()
+    if args.small:
+        args.n, args.t_final, args.check = 3, 8.0, 3
+    if args.n < 1 or args.check < 0 or not args.t_final > 6.0:
+        print(
+            "error: --n must be >= 1, --check >= 0, --t-final > 6 (failures start after 5 s)",
+            file=sys.stderr,
+        )
+        return 2
+    base = rk4_scenario().loop
+    base = replace(base, t_final=args.t_final)
+    rng = np.random.default_rng(args.seed)
+    drawn = [draw_failures(rng, args.t_final) for _ in range(args.n)]
+    loops = [replace(base, failures=f) for f in drawn]
+    k = min(args.check, args.n)
+    warnings.simplefilter("ignore")  # diverged members (if any) are compared, not reported
+    print(
+        f"hypersonic-direct-s1 loop, {args.n} members of {args.t_final:g} s (seed {args.seed}), "
+        f"one thread per engine; differences over the first {k} members"
+    )
+    c_per = None
+    try:
+        exe = build()
+        runs = [(base.initial_state, failure_records(f)) for f in drawn]
+        sol = METHODS["RK4 dt 1e-3"]
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        _, c_rows = run_batch(
+            exe, runs, threads=1, t_final=args.t_final, dt=sol.dt, record_dt=sol.record_dt
+        )
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t_c = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        c_per = t_c / args.n
+    except CReferenceError as exc:
+        print(f"  C: skipped ({exc})")
+    failed = False
+    for label, solver in METHODS.items():
+        iter_simulate(loops[:1], solver, jobs=1).__next__()  # compile or load the cached loop
+        t_b, b_rows = python_batch(loops, solver)
+        ref = singles(loops[:k], solver)
+        lines = [("batch", t_b / args.n, max_diff(b_rows[:k], ref))]
+        if label.startswith("RK4") and c_per is not None:
+            lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
+        if label.startswith("Dopri5"):
+            t_s, s_rows = python_batch(loops[: max(k, 1)], SCIPY)
+            lines.append(("scipy RK45", t_s / max(k, 1), max_diff(s_rows[:k], ref)))
+        print(f"  {label}:")
+        for name, per, diff in lines:
+            rel = f"{per / c_per:6.2f}x C (RK4)" if c_per else "  (no C)"
+            cost = f"{per * 1e3:9.2f} ms per member per core"
+            print(f"    {name:10s} {cost}  {rel}  max diff {diff:.1e}")
+        if lines[0][2] != 0.0:
+            print(f"    FAILED: a batch member differs from its single run ({lines[0][2]:.1e})")
+            failed = True
+    print(f"  {diffrax_note()}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,57 @@
+"""The peer benchmark's CI mode (issue 29): ``benchmarks/bench_peers.py --small`` runs every
+available engine on three members of the hypersonic loop, with no timing assertions. What it
+must show: every batch member equal to its single run, and the C loop and scipy agreeing with
+the project's single runs."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+
+
+@pytest.fixture(scope="module")
+def output() -> str:
+    env = {**os.environ, "PYTHONPATH": str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / "bench_peers.py"), "--small"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc.stdout
+
+
+def _diffs(text: str, engine: str) -> list[float]:
+    pattern = rf"^\s+{re.escape(engine)}\s+.*max diff (\S+)$"
+    return [float(m) for m in re.findall(pattern, text, flags=re.MULTILINE)]
+
+
+def test_every_batch_member_equals_its_single_run(output):
+    diffs = _diffs(output, "batch")
+    assert len(diffs) == 2, output  # RK4 and Dopri5
+    assert diffs == [0.0, 0.0]
+
+
+def test_c_and_scipy_agree_with_the_single_runs(output):
+    c = _diffs(output, "C")
+    if not c:
+        assert "C: skipped" in output, output
+    else:
+        assert c[0] <= 1e-9  # the same RK4 steps (tests/test_cref.py holds it to 1e-9)
+    (scipy,) = _diffs(output, "scipy RK45")
+    assert scipy <= 1e-6  # another adaptive method at the same tolerances
+
+
+def test_per_core_times_and_diffrax_status_are_reported(output):
+    assert output.count("ms per member per core") >= 3
+    assert re.search(r"^\s+diffrax: (skipped|importable)", output, flags=re.MULTILINE), output
