@@ -27,6 +27,7 @@ import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.plants.base import Plant
+from adaptive_ftc.sim.layout import Misc
 from adaptive_ftc.sim.system import ClosedLoop
 
 __all__ = [
@@ -148,8 +149,8 @@ def to_control(
     ny = asm.y0.size
     pos = list(loop.plant.position_index)
     vel = list(loop.plant.velocity_index)
-    ref = asm.layout["w:ref"]
-    misc = asm.layout["w:misc"].start
+    ref = asm.layout.work["ref"]
+    ref_valid = asm.layout.misc(Misc.REF_VALID)
     use_ref = "reference" in chosen
     use_dist = "disturbance" in chosen
     n_ref = 3 * len(pos) if use_ref else 0
@@ -167,10 +168,10 @@ def to_control(
         ph = phase_of(t)
         if use_ref:
             # the compiled rhs keeps the reference of the last time in work[ref] and skips
-            # computing it again at the same t (misc[3] = valid, misc[4] = that t): one call
+            # computing it again at the same t (Misc.REF_VALID, Misc.REF_TIME): one call
             # fills the per-time values (e.g. the estimation design's basis), then the
             # reference is replaced by the inputs and the derivative computed with them
-            work[misc + 3] = 0.0
+            work[ref_valid] = 0.0
             rhs(t, x, ph, data, work, dy)
             work[ref.start : ref.start + n_ref] = np.asarray(u, dtype=float)[:n_ref]
         rhs(t, x, ph, data, work, dy)

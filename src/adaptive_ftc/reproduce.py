@@ -302,12 +302,13 @@ def _run_cost(sc: Scenario, data: bool) -> float:
     """Expected CPU seconds of one run of ``sc`` (and of writing its data file), the weight of
     its task in the progress bar's ETA (:func:`adaptive_ftc._feedback.run_cost`)."""
     from adaptive_ftc._feedback import run_cost
+    from adaptive_ftc.sim.layout import RecordLayout
 
     try:
         loop = sc.loop
         records = (float(loop.t_final) - float(loop.t0)) / float(sc.solver.record_dt) + 1
-        p, m = loop.plant.n_outputs, loop.plant.n_actuators
-        values = records * (len(loop.initial_state) + 9 * p + 2 * m + 4)
+        recorded = RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators)
+        values = records * (len(loop.initial_state) + recorded.width)
     except Exception:  # noqa: BLE001 - an estimate: the run itself reports a broken loop
         values = 1e6
     return run_cost(values, write=data)

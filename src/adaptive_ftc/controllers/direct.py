@@ -8,6 +8,7 @@ from typing import ClassVar, NamedTuple
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["DirectAdaptive"]
 
@@ -50,6 +51,6 @@ class DirectAdaptive(AdaptiveController):
         g.use("theta_law", theta_law)
         return [
             "    # adaptive law (2.29)",
-            "    misc[1] = 1.0",
+            f"    misc[{int(Misc.GAIN)}] = 1.0",
             *self.theta_laws(blocks, "D.gains.gamma", "D.gains.sigma", "1.0"),
         ]

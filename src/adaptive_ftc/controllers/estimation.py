@@ -10,6 +10,7 @@ from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _pos
 from adaptive_ftc.controllers.laws import kappa_law, theta_law
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.expressions import Expression
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["FailureEstimation"]
 
@@ -100,7 +101,7 @@ class FailureEstimation(AdaptiveController):
             "    comp = 0.0",
             f"    for l in range({i}):",
             f"        comp -= Y[{extra_at} + l] * wb[l]",
-            "    misc[0] = comp",
+            f"    misc[{int(Misc.UF_COMP)}] = comp",
             "    u0[0] += comp",
         ]
 
@@ -109,7 +110,7 @@ class FailureEstimation(AdaptiveController):
         g.use("kappa_law", kappa_law)
         return [
             "    # adaptive laws (2.72)-(2.73)",
-            "    misc[1] = 1.0",
+            f"    misc[{int(Misc.GAIN)}] = 1.0",
             *self.theta_laws(blocks, "D.gains.eta1", "D.gains.sigma", "1.0"),
             f"    kappa_law(dY, Y, wb, q[0], D.gains.eta2, D.gains.sigma, 0, {extra_at}, {g.n_w})",
         ]

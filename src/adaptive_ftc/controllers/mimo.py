@@ -17,6 +17,7 @@ from adaptive_ftc.controllers.base import (
 )
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["MimoDirectAdaptive"]
 
@@ -228,7 +229,7 @@ class MimoDirectAdaptive(AdaptiveController):
         if not norm:
             return [
                 "    # adaptive laws (3.37), one per output",
-                "    misc[1] = 1.0",
+                f"    misc[{int(Misc.GAIN)}] = 1.0",
                 *self.theta_laws(blocks, "D.gains.eta", "D.gains.sigma", "1.0"),
             ]
         g.use("normaliser", normaliser)
@@ -236,7 +237,7 @@ class MimoDirectAdaptive(AdaptiveController):
         g.consts.extend(norm)
         lines = [
             "    # adaptive laws (3.37), one per output, normalised (constraint-aware)",
-            "    misc[1] = 1.0",
+            f"    misc[{int(Misc.GAIN)}] = 1.0",
         ]
         for r, (o, at, size) in enumerate(blocks):
             gain = f"normaliser(phi, c[{c0 + r}], {o}, {size})"

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.controllers.base import AdaptiveController, _positive
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["NominalInverse", "OracleInverse", "solve_guarded"]
 
@@ -159,7 +160,7 @@ class NominalInverse(AdaptiveController):
         # 2.3 s)
         what = "the healthy model, or the failed actuators' true outputs (oracle)"
         lines = [
-            "    misc[1] = 1.0  # the recorded gain: 1 for a design without one",
+            f"    misc[{int(Misc.GAIN)}] = 1.0  # the recorded gain: 1 for a design without one",
             f"    # u0 from y'' = f + G u0 along u = R^T u0, with {what} (controllers/nominal.py)",
             f"    xs = sig[0:{nx}]",
             f"    for kk in range(-1, {p}):",

@@ -9,6 +9,7 @@ from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.expressions import Expression
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["NussbaumAdaptive", "NUSSBAUM_FUNCTIONS"]
 
@@ -85,7 +86,7 @@ class NussbaumAdaptive(AdaptiveController):
         return [
             "    # adaptive laws (4.25)-(4.27)",
             f"    gain = nussbaum(Y[{extra_at}], c)",
-            "    misc[1] = gain",
+            f"    misc[{int(Misc.GAIN)}] = gain",
             f"    dY[{extra_at}] = tau_law(q[0], D.gains.alpha1)",
             *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain"),
         ]

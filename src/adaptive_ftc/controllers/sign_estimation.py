@@ -10,6 +10,7 @@ from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["SignEstimation"]
 
@@ -85,7 +86,7 @@ class SignEstimation(AdaptiveController):
         lines = [
             "    # adaptive laws (4.54)-(4.55)",
             f"    rho = Y[{extra_at}]",
-            "    misc[1] = rho",
+            f"    misc[{int(Misc.GAIN)}] = rho",
             f"    dY[{extra_at}] = rho_law(u0[0], q[0], rho, D.gains.alpha1, D.gains.sigma1)",
         ]
         bound = self.rho_bound()

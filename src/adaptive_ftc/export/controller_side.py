@@ -3,8 +3,8 @@
 The simulator's ``rhs`` (:mod:`adaptive_ftc.sim.compose`) computes, in one function, the
 controller (measurements, errors, regressors, control law, allocation, ``s'`` filter, adaptive
 laws) and the plant side (failures, actuators, the plant's equations). At a controller sample
-(``misc[5] == 1``) the controller's part is what a deployed controller runs: this module keeps
-it, statement by statement, from the parsed ``rhs``.
+(``misc[Misc.SAMPLING] == 1``) the controller's part is what a deployed controller runs: this
+module keeps it, statement by statement, from the parsed ``rhs``.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["controller_side"]
 
@@ -48,7 +49,7 @@ def controller_side(stmts: list, ny: int, tainted: set | None = None) -> list:
         if st is None:
             continue
         if isinstance(st, ast.If):
-            if isinstance(st.test, ast.Constant):  # folded: misc[5] (at a sample) is 1
+            if isinstance(st.test, ast.Constant):  # folded: misc[Misc.SAMPLING] (at a sample) is 1
                 out += controller_side(st.body if st.test.value else st.orelse, ny, tainted)
                 continue
             if _calls(st, "reference"):  # the reference cache: r is an input (in W)
@@ -125,8 +126,8 @@ def _assigned(st) -> set[str]:
 
 
 class _Fold(ast.NodeTransformer):
-    """``misc[5]`` (computing a sample) is 1; ``meas(...)`` (the sensors' offset) is 0: the
-    measurement ``y`` already holds it; comparisons of constants are folded."""
+    """``misc[Misc.SAMPLING]`` (computing a sample) is 1; ``meas(...)`` (the sensors' offset)
+    is 0: the measurement ``y`` already holds it; comparisons of constants are folded."""
 
     def visit_Subscript(self, node):
         self.generic_visit(node)
@@ -135,7 +136,7 @@ class _Fold(ast.NodeTransformer):
             and isinstance(node.value, ast.Name)
             and node.value.id == "misc"
             and isinstance(node.slice, ast.Constant)
-            and node.slice.value == 5
+            and node.slice.value == Misc.SAMPLING
         ):
             return ast.copy_location(ast.Constant(1.0), node)
         return node

@@ -31,6 +31,7 @@ def loop_source(lib: _Library, dt: float | None = None) -> tuple[str, dict]:
     """
     from adaptive_ftc.sim import compose
     from adaptive_ftc.sim.compose import assemble
+    from adaptive_ftc.sim.layout import Header
 
     loop = lib.loop
     T = float(loop.sample_time)
@@ -46,8 +47,8 @@ def loop_source(lib: _Library, dt: float | None = None) -> tuple[str, dict]:
         )
     c = np.array(asm.data.c, dtype=float)
     ints = np.array(asm.data.i, dtype=np.int64)
-    ints[compose._I_RHS] = ints[compose._I_JUMP] = ints[compose._I_GAIN] = 0
-    inst_at = int(ints[compose._I_INST])
+    ints[Header.RHS] = ints[Header.JUMP] = ints[Header.GAIN] = 0
+    inst_at = int(ints[Header.INST])
     patterns = layout["patterns"]
     pattern_src = ["def call_pattern(k, t, x, u, c, o):"]
     for n, pt in enumerate(patterns):
@@ -98,8 +99,8 @@ def loop_source(lib: _Library, dt: float | None = None) -> tuple[str, dict]:
         "NPH": bps.size - 1,
         "HELD": held,
         "NSTATES": ny,
-        "MEAS": int(ints[compose._I_MEAS]),
-        "SAMP": int(ints[compose._I_SAMP]),
+        "MEAS": int(ints[Header.MEAS]),
+        "SAMP": int(ints[Header.SAMP]),
     }
 
     def arr(v, fmt) -> str:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim.layout import RecordLayout
 
 if TYPE_CHECKING:  # pragma: no cover
     from adaptive_ftc.sim.engine import SolverOptions
@@ -98,8 +99,8 @@ def estimate_run_size(loop: ClosedLoop, solver: SolverOptions) -> RunSize:
     Steps: ``(t_final - t0) / dt`` for the fixed-step ``"rk4"`` method, ``/ max_step`` for the
     variable-step methods when ``max_step`` is finite (an upper bound of the step count's lower
     bound), else unknown. Samples: ``(t_final - t0) / record_dt + 1`` plus one per failure time.
-    Bytes: ``samples x (n_states + n_adaptive + 9 p + 2 m + 4) x 8`` (the layout of
-    :class:`~adaptive_ftc.sim.result.SimResult`).
+    Bytes: ``samples x (n_states + n_adaptive + recorded signals) x 8`` (the recorded
+    signals: :class:`~adaptive_ftc.sim.layout.RecordLayout`, ``9 p + 2 m + 4`` columns).
     """
     span = float(loop.t_final) - float(loop.t0)
     n_events = len(getattr(loop.failures, "failures", ())) * 2
@@ -111,7 +112,7 @@ def estimate_run_size(loop: ClosedLoop, solver: SolverOptions) -> RunSize:
         steps = math.nan
     samples = span / float(solver.record_dt) + 1 + n_events
     p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
-    columns = n + _adaptive_count(loop) + 9 * p + 2 * m + 4
+    columns = n + _adaptive_count(loop) + RecordLayout(p=p, m=m).width
     return RunSize(steps=steps, samples=samples, columns=columns, nbytes=samples * columns * 8.0)
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import importlib
 import importlib.util
 import math
 import os
@@ -37,6 +38,7 @@ from adaptive_ftc.errors import ConfigurationError
 
 __all__ = [
     "cache_dir",
+    "importable",
     "compile_expression",
     "emit",
     "emit_at",
@@ -50,6 +52,31 @@ _lock = threading.RLock()
 _modules: dict[str, types.ModuleType] = {}
 _kept: dict[str, tuple] = {}
 _stats = {"generated": 0, "loaded": 0, "in_memory": 0}
+
+
+def importable(obj) -> str:
+    """``"module:name"`` when ``obj`` can be imported by name from a module file, else ``""``
+    (functions and classes of ``__main__``, of a notebook, or defined inside a function)."""
+    modname = getattr(obj, "__module__", None)
+    qual = getattr(obj, "__qualname__", "")
+    if modname in (None, "__main__") or "<" in qual or "." in qual:
+        return ""
+    try:
+        module = importlib.import_module(modname)
+    except Exception:  # noqa: BLE001 - e.g. code executed from a string
+        return ""
+    if not getattr(module, "__file__", None):
+        return ""
+    name = obj.__name__
+    named = getattr(module, name, None)
+    if named is obj:
+        return f"{modname}:{name}"
+    # a decorator such as ``@plant`` rebinds the name to an object that keeps the function
+    # as ``equations`` (itself perhaps a numba dispatcher): import it through that object
+    wrapped = getattr(named, "equations", None)
+    if wrapped is not None and getattr(wrapped, "py_func", wrapped) is obj:
+        return f"{modname}:{name}.equations"
+    return ""
 
 
 # ----------------------------------------------------------------------------- expressions

@@ -14,7 +14,6 @@ What a loop *is* decides the text; its numbers go into :class:`LoopData`. Set
 from __future__ import annotations
 
 import functools
-import importlib
 import math
 import re
 import threading
@@ -27,6 +26,22 @@ import numpy as np
 from adaptive_ftc.errors import ConfigurationError, did_you_mean
 from adaptive_ftc.expressions import Expression
 from adaptive_ftc.sim import codegen
+from adaptive_ftc.sim.layout import (
+    HEADER,
+    PARAMS,
+    WORK,
+    Header,
+    LoopLayout,
+    Misc,
+    RecordLayout,
+    SignalTable,
+)
+from adaptive_ftc.sim.parts import Build, skeleton
+from adaptive_ftc.sim.parts import parts as loop_parts
+from adaptive_ftc.sim.parts.approximator import Approximator
+from adaptive_ftc.sim.parts.failures import DFAILURE_SRC, INSTANCE_SRC
+from adaptive_ftc.sim.parts.plant import Plant as PlantPart
+from adaptive_ftc.sim.parts.plant import pack_plant
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     from adaptive_ftc.sim.system import ClosedLoop
@@ -58,57 +73,44 @@ class LoopData(NamedTuple):
     @property
     def fphase(self) -> np.ndarray:
         """Failure instance per (interval, actuator); -1 = healthy (a view)."""
-        return self._table(_I_HEAD, (int(self.i[_I_NPH]), int(self.i[_I_M])), ints=True)
+        return self._table(
+            Header.head(), (int(self.i[Header.NPH]), int(self.i[Header.M])), ints=True
+        )
 
     @property
     def inst(self) -> np.ndarray:
         """Per failure instance: [kind (0 affine, 1 incipient affine, 2 a pattern of t
         alone, 3 any other pattern), offset of its numbers in ``c``, addresses of the
         pattern's compiled value and slope (kinds 2, 3)] (a view)."""
-        return self._table(int(self.i[_I_INST]), (int(self.i[_I_NINST]), 4), ints=True)
+        return self._table(int(self.i[Header.INST]), (int(self.i[Header.NINST]), 4), ints=True)
 
     @property
     def samp(self) -> np.ndarray:
         """Per interval: 1 where it starts at a controller sample (digital control; a view)."""
-        return self._table(int(self.i[_I_SAMP]), (int(self.i[_I_NPH]),), ints=True)
+        return self._table(int(self.i[Header.SAMP]), (int(self.i[Header.NPH]),), ints=True)
 
     @property
     def act(self) -> np.ndarray:
         """Per (interval, actuator): [tau, rate, lower, upper, omega, zeta] (a view)."""
-        return self._table(int(self.i[_I_ACT]), (int(self.i[_I_NPH]), int(self.i[_I_M]), 6))
+        return self._table(
+            int(self.i[Header.ACT]), (int(self.i[Header.NPH]), int(self.i[Header.M]), 6)
+        )
 
     @property
     def meas(self) -> np.ndarray:
         """Per (interval, state): measurement offset, bias + noise (sensors; a view)."""
-        return self._table(int(self.i[_I_MEAS]), (int(self.i[_I_NPH]), int(self.i[_I_NX])))
+        return self._table(
+            int(self.i[Header.MEAS]), (int(self.i[Header.NPH]), int(self.i[Header.NX]))
+        )
 
 
-# the header of LoopData.i: sizes, then where each table starts (in ``i`` or ``c``), then the
-# envelope (its start in ``c``, its length), the addresses of the compiled ``rhs``, ``jump``
-# (0 for a continuous loop: none) and the plant's ``control_gain`` that the shared integrators
-# and ``signals`` call (``sim/fptr.py``; set by :func:`assemble`) and where the table of
-# ``signals`` starts (``templates/record.py``: the places of the signal buffers, then the
-# outputs' position and velocity states, then where the plant's numbers start in ``c``), then
-# the interval of the loop where a call of the shared integrators starts (``PH0``: 0 for a
-# whole run; :class:`~adaptive_ftc.sim.stepper.DigitalStepper` integrates one interval at a
-# time, its ``t_breaks[0]`` being the loop's interval ``PH0``)
-_HEADER = (
-    *("NPH", "M", "NX", "NINST", "INST", "SAMP", "ACT", "MEAS"),
-    *("ENV", "NENV", "RHS", "JUMP", "GAIN", "SIGT", "PH0"),
-)
-_I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = range(8)
-_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT, _I_PH0 = range(8, 15)
-_I_HEAD = len(_HEADER)  # the failure instance per (interval, actuator) starts here in ``i``
-
-
-#: The work array of one run, as named slices in this order: controller signals
-#: [x, e, e', s], regressor values, memberships, u0, commands, applied outputs, plant
-#: derivative, reference (y_d, y_d', y_d'' per output), q, misc [u_f compensation, adaptive
-#: gain, s' used, reference valid, reference time, computing a sample], design basis values,
-#: scratch derivative (for ``jump``), the failure values remembered per actuator (``fc``).
-_WORK = ("sig", "phi", "mu", "u0", "u", "uf", "xdot", "ref", "q", "misc", "wb", "scr", "fc")
-#: the work buffers whose places the shared ``signals`` reads (``templates/record.py``)
-_SIGNAL_WORK = ("sig", "ref", "xdot", "q", "u0", "u", "uf", "misc")
+# the layout's names (sim/layout.py): the header of ``LoopData.i``, the work buffers
+_HEADER = HEADER
+_WORK = WORK
+# the former names of the header's places, for code written against them (new code: Header)
+_I_NPH, _I_M, _I_NX, _I_NINST, _I_INST, _I_SAMP, _I_ACT, _I_MEAS = tuple(Header)[:8]
+_I_ENV, _I_NENV, _I_RHS, _I_JUMP, _I_GAIN, _I_SIGT, _I_PH0 = tuple(Header)[8:]
+_I_HEAD = Header.head()
 
 
 @dataclass
@@ -189,72 +191,7 @@ class Generator:
         return names[name]
 
 
-def _importable(obj) -> str:
-    """``"module:name"`` when ``obj`` can be imported by name from a module file, else ``""``
-    (functions and classes of ``__main__``, of a notebook, or defined inside a function)."""
-    modname = getattr(obj, "__module__", None)
-    qual = getattr(obj, "__qualname__", "")
-    if modname in (None, "__main__") or "<" in qual or "." in qual:
-        return ""
-    try:
-        module = importlib.import_module(modname)
-    except Exception:  # noqa: BLE001 - e.g. code executed from a string
-        return ""
-    if not getattr(module, "__file__", None):
-        return ""
-    name = obj.__name__
-    named = getattr(module, name, None)
-    if named is obj:
-        return f"{modname}:{name}"
-    # a decorator such as ``@plant`` rebinds the name to an object that keeps the function
-    # as ``equations`` (itself perhaps a numba dispatcher): import it through that object
-    wrapped = getattr(named, "equations", None)
-    if wrapped is not None and getattr(wrapped, "py_func", wrapped) is obj:
-        return f"{modname}:{name}.equations"
-    return ""
-
-
-def _pack_plant(g: Generator, value) -> tuple[list[float], str]:
-    """The plant's parameters as numbers for ``D.c`` (from ``PLANT`` on) and the expression
-    that rebuilds them in ``plant_params``; ``([], "D.p")`` when they cannot be flattened
-    (arrays inside a NamedTuple, a class defined in ``__main__``...): then they travel in
-    ``LoopData.p``."""
-    vals: list[float] = []
-
-    def pack(v) -> str | None:
-        if isinstance(v, (bool, np.bool_)):
-            vals.append(1.0 if v else 0.0)
-            return f"(c[PLANT + {len(vals) - 1}] != 0.0)"
-        if isinstance(v, (int, np.integer)):
-            if abs(int(v)) > 2**53:
-                return None
-            vals.append(float(v))
-            return f"int(c[PLANT + {len(vals) - 1}])"
-        if isinstance(v, (float, np.floating)):
-            vals.append(float(v))
-            return f"c[PLANT + {len(vals) - 1}]"
-        if isinstance(v, tuple):
-            packed = [pack(x) for x in v]
-            parts = [part for part in packed if part is not None]
-            if len(parts) < len(packed):  # one of them cannot be flattened
-                return None
-            if hasattr(type(v), "_fields"):
-                if not _importable(type(v)):
-                    return None
-                alias = g.use_class(f"_Params{len(g.classes)}", type(v))
-                return f"{alias}({', '.join(parts)})"
-            return "(" + "".join(f"{part}, " for part in parts) + ")"
-        return None
-
-    if isinstance(value, np.ndarray) and value.ndim == 1 and value.dtype.kind == "f":
-        # a plant written as equations indexes its numbers as ``c[k]``: a tuple serves (a
-        # function without reference counting cannot return a view of ``D.c``)
-        vals = [float(v) for v in value]
-        return vals, "(" + "".join(f"c[PLANT + {k}], " for k in range(len(vals))) + ")"
-    expr = pack(value) if hasattr(type(value), "_fields") else None
-    if expr is None:
-        return [], "D.p"
-    return vals, expr
+_importable = codegen.importable
 
 
 @dataclass(frozen=True)
@@ -268,9 +205,10 @@ class Assembled:
     adaptive_names: tuple[str, ...]
     theta_slices: tuple[slice, ...]
     n_x: int
-    #: named places: "c:<setting>" in data.c, "w:<buffer>" in work, "y:<states>" in the state
-    #: vector ("y:held_command": a digital controller's held command)
-    layout: dict[str, slice]
+    #: where everything lives: named states (``layout["y:held_command"]``: a digital
+    #: controller's held command), parameters (``layout["c:lam"]``), work buffers
+    #: (``layout["w:ref"]``) and recorded columns
+    layout: LoopLayout
     source: str = field(repr=False, default="")
     #: names of the states after the controller's: actuator positions, held command and held
     #: controller derivatives (digital control)
@@ -278,7 +216,7 @@ class Assembled:
 
     def work(self) -> np.ndarray:
         """A fresh work array for one run (never shared between threads)."""
-        return np.zeros(self.layout["w:size"].stop)
+        return np.zeros(self.layout.work_size)
 
     def integrator(self, method: str):
         """The compiled ``integrate_<method>`` (``rk4``, ``dopri5``, ``rodasp``, ``rodas5p``,
@@ -289,7 +227,8 @@ class Assembled:
     def _shared(self):
         """The shared compiled module, once this loop's addresses are known to be set."""
         i = self.data.i
-        if not (i[_I_RHS] and i[_I_GAIN]):  # a call to address 0 crashes (a jump of 0: none)
+        # a call to address 0 crashes (a jump of 0: none)
+        if not (i[Header.RHS] and i[Header.GAIN]):
             raise ConfigurationError(
                 "This loop's data holds no compiled rhs/control-gain addresses (made or copied "
                 "outside assemble(), or unpickled in another process): call assemble(loop) here."
@@ -308,13 +247,13 @@ class Assembled:
         W = self.work()
         y = np.ascontiguousarray(y, dtype=float)
         self.module.rhs(float(t), y, int(phase), self.data, W, np.zeros(self.y0.size))
-        return W[self.layout["w:phi"]].copy()
+        return W[self.layout.work["phi"]].copy()
 
     def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> int:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
         ``templates/record.py``, which calls this loop's ``rhs`` and its plant's
         ``control_gain``); returns the first row outside the plant's envelope (-1: none)."""
-        m = int(self.data.i[_I_M])
+        m = int(self.data.i[Header.M])
         scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
         return int(self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch))
 
@@ -322,15 +261,15 @@ class Assembled:
 # the plant's part of the recorded signals (one module per plant, _gain_module_source): the
 # shared ``signals`` (templates/record.py) calls it by address once per recorded row, after
 # the loop's ``rhs`` (which left u in W)
-_CONTROL_GAIN = '''@hot
+_CONTROL_GAIN = f'''@hot
 def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
     """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
     the rate of output 1 per unit command of actuator j; df_j/du: its failure's slope)."""
     c = D.c
     s = D.i[I_SIGT]
-    v0 = D.i[s + 11 + D.i[s]]  # VEL[0]
-    U = D.i[s + 6]
-    RMAT = D.i[s + 10]
+    v0 = D.i[s + {int(SignalTable.POS)} + D.i[s]]  # VEL[0]
+    U = D.i[s + {int(SignalTable.U)}]
+    RMAT = D.i[s + {int(SignalTable.RMAT)}]
     u = W[U : U + M]
     x = Y[:NX]
     gain = 0.0
@@ -429,7 +368,13 @@ _INTEGRATORS_IMPORTS = [
 
 
 def _integrators_source() -> str:
-    constants = "\n".join(f"I_{name} = {k}" for k, name in enumerate(_HEADER))
+    constants = "\n".join(
+        [
+            *(f"I_{name} = {k}" for k, name in enumerate(_HEADER)),
+            *(f"SIGT_{t.name} = {int(t)}" for t in SignalTable),
+            *(f"MISC_{slot.name} = {int(slot)}" for slot in Misc),
+        ]
+    )
     return "\n\n".join(
         [
             _INTEGRATORS_HEAD.format(constants=constants),
@@ -477,35 +422,6 @@ def _addresses(module, gain_module, data: LoopData) -> tuple[int, int, int]:
 
 
 # ----------------------------------------------------------------------------- generation
-def _reference(g: Generator) -> str:
-    lines = [
-        "@inl",
-        "def reference(t, c, out):",
-        '    """Desired outputs and their first two derivatives (taken symbolically)."""',
-    ]
-    for i, text in enumerate(g.loop.reference):
-        name = g.loop.plant.output_names[i]
-        e = Expression(text, ("t",), context=f"reference of output '{name}'")
-        lines.append(f"    # output {name!r}: y_d and its derivatives (numbers in c)")
-        start = len(g.consts)
-        for d in range(3):
-            text = g.constant_block(e.node, {"t": "t"}, share_from=start)
-            lines.append(f"    r{3 * i + d} = {text}")
-            e = e.derivative("t")
-    # stored after all are computed: a store to ``out`` between them could alias ``c`` and
-    # keep the compiler from sharing sin(w t) and cos(w t) between y_d and its derivatives
-    lines += [f"    out[{k}] = r{k}" for k in range(3 * len(g.loop.reference))]
-    lines += [
-        "",
-        "",
-        "@hot",
-        "def reference_at(t, c, out):",
-        '    """:func:`reference` for Python (compiled only when called from there)."""',
-        "    reference(t, c, out)",
-    ]
-    return "\n".join(lines)
-
-
 def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndarray]:
     """Break times of the integration, whether each interval starts at a controller/sensor
     sample, and the sample index of each interval.
@@ -602,63 +518,6 @@ def _failures(loop: ClosedLoop, m: int, variables: tuple[str, ...], names: dict[
     return bps, fphase, kinds, offsets, patterns, consts
 
 
-#: the affine kinds, evaluated in the loop (the head of both functions of _FAILURE_SRC)
-_AFFINE_BRANCHES = """    c = D.c
-    at = D.i[I_INST] + 4 * k
-    s = D.i[at]
-    o = D.i[at + 1]
-    if s == 0:
-        return c[o + 0] * u + c[o + 1]
-    if s == 1:
-        return (u + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * ((c[o + 3] * u + c[o + 4]) - u)))"""  # noqa: E501
-#: the failed output of instance k (row [kind, offset, value address, slope address] of the
-#: instance table) and its remembered form for the allocation: the same text in every loop.
-#: ``a*u + b`` and its incipient form ``u + min((t - onset)/ramp, 1)*((a*u + b) - u)`` are
-#: evaluated here, any other pattern through its address. Measured on hypersonic-direct-s1 (a
-#: pattern of t alone from 40 s), against the patterns pasted in: the call costs 1-2 % of the
-#: run; affine failures cost the same as before (the batch benchmark)
-_FAILURE_SRC = f'''@inl
-def failure(k, t, x, u, D):
-    """Applied output of a failed actuator (failure instance k)."""
-{_AFFINE_BRANCHES}
-    return call_pattern(D.i[at + 2], t, x, u, c, o)
-
-
-@inl
-def failure_cached(k, j, t, x, u, D, fc):
-    """failure(k, ...) of actuator j, a pattern of t alone (kind 2) remembered while t and
-    k stay the same (fc[3 j:3 j + 3] = [t, k + 1, value])."""
-{_AFFINE_BRANCHES}
-    if s == 2:
-        if fc[3 * j] == t and fc[3 * j + 1] == k + 1:
-            return fc[3 * j + 2]
-        v = call_pattern(D.i[at + 2], t, x, u, c, o)
-        fc[3 * j] = t
-        fc[3 * j + 1] = k + 1
-        fc[3 * j + 2] = v
-        return v
-    return call_pattern(D.i[at + 2], t, x, u, c, o)'''
-
-#: the slope of failure instance k (for the control gain; the same text in every module)
-_DFAILURE_SRC = '''@inl
-def dfailure(k, t, x, u, D):
-    """d(applied output)/du of failure instance k."""
-    c = D.c
-    at = D.i[I_INST] + 4 * k
-    s = D.i[at]
-    o = D.i[at + 1]
-    if s == 0:
-        return c[o + 0]
-    if s == 1:
-        return (1.0 + (min(((t - c[o + 0]) / c[o + 1]), c[o + 2]) * (c[o + 3] - 1.0)))
-    return call_pattern(D.i[at + 3], t, x, u, c, o)'''
-
-#: the failure instance acting on an actuator in an interval (loops and control-gain modules)
-_INSTANCE_SRC = """@inl
-def instance(ph, j, D):
-    \"\"\"Failure instance of actuator j in interval ph (-1: healthy).\"\"\"
-    return D.i[I_HEAD + ph * M + j]"""
-
 _PATTERN_IMPORTS = ["adaptive_ftc.sim.mathlib", "adaptive_ftc.sim.fptr"]
 
 
@@ -725,21 +584,6 @@ def _pattern_addresses(pattern: tuple[str, str, str]) -> tuple[int, int]:
         found = (fptr.address(module.value), fptr.address(module.slope))
         module._ADDRESSES = found  # type: ignore[attr-defined]  # remembered on the module
     return found
-
-
-def _used_views(body: list[str]) -> list[str]:
-    """``body`` without the work-array views it never uses (``wb = W[WB:WB + N_WB]``...): numba
-    types and lowers every statement, used or not."""
-    views = {_view(name): name for name in _WORK}
-    rest = "\n".join(ln for ln in body if ln not in views)
-    used = set(re.findall(r"[A-Za-z_]\w*", rest))  # one pass: this runs for every loop built
-    return [ln for ln in body if ln not in views or views[ln] in used]
-
-
-def _view(name: str) -> str:
-    """The line of the right-hand side that names the work-array buffer ``name``."""
-    up = name.upper()
-    return f"    {name} = W[{up}:{up} + N_{up}]"
 
 
 def _shift(text: str, by: int) -> str:
@@ -827,7 +671,7 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
     plant = loop.plant
     g = Generator(loop=loop, sdot=sdot)
     plant_src = plant.dynamics_source(g)
-    _, plant_expr = _pack_plant(g, plant.parameter_values())
+    _, plant_expr = pack_plant(g, plant.parameter_values())
     header, mods = _module_header(
         g, f"Generated control gain of plant {plant.name!r} (any design).", laws=False
     )
@@ -835,7 +679,7 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
         [
             "# the header of D.i (sizes, where the tables start)",
             *[f"I_{name} = {k}" for k, name in enumerate(_HEADER)],
-            f"I_HEAD = {_I_HEAD}",
+            f"I_HEAD = {Header.head()}",
             f"NX = {g.nx}",
             f"M = {g.m}",
         ]
@@ -847,15 +691,15 @@ def _gain_module_source(loop: ClosedLoop, sdot: str) -> tuple[str, list[str], di
             '    """The plant parameters (at the place in D.c named by the signal table)."""',
             "    c = D.c",
             "    s = D.i[I_SIGT]",
-            "    PLANT = D.i[s + 11 + 2 * D.i[s]]",
+            f"    PLANT = D.i[s + {int(SignalTable.POS)} + 2 * D.i[s]]",
             f"    return {plant_expr}",
             "",
             "",
-            _INSTANCE_SRC,
+            INSTANCE_SRC,
         ]
     )
     parts = ["\n".join(header), consts, *([plant_src] if plant_src else []), *g.defs]
-    parts += [tables, _DFAILURE_SRC, _CONTROL_GAIN]
+    parts += [tables, DFAILURE_SRC, _CONTROL_GAIN]
     return "\n\n".join(parts) + "\n", mods, dict(g.inject)
 
 
@@ -935,510 +779,65 @@ def _immutable(parts) -> bool:
 
 
 def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
-    """The failure-independent part of :func:`generate`."""
+    """The failure-independent part of :func:`generate`: the parts of ``loop`` emit their
+    code into the skeleton (``sim/parts/skeleton.py``), then the layout of their numbers,
+    states and work buffers is written into the module's constants."""
     plant, ctrl = loop.plant, loop.controller.bound(loop)  # constraint-aware: from the loop
     g = Generator(loop=loop, sdot=sdot)
-    nx, p, m = g.nx, g.p, g.m
+    b = Build(g=g, loop=loop, ctrl=ctrl, sdot=sdot)
     # expression variables: t, u and the plant states by every alias
     aliases = plant.aliases()
     variables = ("t", "u", *aliases)
     names = {"t": "t", "u": "u", **{a: f"x[{i}]" for a, i in aliases.items()}}
-    ref_src = _reference(g)
-    plant_src = plant.dynamics_source(g)
-    # regressors and their parameter blocks
-    regs = ctrl.regressors_for(p)
-    theta_slices, blocks = [], []
-    off = 0
-    reg_src = []
-    for r, reg in enumerate(regs):
-        where = f"the regressor of design '{ctrl.design}'"
-        idx = [g.signal(name, where) for name in reg.inputs]
-        reg_src.append(reg.emit(g, idx, off, r))
-        blocks.append((off, nx + off, reg.size))
-        theta_slices.append(slice(off, off + reg.size))
-        off += reg.size
-    n_phi = off
-    if len(regs) == 1:
-        g.adaptive_names += [f"theta_{l + 1}" for l in range(n_phi)]
-    else:
-        for r, reg in enumerate(regs):
-            g.adaptive_names += [f"theta{r + 1}_{l + 1}" for l in range(reg.size)]
-    extra_at = nx + n_phi
-    control_src = ctrl.emit_control(g, blocks, extra_at)
-    adapt_src = ctrl.emit_adapt(g, blocks, extra_at)
-    alloc = _allocation(g, loop, extra_at + len(g.y0_extra))  # None: u = R^T u0 (3.14)
-    ca_measure = []
-    if ctrl.constraint_aware is not None:  # its states after the design's own
-        ca_control, ca_pre, ca_post, ca_measure = ctrl.emit_constraint_aware(
-            g, blocks, extra_at + len(g.y0_extra)
-        )
-        control_src = control_src + ca_control
-        adapt_src = ca_pre + adapt_src + ca_post
-    # ``gains(D).x`` at each use: building them once per call (``gs = gains(D)``) ran 1.5 %
-    # slower (the NamedTuple then lives across the whole right-hand side)
-    control_src = [ln.replace("D.gains.", "gains(D).") for ln in control_src]
-    adapt_src = [ln.replace("D.gains.", "gains(D).") for ln in adapt_src]
-    filt = extra_at + len(g.y0_extra)
-    if sdot == "filtered":
-        g.adaptive_names += [f"s_filter{i + 1}" for i in range(p)]
-    ny = filt + (p if sdot == "filtered" else 0)
-    # actuator, sensor and sampling parts (beyond the thesis): states after the controller's
-    has_act = loop.has_actuator_dynamics
-    sampled = loop.sample_time > 0
-    has_meas = loop.sensors is not None
-    has_act2 = (
-        has_act
-        and loop.actuators is not None
-        and any(v > 0 for v in np.ravel(loop.actuators.omega))
-    )
-    at_act = ny
-    at_vel = at_act + (m if has_act else 0)  # velocities of second-order actuators
-    at_hu = at_vel + (m if has_act2 else 0)
-    at_hd = at_hu + (m if sampled else 0)
-    ny_all = at_hd + ((ny - nx) if sampled else 0)
-    # an input delay (hardware.Actuators.delay): per actuator a Pade approximant's states
-    # (continuous) or a shift register of whole samples (digital), after every other state
-    has_delay = loop.actuators is not None and loop.actuators.has_delay
-    at_dl = ny_all
-    if has_delay:
-        from adaptive_ftc.hardware import pade_realization
-
-        assert loop.actuators is not None  # has_delay
-        delays = loop.actuators.delays(m)
-        if sampled:
-            delay_vals = tuple(float(round(d / loop.sample_time)) for d in delays)
-            n_dl = int(max(delay_vals))
-        else:
-            delay_vals = delays
-            n_dl = loop.actuators.delay_order
-            pade = pade_realization(n_dl)
-        ny_all = at_dl + m * n_dl
-    uj = "uj" if has_delay else "u[j]"  # what reaches the actuator
-    # ------------------------------------------------------------ the right-hand side
-    pos, vel = plant.position_index, plant.velocity_index
-    body = [
-        "@hot",
-        "def rhs(t, Y, ph, D, W, dY):",
-        f'    """Closed-loop derivative of {plant.name} + {ctrl.code_label()} (in place)."""',
-        f"    x = Y[0:{nx}]",
-        "    c = D.c",
-        *[_view(name) for name in _WORK],
-        *(
-            ca_measure
-            or [
-                f"    for i in range({nx}):",
-                "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
-                if has_meas
-                else "        sig[i] = x[i]",
-            ]
-        ),
-        "    if not (misc[3] == 1.0 and misc[4] == t):  # reference cached per time",
-        "        reference(t, c, ref)",
-        *[f"        {line}" for line in g.per_time],
-        "        misc[4] = t",
-        "        misc[3] = 1.0",
-        "    # tracking errors e = y_d - y and filtered errors s (2.18)",
-    ]
-    for i in range(p):
-        seen = "sig" if has_meas else "x"  # the controller's errors use the measurements
-        body += [
-            f"    e = ref[{3 * i}] - {seen}[{pos[i]}]",
-            f"    ed = ref[{3 * i + 1}] - {seen}[{vel[i]}]",
-            f"    sig[{nx + i}] = e",
-            f"    sig[{nx + p + i}] = ed",
-            f"    sig[{nx + 2 * p + i}] = filtered_error(e, ed, c[LAM + {i}])",
-        ]
-    body.append("    # regressors and u0 = Pi^T theta (2.22), per output (3.26)")
-    for r, src in enumerate(reg_src):
-        o, at, size = blocks[r]
-        body += src
-        body.append(f"    u0[{r}] = weighted_sum(phi, Y, {o}, {at}, {size})")
-    body += control_src
-    body += alloc["prelude"] if alloc else []
-    body += [
-        "    # allocation u = R^T u0 (3.14) and actuator failures"
-        if not alloc
-        else "    # the allocator's commands and actuator failures",
-        f"    for j in range({m}):",
-        *(
-            [
-                "        acc = 0.0",
-                f"        for i in range({p}):",
-                f"            acc += c[RMAT + i * {m} + j] * u0[i]",
-            ]
-            if not alloc
-            else ["        acc = u[j]"]
-        ),
-        *(
-            [
-                "        if misc[5] == 0.0:  # between samples: the held command",
-                f"            acc = Y[{at_hu} + j]",
-            ]
-            if sampled
-            else []
-        ),
-        "        u[j] = acc",
-        *(["        acc = delayed(j, Y, acc, D)  # the input delay"] if has_delay else []),
-        *(
-            [
-                "        if act(ph, j, 0, D) > 0.0 or act(ph, j, 4, D) > 0.0:  # position: a state",
-                f"            acc = Y[{at_act} + j]",
-                "        else:  # an ideal actuator within its position limits",
-                "            acc = min(max(acc, act(ph, j, 2, D)), act(ph, j, 3, D))",
-            ]
-            if has_act
-            else []
-        ),
-        "        k = instance(ph, j, D)",
-        "        uf[j] = acc if k < 0 else failure_cached(k, j, t, x, acc, D, fc)",
-        "    plant_dynamics(t, x, uf, plant_params(D), xdot)",
-        f"    for i in range({nx}):",
-        "        dY[i] = xdot[i]",
-    ]
-    if has_act:
-        body += [
-            "    # actuators: a' = clip((clip(u, lower, upper) - a) / tau, -rate, rate)",
-            f"    for j in range({m}):",
-            *(["        uj = delayed(j, Y, u[j], D)"] if has_delay else []),
-            "        tau = act(ph, j, 0, D)",
-            *(
-                [
-                    "        omega = act(ph, j, 4, D)",
-                    "        if omega > 0.0:  # a' = clip(v), v' = w^2 (u - a) - 2 z w v",
-                    f"            target = min(max({uj}, act(ph, j, 2, D)), act(ph, j, 3, D))",
-                    f"            v = Y[{at_vel} + j]",
-                    "            rate = act(ph, j, 1, D)",
-                    f"            dY[{at_act} + j] = min(max(v, -rate), rate)",
-                    f"            dY[{at_vel} + j] = omega * omega * (target - Y[{at_act} + j])"
-                    " - 2.0 * act(ph, j, 5, D) * omega * v",
-                    "            continue",
-                    f"        dY[{at_vel} + j] = 0.0",
-                ]
-                if has_act2
-                else []
-            ),
-            "        if tau > 0.0:",
-            f"            target = min(max({uj}, act(ph, j, 2, D)), act(ph, j, 3, D))",
-            "            rate = act(ph, j, 1, D)",
-            f"            da = (target - Y[{at_act} + j]) / tau",
-            f"            dY[{at_act} + j] = min(max(da, -rate), rate)",
-            "        else:",
-            f"            dY[{at_act} + j] = 0.0",
-        ]
-    if has_delay and not sampled:
-        A, B, C, Dd, xss = pade
-        body += [
-            f"    # input delay: Pade states x' = (A x + B u) / d (order {n_dl}, balanced)",
-            f"    for j in range({m}):",
-            "        d = c[DELAY + j]",
-            f"        at = {at_dl} + j * {n_dl}",
-            "        if d == 0.0:",
-            f"            for i in range({n_dl}):",
-            "                dY[at + i] = 0.0",
-            "            continue",
-        ]
-        for r in range(n_dl):
-            terms = " + ".join(f"{A[r, q]!r} * Y[at + {q}]" for q in range(n_dl))
-            body.append(f"        dY[at + {r}] = ({terms} + {B[r]!r} * u[j]) / d")
-    held = []
-    if sampled:
-        body += [
-            "    # held command and held controller derivatives change only at samples",
-            f"    for i in range({at_hu}, {ny_all}):",
-            "        dY[i] = 0.0",
-        ]
-        held = [
-            "    if misc[5] == 0.0:  # between samples: the derivatives computed at the sample",
-            f"        for i in range({nx}, {ny}):",
-            f"            dY[i] = Y[{at_hd - nx} + i]",
-        ]
-    body.append("    # q = s' + k s + k0 tanh(s/eps0)")
-    for i in range(p):
-        s_at = nx + 2 * p + i
-        if sdot == "exact":  # s' from the plant derivative (SPEC §1)
-            body.append(
-                f"    sd = ref[{3 * i + 2}] - xdot[{vel[i]}] + c[LAM + {i}] * sig[{nx + p + i}]"
-            )
-        else:  # dirty-derivative filter of s
-            body += [
-                f"    sd = (sig[{s_at}] - Y[{filt + i}]) / c[FTAU]",
-                f"    dY[{filt + i}] = sd",
-            ]
-        body.append(f"    q[{i}] = robust_q(sd, sig[{s_at}], c[K + {i}], c[K0 + {i}], c[EPS0])")
-        if i == 0:
-            body.append("    misc[2] = sd")
-    body += [
-        "    if c[ADAPT] == 0.0:  # adaptation frozen",
-        f"        for i in range({nx}, {filt - g.free_running}):",
-        "            dY[i] = 0.0",
-        *["    " + ln for ln in held],
-        "        return",
-    ]
-    body += alloc["adapt"] if alloc else []
-    body += adapt_src
-    body += held
-    jump_src = [
-        "@hot",
-        "def jump(t, Y, ph, D, W):",
-        '    """State update at the start of interval ``ph`` (none: a continuous loop)."""',
-    ]
-    if sampled or has_act:
-        jump_src += [
-            "    scratch = W[SCR:SCR + N_SCR]",
-            "    misc = W[MISC:MISC + N_MISC]",
-        ]
-    if has_delay:
-        fill = "1.0" if sampled else None
-        jump_src += [
-            "    if ph == 0:  # the delay line starts holding the first command",
-            *(["        misc[5] = 1.0"] if sampled else []),
-            "        rhs(t, Y, ph, D, W, scratch)",
-            *(["        misc[5] = 0.0"] if sampled else []),
-            f"        for j in range({m}):",
-            f"            at = {at_dl} + j * {n_dl}",
-            *[
-                f"            Y[at + {q}] = {fill or repr(float(xss[q]))} * W[U + j]"
-                for q in range(n_dl)
-            ],
-        ]
-    if sampled:
-        jump_src += [
-            "    if D.i[D.i[I_SAMP] + ph] != 0:  # a controller sample: new command and"
-            " derivatives, held",
-            *(
-                [
-                    "        if ph > 0:  # the input delay: the held commands move one sample on",
-                    f"            for j in range({m}):",
-                    f"                at = {at_dl} + j * {n_dl}",
-                    f"                for i in range({n_dl - 1}, 0, -1):",
-                    "                    Y[at + i] = Y[at + i - 1]",
-                    f"                Y[at] = Y[{at_hu} + j]",
-                ]
-                if has_delay
-                else []
-            ),
-            "        misc[5] = 1.0",
-            "        rhs(t, Y, ph, D, W, scratch)",
-            "        misc[5] = 0.0",
-            f"        for j in range({m}):",
-            f"            Y[{at_hu} + j] = W[U + j]",
-            f"        for i in range({nx}, {ny}):",
-            f"            Y[{at_hd - nx} + i] = scratch[i]",
-        ]
-    if has_act:
-        uw = "delayed(j, Y, W[U + j], D)" if has_delay else "W[U + j]"
-        jump_src += [
-            "    # an actuator that was ideal (or starts at its first command) is where its",
-            "    # command puts it when it becomes a dynamic one",
-            "    rhs(t, Y, ph, D, W, scratch)",
-            f"    for j in range({m}):",
-            "        if ph == 0:",
-            "            was_ideal = D.c[ACT0] != 0.0",
-            "        else:",
-            "            was_ideal = act(ph - 1, j, 0, D) == 0.0 and act(ph - 1, j, 4, D) == 0.0",
-            "        if was_ideal:",
-            f"            Y[{at_act} + j] = min(max({uw}, act(ph, j, 2, D)), act(ph, j, 3, D))",
-            *([f"            Y[{at_vel} + j] = 0.0"] if has_act2 else []),
-        ]
-    if len(jump_src) == 3:  # a continuous loop: a Python no-op (for the scipy path)
-        jump_src = [
-            "CONTINUOUS = True  # no state update between intervals: jump is not compiled",
-            "",
-            "",
-            *jump_src[1:],
-            "    return",
-        ]
-    jump_text = "\n".join(jump_src)
-    env = tuple(float(v) for v in (getattr(plant, "envelope", ()) or ()))[:nx]
-    plant_vals, plant_expr = _pack_plant(g, plant.parameter_values())
-    gains = ctrl.gains()
-    gains_alias = g.use_class("Gains", type(gains))
-    tables_src = "\n".join(
-        [
-            "@inl",
-            "def plant_params(D):",
-            '    """The plant\'s parameters (their numbers live in D.c, from PLANT on)."""',
-            "    c = D.c",
-            f"    return {plant_expr}",
-            "",
-            "",
-            "@inl",
-            "def gains(D):",
-            '    """The design\'s gains (their numbers live in D.c, from GAINS on)."""',
-            "    c = D.c",
-            f"    return {gains_alias}("
-            + ", ".join(f"c[GAINS + {k}]" for k in range(len(gains)))
-            + ")",
-            "",
-            "",
-            _INSTANCE_SRC,
-            "",
-            "",
-            "@inl",
-            "def act(ph, j, k, D):",
-            '    """Entry k of [tau, rate, lower, upper, omega, zeta] of actuator j, phase ph."""',
-            "    return D.c[D.i[I_ACT] + (ph * M + j) * 6 + k]",
-            "",
-            "",
-            "@inl",
-            "def meas(ph, i, D):",
-            '    """Measurement offset (bias + noise) of state i in interval ph."""',
-            "    return D.c[D.i[I_MEAS] + ph * NX + i]",
-        ]
-    )
-    if has_delay and sampled:
-        tables_src += "\n".join(
-            [
-                "",
-                "",
-                "",
-                "@inl",
-                "def delayed(j, Y, uj, D):",
-                '    """Command of actuator j after its input delay of k whole samples."""',
-                "    k = int(D.c[DELAY + j])",
-                "    if k == 0:",
-                "        return uj",
-                f"    return Y[{at_dl} + j * {n_dl} + k - 1]",
-            ]
-        )
-    elif has_delay:
-        out = " + ".join(f"{C[q]!r} * Y[at + {q}]" for q in range(n_dl))
-        tables_src += "\n".join(
-            [
-                "",
-                "",
-                "",
-                "@inl",
-                "def delayed(j, Y, uj, D):",
-                '    """Command of actuator j after its input delay: the Pade output C x + D u."""',
-                "    if D.c[DELAY + j] == 0.0:",
-                "        return uj",
-                f"    at = {at_dl} + j * {n_dl}",
-                f"    return {out} + {Dd!r} * uj",
-            ]
-        )
-    # ------------------------------------------------------------ imports and module
+    members = loop_parts()
+    for part in members:
+        part.build(b)
+    body = skeleton.rhs_lines(b, members)
+    jump_src = skeleton.jump_source(b, members)
+    tables_src = "\n\n\n".join(t for part in members for t in part.tables(b))
     title = (
         f"Generated closed loop: plant {plant.name!r}, design {ctrl.code_label()}, "
-        f"{p} output(s), {m} actuator(s), s' {sdot}."
+        f"{g.p} output(s), {g.m} actuator(s), s' {sdot}."
     )
     header, mods = _module_header(g, title, laws=True)
     text_parts = [
         "\n".join(header),
-        ref_src,
-        *([plant_src] if plant_src else []),
+        *[f for part in members for f in part.functions(b)],
         *g.defs,
-        _FAILURE_SRC,
-        "\n".join(_used_views(body)),
-        jump_text,
+        *[f for part in members for f in part.helpers(b)],
+        "\n".join(skeleton.used_views(body)),
+        jump_src,
         tables_src,
     ]
-    # ------------------------------------------------------------ numbers and layout
-    lam_law, k_law, k0_law, eps0_law = ctrl.robust_settings()  # the thesis's or constraint-aware
-    settings = {
-        "lam": _per_output(lam_law, p, "lam"),
-        "k": _per_output(k_law, p, "k"),
-        "k0": _per_output(k0_law, p, "k0"),
-        "R": tuple(np.ravel(loop.R)),
-        "eps0": (float(eps0_law),),
-        "filter_tau": (0.01,),
-        "adapt": (1.0 if loop.adapt else 0.0,),
-        "centers": tuple(g.centers),
-        "spread": tuple(g.spread),
-        "act0": (1.0 if has_act and not (loop.actuators and loop.actuators.initial) else 0.0,),
-        "envelope": env,
-        "gains": tuple(float(v) for v in gains),
-        "plant": tuple(plant_vals),
-    }
-    if has_delay:  # a Pade approximant's delay (s) or a digital delay in samples, per actuator
-        settings["delay"] = delay_vals
-    if alloc:  # the allocator's numbers (issue 31)
-        settings["alloc"] = alloc["settings"]
-    layout: dict = {}
-    values = list(g.consts)  # expression constants first: their indices are in the text
-    names_c = {
-        "lam": "LAM",
-        "k": "K",
-        "k0": "K0",
-        "R": "RMAT",
-        "eps0": "EPS0",
-        "filter_tau": "FTAU",
-        "adapt": "ADAPT",
-        "centers": "CEN",
-        "spread": "SPREAD",
-        "act0": "ACT0",
-        "envelope": "ENV",
-        "gains": "GAINS",
-        "plant": "PLANT",
-        "delay": "DELAY",
-        "alloc": "ALLOC",
-    }
-    consts_lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
-    for key, vals in settings.items():
-        layout[f"c:{key}"] = slice(len(values), len(values) + len(vals))
-        consts_lines.append(f"{names_c[key]} = {len(values)}")
-        values.extend(float(v) for v in vals)
-    sizes = {
-        "sig": nx + 3 * p,
-        "phi": max(n_phi, 1),
-        "mu": max(g.n_mu, 1),
-        "u0": p,
-        "u": m,
-        "uf": m,
-        "xdot": nx,
-        "ref": 3 * p,
-        "q": p,
-        "misc": 8,
-        "wb": max(g.n_w, 1),
-        "scr": ny_all if (sampled or has_act) else 1,
-        "fc": 3 * m,
-    }
-    consts_lines.append("# places of the buffers in the work array W")
-    at = 0
-    for name in _WORK:
-        layout[f"w:{name}"] = slice(at, at + sizes[name])
-        consts_lines.append(f"{name.upper()} = {at}")
-        consts_lines.append(f"N_{name.upper()} = {sizes[name]}")
-        at += sizes[name]
-    if alloc:  # the allocator's work buffer
-        layout["w:alw"] = slice(at, at + alloc["size"])
-        consts_lines += [f"ALW = {at}", f"N_ALW = {alloc['size']}"]
-        at += alloc["size"]
-    layout["w:size"] = slice(0, at)
-    consts_lines += [
-        "# the header of D.i: sizes, then where the tables start (in D.i or D.c)",
-        *[f"I_{name} = {k}" for k, name in enumerate(_HEADER)],
-        f"I_HEAD = {_I_HEAD}",
-        f"NX = {nx}",
-        f"P = {p}",
-        f"M = {m}",
-        f"POS = {tuple(pos)!r}",
-        f"VEL = {tuple(vel)!r}",
-    ]
+    params = {k: v for part in members for k, v in part.params(b).items()}
+    values, param_at = _param_layout(g, params)
+    work = _work_layout(b, ny_all=b.states.size)
+    pos, vel = plant.position_index, plant.velocity_index
+    consts_lines = _constants(param_at, work, g, pos, vel)
     text = "\n\n".join([text_parts[0], "\n".join(consts_lines), *text_parts[1:]]) + "\n"
-    sig_table = [p] + [layout[f"w:{w}"].start for w in _SIGNAL_WORK]
-    sig_table += [layout["c:lam"].start, layout["c:R"].start, *pos, *vel, layout["c:plant"].start]
-    extra = []
-    if has_act:
-        extra += [f"position of {a}" for a in plant.actuator_names]
-    if has_act2:
-        extra += [f"velocity of {a}" for a in plant.actuator_names]
-    if sampled:
-        extra += [f"held command of {a}" for a in plant.actuator_names]
-        extra += [f"held derivative of {n}" for n in g.adaptive_names]
-    if has_delay:
-        what = "delayed command" if sampled else "delay state"
-        extra += [f"{what} {q + 1} of {a}" for a in plant.actuator_names for q in range(n_dl)]
-    if sampled:  # the states an outside controller sets (sim/stepper.py)
-        layout["y:held_command"] = slice(at_hu, at_hu + m)
+    ny = b.states.controller_stop
+    loop_layout = LoopLayout(
+        states=dict(b.states.blocks),
+        params=param_at,
+        work=work,
+        records=RecordLayout(p=g.p, m=g.m),
+        extra_names=b.states.labels_after(ny),
+        n_states=b.states.size,
+        adaptive=slice(g.nx, ny),
+    )
+    sig_table = loop_layout.signal_table(pos, vel)
+    approximator = next(part for part in members if isinstance(part, Approximator))
+    plant_part = next(part for part in members if isinstance(part, PlantPart))
+    layout: dict = dict(loop_layout.items())  # "c:<param>", "w:<buffer>"
     layout.update(
+        loop_layout=loop_layout,
         ny=ny,
-        ny_all=ny_all,
-        at_act=at_act,
-        extra_names=tuple(extra),
-        filt=filt,
-        n_phi=n_phi,
-        theta_slices=tuple(theta_slices),
+        ny_all=b.states.size,
+        at_act=b.states["actuator_position"].start,
+        extra_names=loop_layout.extra_names,
+        filt=b.states["s_filter"].start,
+        n_phi=approximator.n_phi,
+        theta_slices=tuple(approximator.theta_slices),
         mods=mods,
         gain=_gain_module_source(loop, sdot),
     )
@@ -1449,12 +848,79 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         values=tuple(values),
         variables=variables,
         names=names,
-        has_act=has_act,
-        has_meas=has_meas,
-        sampled=sampled,
+        has_act=b.has_act,
+        has_meas=b.has_meas,
+        sampled=b.sampled,
         sig_table=tuple(sig_table),
-        plant_p=plant.parameter_values() if plant_expr == "D.p" else (),
+        plant_p=plant.parameter_values() if plant_part.expr == "D.p" else (),
     )
+
+
+def _param_layout(g: Generator, params: dict) -> tuple[list[float], dict[str, slice]]:
+    """``D.c`` up to the failures' numbers: the expressions' constants (their indices are in
+    the text), then the parts' named blocks in the order of :data:`layout.PARAMS`."""
+    values = list(g.consts)
+    at: dict[str, slice] = {}
+    for key in PARAMS:
+        if key not in params:
+            continue
+        vals = params[key]
+        at[key] = slice(len(values), len(values) + len(vals))
+        values.extend(float(v) for v in vals)
+    return values, at
+
+
+def _work_layout(b: Build, *, ny_all: int) -> dict[str, slice]:
+    """The buffers of the work array ``W`` (:data:`layout.WORK`) with their sizes."""
+    nx, p, m, g = b.nx, b.p, b.m, b.g
+    sizes = {
+        "sig": nx + 3 * p,
+        "phi": max(_size(b.states["theta"]), 1),
+        "mu": max(g.n_mu, 1),
+        "u0": p,
+        "u": m,
+        "uf": m,
+        "xdot": nx,
+        "ref": 3 * p,
+        "q": p,
+        "misc": Misc.size(),
+        "wb": max(g.n_w, 1),
+        "scr": ny_all if (b.sampled or b.has_act) else 1,
+        "fc": 3 * m,
+    }
+    sizes.update(b.work)  # the parts' own buffers (an allocator's), after those
+    work, at = {}, 0
+    for name in (*_WORK, *b.work):
+        work[name] = slice(at, at + sizes[name])
+        at += sizes[name]
+    return work
+
+
+def _size(where: slice) -> int:
+    return where.stop - where.start
+
+
+def _constants(param_at: dict, work: dict, g: Generator, pos, vel) -> list[str]:
+    """The constants at the head of a loop's module: the places of the parameters in ``D.c``
+    and of the buffers in ``W``, the header of ``D.i``, the sizes and the outputs' states."""
+    lines = ["# places of the settings in D.c (the expressions' numbers come first)"]
+    lines += [f"{PARAMS[key]} = {where.start}" for key, where in param_at.items()]
+    lines.append("# places of the buffers in the work array W")
+    for name, where in work.items():
+        lines += [
+            f"{name.upper()} = {where.start}",
+            f"N_{name.upper()} = {where.stop - where.start}",
+        ]
+    return lines + [
+        "# the header of D.i: sizes, then where the tables start (in D.i or D.c)",
+        *[f"I_{name} = {k}" for k, name in enumerate(_HEADER)],
+        f"I_HEAD = {Header.head()}",
+        f"NX = {g.nx}",
+        f"P = {g.p}",
+        f"M = {g.m}",
+        f"POS = {tuple(pos)!r}",
+        f"VEL = {tuple(vel)!r}",
+    ]
 
 
 def _numbers(loop: ClosedLoop, st: _Structure):
@@ -1478,7 +944,7 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
     if "c:alloc" in st.layout:  # the allocator's table of annunciated failures, per interval
         c_all = _with_known_table(loop, st.layout["c:alloc"].start, bps, m, c_all)
-    inst_at = _I_HEAD + fphase.size
+    inst_at = Header.head() + fphase.size
     samp_at = inst_at + inst.size
     env_at = st.layout["c:envelope"]
     header = [nph, m, nx, len(fkind), inst_at, samp_at, act_at, meas_at]
@@ -1498,20 +964,6 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     data = LoopData(c=c_all, i=ints, p=st.plant_p)
     layout = {**st.layout, "bps": bps, "patterns": tuple(fpatterns), "loaded": st.loaded}
     return st.text, data, g, layout
-
-
-def _allocation(g: Generator, loop: ClosedLoop, rho_at: int) -> dict | None:
-    """The text, numbers and states of a loop's allocator (issue 31); ``None`` for the
-    thesis's fixed allocation, whose text stays as it is (:mod:`adaptive_ftc.allocation`)."""
-    if loop.allocator is None:
-        return None
-    from adaptive_ftc.allocation.inloop import emit_allocation
-
-    prelude, adapt, settings, states, size = emit_allocation(
-        g, loop, rho_at=rho_at, has_act=loop.has_actuator_dynamics
-    )
-    g.y0_extra += states
-    return {"prelude": prelude, "adapt": adapt, "settings": settings, "size": size}
 
 
 def _with_annunciations(loop: ClosedLoop, times: tuple[float, ...]) -> tuple[float, ...]:
@@ -1610,7 +1062,8 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
     if not filter_tau > 0:
         raise ConfigurationError(f"`filter_tau` must be positive; got {filter_tau}.")
     text, data, g, layout = generate(loop, sdot=sdot)
-    data.c[layout["c:filter_tau"]] = float(filter_tau)
+    where: LoopLayout = layout["loop_layout"]
+    data.c[where.params["filter_tau"]] = float(filter_tau)
     # the modules and addresses of a structure seen before: every loop of it has the same
     # (its numbers' types included), so they are looked up once
     loaded = layout["loaded"]
@@ -1619,33 +1072,74 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         module = loaded["module"] = codegen.load_module(
             text, imports=layout["mods"], inject=g.inject
         )
-    nx, p = g.nx, g.p
-    y0 = np.zeros(layout["ny_all"])
-    y0[:nx] = loop.initial_state
-    y0[nx : nx + layout["n_phi"]] = loop.controller.theta0
-    y0[nx + layout["n_phi"] : layout["filt"]] = g.y0_extra
-    if loop.adaptive_initial:
-        n_ad = layout["filt"] - nx
-        if len(loop.adaptive_initial) != n_ad:
-            raise ConfigurationError(
-                f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
-                f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
-            )
-        y0[nx : layout["filt"]] = loop.adaptive_initial
-    if loop.actuators is not None and loop.actuators.initial:
-        at = layout["at_act"]
-        y0[at : at + g.m] = loop.actuators.initial
-    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
-        at = nx + g.adaptive_names.index("measurement_filter1")
-        y0[at : at + nx] = y0[:nx]
+    y0 = _initial_state(loop, g, where)
     if loop.sample_time > 0 and sdot == "filtered" and loop.sample_time >= 2 * filter_tau:
         raise ConfigurationError(
             f"The s' filter (time constant filter_tau = {filter_tau:g} s) is unstable when the "
             f"controller samples every {loop.sample_time:g} s (needs sample_time < 2 filter_tau): "
             f"set the solver's `filter_tau` to at least {loop.sample_time:g} s."
         )
+    _link(loop, module, data, layout)
+    asm = Assembled(
+        module=module,
+        data=data,
+        y0=y0,
+        breakpoints=layout["bps"],
+        adaptive_names=tuple(g.adaptive_names),
+        theta_slices=layout["theta_slices"],
+        n_x=g.nx,
+        layout=where,
+        source=text,
+        extra_names=where.extra_names,
+    )
+    if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
+        ref = np.zeros(3 * g.p)
+        module.reference_at(float(loop.t0), data.c, ref)
+        lam = data.c[where.params["lam"]]
+        x0 = y0[: g.nx]
+        at = where.states["s_filter"].start
+        for i in range(g.p):
+            e = ref[3 * i] - x0[loop.plant.position_index[i]]
+            ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
+            y0[at + i] = ed + lam[i] * e
+    if asm.extra_names:  # actuators at their first command, the first sample's held values
+        module.jump(float(loop.t0), y0, 0, data, asm.work())
+    return asm
+
+
+def _initial_state(loop: ClosedLoop, g: Generator, where: LoopLayout) -> np.ndarray:
+    """``y0`` before the s' filter and ``jump`` set theirs: the plant's initial state, theta0,
+    the design's initial states (or ``adaptive_initial``) and the actuators' positions."""
+    nx = g.nx
+    theta = where.states["theta"]
+    filt = where.states["s_filter"].start  # the design's, allocator's, constraint-aware states
+    y0 = np.zeros(where.n_states)
+    y0[:nx] = loop.initial_state
+    y0[theta] = loop.controller.theta0
+    y0[theta.stop : filt] = g.y0_extra
+    if loop.adaptive_initial:
+        n_ad = filt - nx
+        if len(loop.adaptive_initial) != n_ad:
+            raise ConfigurationError(
+                f"`adaptive_initial` has {len(loop.adaptive_initial)} values but the loop has "
+                f"{n_ad} adaptive states ({', '.join(g.adaptive_names[:n_ad])})."
+            )
+        y0[nx:filt] = loop.adaptive_initial
+    if loop.actuators is not None and loop.actuators.initial:
+        at = where.states["actuator_position"].start
+        y0[at : at + g.m] = loop.actuators.initial
+    if "measurement_filter1" in g.adaptive_names:  # constraint-aware: starts at x(0)
+        at = nx + g.adaptive_names.index("measurement_filter1")
+        y0[at : at + nx] = y0[:nx]
+    return y0
+
+
+def _link(loop: ClosedLoop, module, data: LoopData, layout: dict) -> None:
+    """Write the addresses of the compiled ``rhs``, ``jump``, the plant's ``control_gain``
+    and the failure patterns into ``data.i`` (compiling or loading them on first use)."""
     from adaptive_ftc.sim.compile_errors import clear_compile_errors
 
+    loaded = layout["loaded"]
     with clear_compile_errors(loop):  # rhs, jump, control_gain compile (or load) here
         addresses = loaded.get("addresses")
         if addresses is None:
@@ -1654,43 +1148,8 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
                 gain_text, imports=gain_mods, inject=gain_inject, kind="gain"
             )
             addresses = loaded["addresses"] = _addresses(module, gain_module, data)
-        data.i[_I_RHS], data.i[_I_JUMP], data.i[_I_GAIN] = addresses
+        data.i[Header.RHS], data.i[Header.JUMP], data.i[Header.GAIN] = addresses
         inst = data.inst
         for n_, pattern in enumerate(layout["patterns"]):
             if pattern is not None:  # the failure patterns that are not affine
                 inst[n_, 2], inst[n_, 3] = _pattern_addresses(pattern)
-    asm = Assembled(
-        module=module,
-        data=data,
-        y0=y0,
-        breakpoints=layout["bps"],
-        adaptive_names=tuple(g.adaptive_names),
-        theta_slices=layout["theta_slices"],
-        n_x=nx,
-        layout={k: v for k, v in layout.items() if ":" in k},
-        source=text,
-        extra_names=layout["extra_names"],
-    )
-    if sdot == "filtered":  # start the filter at s(0) so the estimated s' starts at 0
-        ref = np.zeros(3 * p)
-        module.reference_at(float(loop.t0), data.c, ref)
-        lam = data.c[layout["c:lam"]]
-        x0 = y0[:nx]
-        for i in range(p):
-            e = ref[3 * i] - x0[loop.plant.position_index[i]]
-            ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
-            y0[layout["filt"] + i] = ed + lam[i] * e
-    if asm.extra_names:  # actuators at their first command, the first sample's held values
-        module.jump(float(loop.t0), y0, 0, data, asm.work())
-    return asm
-
-
-def _per_output(value, p: int, name: str) -> tuple[float, ...]:
-    if isinstance(value, (int, float)):
-        return (float(value),) * p
-    vals = tuple(float(v) for v in value)
-    if len(vals) == 1:
-        return vals * p
-    if len(vals) != p:
-        raise ConfigurationError(f"`{name}` needs one value per output ({p}); got {len(vals)}.")
-    return vals

@@ -226,8 +226,7 @@ def _commands(loop: ClosedLoop, asm: Assembled, t: float, y: np.ndarray):
     row = _signals_row(loop, asm, t, y)
     if row is None:
         return None
-    c = 9 * loop.plant.n_outputs
-    return row[c : c + loop.plant.n_actuators]
+    return row[asm.layout.records["u_cmd"]]
 
 
 def _value(expr, env: dict[str, float]) -> float:
@@ -340,9 +339,10 @@ def _nonfinite_rhs(
             continue
         i = int(np.argmax(off))
         row = _signals_row(loop, asm, float(t), y)
-        m, p = loop.plant.n_actuators, loop.plant.n_outputs
-        c = 9 * p
-        u = row[c : c + 2 * m] if row is not None else np.full(2 * m, math.nan)
+        m = loop.plant.n_actuators
+        rec = asm.layout.records  # the commands, then the applied outputs
+        u_cols = slice(rec["u_cmd"].start, rec["u_applied"].stop)
+        u = row[u_cols] if row is not None else np.full(2 * m, math.nan)
         if i < n and np.all(np.isfinite(y)) and np.all(np.isfinite(u)):
             state = loop.plant.state_names[i]
             dyn = getattr(loop.plant, "dynamics", None)

@@ -140,54 +140,26 @@ class SimResult:
                     np.ascontiguousarray(phases),
                     out,
                 )
-        cols = [out[:, i * p : (i + 1) * p] for i in range(9)]
-        c = 9 * p
+        col = {name: out[:, where] for name, where, _ in asm.layout.records}
         times = sorted(
             {t for f in loop.failures.failures for t in f.jump_times if loop.t0 < t < loop.t_final}
         )
-        ctrl = loop.controller
-        meta = {
-            "name": loop.name,
-            "plant": loop.plant.name,
-            "design": ctrl.design,
-            "equations": ctrl.equation,
-            "adapt": loop.adapt,
-            "solver": solver.method,
-            "dt": solver.dt,
-            "sdot": solver.sdot_for(loop),
-            "t_final": loop.t_final,
-            "wall_time_s": wall_time,
-            "solver_settings": _solver_settings(solver),
-            "controller": repr(ctrl),
-            "actuators": repr(loop.actuators) if loop.actuators is not None else "ideal",
-            "sensors": repr(loop.sensors) if loop.sensors is not None else "exact",
-            "sample_time": loop.sample_time,
-        }
         plant = loop.plant
-        from adaptive_ftc.sim.activity import actuator_limits_meta, actuator_positions
+        from adaptive_ftc.sim.activity import actuator_positions
 
-        u_cmd = out[:, c : c + m]
-        if loop.has_actuator_dynamics:
-            meta["actuator_limits"] = actuator_limits_meta(loop, asm)
+        u_cmd = col["u_cmd"]
+        where = asm.layout.states
         return cls(
             # views of the recorded block, like the signals below: copying them cost ~1 ms
             # of a 60 ms run
             time=T.copy(),
-            states=Y[:, :n],
-            adaptive=Y[:, n : n + len(asm.adaptive_names)],
-            y=cols[0],
-            yd=cols[1],
-            yd_dot=cols[2],
-            e=cols[3],
-            edot=cols[4],
-            s=cols[5],
-            sdot=cols[6],
-            u0=cols[8],
+            states=Y[:, where["plant"]],
+            adaptive=Y[:, asm.layout.adaptive],
+            **{k: col[k] for k in ("y", "yd", "yd_dot", "e", "edot", "s", "sdot", "u0")},
             u_cmd=u_cmd,
-            u_applied=out[:, c + m : c + 2 * m],
-            u_f=out[:, c + 2 * m],
-            gain=out[:, c + 2 * m + 1],
-            control_gain=out[:, c + 2 * m + 2],
+            u_applied=col["u_applied"],
+            # the columns of one value (not per output or actuator): 1-d
+            **{k: col[k][:, 0] for k in ("u_f", "gain", "control_gain")},
             state_names=tuple(loop.plant.state_names),
             output_names=tuple(loop.plant.output_names),
             actuator_names=tuple(loop.plant.actuator_names),
@@ -198,7 +170,7 @@ class SimResult:
             status=RunStatus(status),
             reason=reason,
             message=message,
-            meta=meta,
+            meta=_run_meta(loop, asm, solver, wall_time),
             state_units=(su := _declared_units(plant, ("state_units", "units"), n)),
             output_units=_declared_units(plant, ("output_units",), p)
             or _output_units(loop.plant.state_names, loop.plant.output_names, su),
@@ -717,12 +689,40 @@ class SimResult:
         return plots.plot(self, kind, **kwargs)
 
 
+def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -> dict:
+    """The provenance of one run (``SimResult.meta``)."""
+    ctrl = loop.controller
+    meta = {
+        "name": loop.name,
+        "plant": loop.plant.name,
+        "design": ctrl.design,
+        "equations": ctrl.equation,
+        "adapt": loop.adapt,
+        "solver": solver.method,
+        "dt": solver.dt,
+        "sdot": solver.sdot_for(loop),
+        "t_final": loop.t_final,
+        "wall_time_s": wall_time,
+        "solver_settings": _solver_settings(solver),
+        "controller": repr(ctrl),
+        "actuators": repr(loop.actuators) if loop.actuators is not None else "ideal",
+        "sensors": repr(loop.sensors) if loop.sensors is not None else "exact",
+        "sample_time": loop.sample_time,
+    }
+    if loop.has_actuator_dynamics:
+        from adaptive_ftc.sim.activity import actuator_limits_meta
+
+        meta["actuator_limits"] = actuator_limits_meta(loop, asm)
+    return meta
+
+
 # ---------------------------------------------------------------------- export helpers
 def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
     """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
     (``Assembled.signals`` writes every column of every row)."""
-    p, m = loop.plant.n_outputs, loop.plant.n_actuators
-    return np.empty((rows, 9 * p + 2 * m + 4))
+    from adaptive_ftc.sim.layout import RecordLayout
+
+    return np.empty((rows, RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width))
 
 
 def _solver_settings(solver: Any) -> str:

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
-from adaptive_ftc.sim.compose import _I_JUMP, _I_PH0, assemble, integrators
+from adaptive_ftc.sim.compose import assemble, integrators
 from adaptive_ftc.sim.engine import SolverOptions
+from adaptive_ftc.sim.layout import Header
 from adaptive_ftc.sim.status import RunStatus, StatusReason
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -110,7 +111,7 @@ class DigitalStepper:
         # the integrators run without the loop's jumps (this class runs them, so that the
         # held command can change in between) and from the interval set in PH0
         self._D = asm.data._replace(i=asm.data.i.copy())
-        self._D.i[_I_JUMP] = 0
+        self._D.i[Header.JUMP] = 0
         n = asm.y0.size
         self._atol = solver.atol_for(n)
         self._stop = np.zeros(1, dtype=np.int64)
@@ -222,7 +223,7 @@ class DigitalStepper:
     def _interval(self, ph: int) -> None:
         a, b = float(self.breakpoints[ph]), float(self.breakpoints[ph + 1])
         D, solver = self._D, self.solver
-        D.i[_I_PH0] = ph
+        D.i[Header.PH0] = ph
         bound = float(solver.divergence_bound)
         t_rec = np.array([b])
         if self.method == "rk4":

@@ -3,11 +3,11 @@
 The text after the marker is pasted into the module of integrators that every loop shares
 (``compose.integrators``): one compiled ``signals`` serves every loop. It reads the loop's
 layout (outputs, places in the work array ``W`` and in ``D.c``) from the table at
-``D.i[I_SIGT]``, calls the loop's ``rhs`` by address for each row and its plant's
-``control_gain`` (the plant's equations and the failures' slopes, compiled once per plant in a
-module of its own, whatever the design) by its address (the shims of
-``compose._INTEGRATORS_HEAD``). The placeholders above the
-marker exist only so this file imports and lints on its own.
+``D.i[I_SIGT]`` (``sim/layout.py``), calls the loop's ``rhs`` by address for each row and its
+plant's ``control_gain`` (the plant's equations and the failures' slopes, compiled once per
+plant in a module of its own, whatever the design) by its address (the shims of
+``compose._INTEGRATORS_HEAD``). The placeholders above the marker exist only so this file
+imports and lints on its own.
 """
 
 # ruff: noqa: F811
@@ -30,8 +30,12 @@ def leaves_envelope(Y, D):  # first plant state outside the plant's envelope, el
     raise NotImplementedError
 
 
-# places in the header of D.i (the integrators module defines them)
+# places in the header of D.i, in the signal table and in misc (the integrators module
+# defines them from sim/layout.py: Header, SignalTable, Misc)
 I_NX = I_M = I_SIGT = 0
+SIGT_P = SIGT_SIG = SIGT_REF = SIGT_XDOT = SIGT_Q = SIGT_U0 = SIGT_U = SIGT_UF = SIGT_MISC = 0
+SIGT_LAM = SIGT_POS = 0
+MISC_UF_COMP = MISC_GAIN = MISC_SDOT_USED = MISC_REF_VALID = 0
 
 
 # --- template: begin ---
@@ -47,16 +51,15 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
 
     ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
     the caller. The rows allocate nothing, so they run without reference counting. The table
-    at ``D.i[I_SIGT]``: ``P, SIG, REF, XDOT, Q, U0, U, UF, MISC, LAM, RMAT`` then the ``P``
-    position and the ``P`` rate indices of the outputs (``sig_table``, written by
-    ``compose._structure``)."""
+    at ``D.i[I_SIGT]``: ``layout.SignalTable`` (written by ``LoopLayout.signal_table``); the
+    columns: ``layout.RecordLayout``."""
     c = D.c
     s = D.i[I_SIGT]
-    P = D.i[s]
-    SIG, REF, XDOT, Q = D.i[s + 1], D.i[s + 2], D.i[s + 3], D.i[s + 4]
-    U0, U, UF, MISC = D.i[s + 5], D.i[s + 6], D.i[s + 7], D.i[s + 8]
-    LAM = D.i[s + 9]
-    pos = s + 11
+    P = D.i[s + SIGT_P]
+    SIG, REF, XDOT, Q = D.i[s + SIGT_SIG], D.i[s + SIGT_REF], D.i[s + SIGT_XDOT], D.i[s + SIGT_Q]
+    U0, U, UF, MISC = D.i[s + SIGT_U0], D.i[s + SIGT_U], D.i[s + SIGT_UF], D.i[s + SIGT_MISC]
+    LAM = D.i[s + SIGT_LAM]
+    pos = s + SIGT_POS
     vel = pos + P
     NX = D.i[I_NX]
     M = D.i[I_M]
@@ -65,7 +68,7 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
         t = T[n]
         Y = Ys[n]
         ph = phases[n]
-        W[MISC + 3] = 0.0  # the reference cache must not carry over between rows
+        W[MISC + MISC_REF_VALID] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
         for i in range(P):
             pi = D.i[pos + i]
@@ -87,10 +90,10 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
             out[n, col + j] = W[U + j]
             out[n, col + M + j] = W[UF + j]
         col += 2 * M
-        out[n, col] = W[MISC]
-        out[n, col + 1] = W[MISC + 1]
+        out[n, col] = W[MISC + MISC_UF_COMP]
+        out[n, col + 1] = W[MISC + MISC_GAIN]
         out[n, col + 2] = control_gain(t, Y, ph, D, W, unit, x0dot, x1dot)
-        out[n, col + 3] = W[MISC + 2]
+        out[n, col + 3] = W[MISC + MISC_SDOT_USED]
         if outside < 0 and leaves_envelope(Y, D) >= 0:
             outside = n
     return outside
