@@ -9,7 +9,9 @@ failures; which actuators (without replacement, then sorted); per failure in act
 model, onset, ramp, whether it recovers, time to recovery, the model's params then fields in
 spec order; then the initial states, the reference amplitude and the gains in spec order;
 then the hardware (:mod:`adaptive_ftc.campaigns.hardware`): lag, rate limit, travel, sample
-time, noise per state in spec order and the noise seed.
+time, noise per state in spec order and the noise seed; last, when the spec's failures can be
+annunciated (issue 31): per drawn failure in actuator order whether it is annunciated, then
+the member's detection delay.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from adaptive_ftc.allocation.inloop import Annunciation
 from adaptive_ftc.campaigns.checks import _fill
 from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec
 from adaptive_ftc.errors import ConfigurationError, ExpressionError
@@ -43,12 +46,19 @@ class Member:
     loop: ClosedLoop | None
     error: str
     columns: dict[str, Any]
+    #: the campaign's allocators by kind (designs ``"adaptive+wls"``; ``None``: fixed)
+    allocators: tuple[tuple[str, Any], ...] = ()
 
     def design_loop(self, design: str) -> ClosedLoop:
-        """The member's closed loop for one of the compared designs."""
+        """The member's closed loop for one of the compared designs (``design+kind``: the
+        design with that allocator)."""
         if self.loop is None:
             raise ConfigurationError(f"Member {self.index} is invalid: {self.error}")
-        return DESIGN_VARIANTS[design](self.loop)
+        name, _, kind = design.partition("+")
+        loop = DESIGN_VARIANTS[name](self.loop)
+        if kind:
+            loop = dataclasses.replace(loop, allocator=dict(self.allocators)[kind])
+        return loop
 
 
 def severity(spec: FailureModelSpec, drawn: dict[str, Any], failure: Failure) -> float:
@@ -139,6 +149,10 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         if spec.hardware is not None:
             hw_loop, hw_cols = spec.hardware.draw(rng, base)
             cols.update(hw_cols)
+        announced = _draw_annunciations(spec, rng, failures)
+        if spec.allocation_columns:
+            cols["annunciated"] = len(announced)
+            cols["detection_delay"] = announced[0].delay if announced else math.nan
         loop = dataclasses.replace(
             hw_loop,
             controller=ctrl,
@@ -147,7 +161,7 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             failures=kept + tuple(failures),
             name=f"{spec.name}[{index}]",
             # the base's annunciations belong to its own failures (issue 31)
-            annunciations=base.annunciations if spec.keep_base else (),
+            annunciations=(base.annunciations if spec.keep_base else ()) + announced,
         )
     except (ConfigurationError, ExpressionError, ValueError) as exc:
         loop, error = None, str(exc)
@@ -161,6 +175,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
     else:
         cols["compensable"] = False
         cols["compensability"] = ""
+    if spec.allocation_columns:
+        cols["reachable"], cols["reachability"] = _reachability_verdict(loop)
     head: dict[str, Any] = {
         "index": int(index),
         "seed": int(spec.seed),
@@ -186,4 +202,38 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         loop=loop,
         error=error,
         columns={**head, **cols},
+        allocators=spec.allocators,
     )
+
+
+def _draw_annunciations(
+    spec: CampaignSpec, rng: np.random.Generator, failures: list[Failure]
+) -> tuple[Annunciation, ...]:
+    """Which drawn failures a detector reports (each with probability ``spec.annunciated``, in
+    actuator order) and the detector's delay (one per member), drawn after everything else so
+    a campaign without annunciations draws what it always drew."""
+    if spec.annunciated is None or spec.detection_delay is None:
+        return ()
+    known = [f for f in failures if rng.uniform() < spec.annunciated]
+    delay = float(spec.detection_delay.draw(rng))
+    return tuple(
+        Annunciation(actuator=f.actuator, onset=f.onset, recovery=f.recovery, delay=delay)
+        for f in known
+    )
+
+
+def _reachability_verdict(loop: ClosedLoop | None) -> tuple[bool, str]:
+    """Whether every axis stays reachable over the run, and else which axis is lost when
+    (:func:`~adaptive_ftc.allocation.reachability_timeline`), e.g. ``"phi from 61.1 s
+    (actuators 1, 4 lost)"``."""
+    if loop is None:
+        return False, ""
+    from adaptive_ftc.allocation import reachability_timeline
+
+    lost = [
+        f"{', '.join(e.report.unreachable)} from {e.time:g} s (actuators "
+        f"{', '.join(map(str, e.failed))} lost)"
+        for e in reachability_timeline(loop)
+        if not e.report.full
+    ]
+    return not lost, "; ".join(lost)
