@@ -229,3 +229,62 @@ def test_the_shipped_spec_runs_with_one_row_per_member_and_allocator(tmp_path):
     delays = df.groupby("index")["detection_delay"].first()
     assert ((ann > 0) == delays.notna()).all()
     assert np.all((delays.dropna() >= 0) & (delays.dropna() <= 2))
+
+
+# ---------------------------------------------------------------------------- false alarms
+def test_a_false_alarm_reports_a_healthy_actuator_at_a_drawn_time():
+    data = spec(**{"failures.false_alarm": 0.5, "failures.false_alarm_time": [3.0, 9.0]})
+    sp = load_campaign(data)
+    plain = load_campaign(spec())
+    raised = 0
+    for i in range(sp.runs):
+        mem, ref = draw_member(sp, i), draw_member(plain, i)
+        assert mem.failures == ref.failures  # drawn after everything else
+        assert mem.loop.annunciations[: len(ref.loop.annunciations)] == ref.loop.annunciations
+        extra = mem.loop.annunciations[len(ref.loop.annunciations) :]
+        j, t = mem.columns["false_alarm"], mem.columns["false_alarm_time"]
+        if j == 0:
+            assert extra == () and math.isnan(t)
+            continue
+        raised += 1
+        assert j not in {f.actuator for f in mem.failures}  # a healthy actuator
+        assert 3.0 <= t <= 9.0
+        (alarm,) = extra
+        assert (alarm.actuator, alarm.onset, alarm.delay, alarm.recovery) == (j, t, 0.0, None)
+    assert 5 <= raised <= 25
+    assert {"false_alarm", "false_alarm_time"} <= set(schema(sp).names)
+
+
+@pytest.mark.parametrize(
+    "changes, culprit",
+    [
+        ({"failures.false_alarm": 1.5}, "`false_alarm` must be the probability"),
+        ({"failures.false_alarm_time": [1.0, 2.0]}, "`false_alarm_time` is given without"),
+        (
+            {"failures.false_alarm": 0.1, "failures.false_alarm_time": [1.0, 30.0]},
+            "[failures.false_alarm_time] false alarms must fall in [0, 20)",
+        ),
+    ],
+)
+def test_false_alarm_settings_are_validated(changes, culprit):
+    found = problems(spec(**changes))
+    assert len(found) == 1 and culprit in found[0], found
+
+
+def test_a_false_alarm_changes_what_a_reallocating_allocator_commands():
+    data = spec(**{"failures.false_alarm": 1.0, "failures.count": 0})
+    data["failures"].pop("annunciated")
+    data["failures"].pop("detection_delay")
+    mem = draw_member(load_campaign(data), 0)
+    (alarm,) = mem.loop.annunciations
+    from adaptive_ftc.sim.engine import simulate
+
+    loop = mem.design_loop("adaptive+pinv")
+    base = simulate(mem.design_loop("adaptive+fixed"))
+    moved = simulate(loop)
+    j = alarm.actuator - 1
+    before = moved.time < alarm.onset - 0.1
+    after = moved.time > alarm.onset + 0.1
+    # no failure at all: pinv gives the fixed commands until the alarm, then drops the actuator
+    assert np.allclose(moved.u_cmd[before], base.u_cmd[before], atol=1e-8)
+    assert np.all(moved.u_cmd[after, j] == 0.0) and np.any(base.u_cmd[after, j] != 0.0)

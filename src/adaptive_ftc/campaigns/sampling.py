@@ -11,7 +11,8 @@ spec order; then the initial states, the reference amplitude and the gains in sp
 then the hardware (:mod:`adaptive_ftc.campaigns.hardware`): lag, rate limit, travel, sample
 time, noise per state in spec order and the noise seed; last, when the spec's failures can be
 annunciated (issue 31): per drawn failure in actuator order whether it is annunciated, then
-the member's detection delay.
+the member's detection delay; then, when false alarms can be raised, whether one is, which
+healthy actuator and when.
 """
 
 from __future__ import annotations
@@ -150,9 +151,13 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             hw_loop, hw_cols = spec.hardware.draw(rng, base)
             cols.update(hw_cols)
         announced = _draw_annunciations(spec, rng, failures)
+        alarm = _draw_false_alarm(spec, rng, failures)
         if spec.allocation_columns:
             cols["annunciated"] = len(announced)
             cols["detection_delay"] = announced[0].delay if announced else math.nan
+            cols["false_alarm"] = alarm[0].actuator if alarm else 0
+            cols["false_alarm_time"] = alarm[0].onset if alarm else math.nan
+        announced += alarm
         loop = dataclasses.replace(
             hw_loop,
             controller=ctrl,
@@ -220,6 +225,23 @@ def _draw_annunciations(
         Annunciation(actuator=f.actuator, onset=f.onset, recovery=f.recovery, delay=delay)
         for f in known
     )
+
+
+def _draw_false_alarm(
+    spec: CampaignSpec, rng: np.random.Generator, failures: list[Failure]
+) -> tuple[Annunciation, ...]:
+    """A false alarm (with probability ``spec.false_alarm``): one healthy candidate actuator,
+    drawn uniformly, reported failed from a drawn time to the end of the run (after the
+    annunciations, so a campaign without false alarms draws what it always drew)."""
+    if spec.false_alarm is None or spec.false_alarm_time is None:
+        return ()
+    raised = bool(rng.uniform() < spec.false_alarm)
+    healthy = [a for a in spec.actuators if a not in {f.actuator for f in failures}]
+    which = int(rng.choice(healthy)) if healthy else 0
+    when = float(spec.false_alarm_time.draw(rng))
+    if not (raised and healthy):
+        return ()
+    return (Annunciation(actuator=which, onset=when),)
 
 
 def _reachability_verdict(loop: ClosedLoop | None) -> tuple[bool, str]:

@@ -74,6 +74,7 @@ _TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "d
 _TOP |= {"duration", "success", "failures", "ranges", "hardware", "allocation"}
 _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
 _FAILURE_KEYS |= {"recovery_probability", "duration", "models", "annunciated", "detection_delay"}
+_FAILURE_KEYS |= {"false_alarm", "false_alarm_time"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance", *ACTIVITY_SUCCESS_KEYS}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
 _TEXT_KEYS = ("name", "title", "description")
@@ -442,13 +443,18 @@ class CampaignSpec:
     annunciated: float | None = None
     #: the detector's delay, drawn once per member (annunciated failures only)
     detection_delay: Dist | None = None
+    #: probability that a member's detector reports a healthy actuator (``None``: never)
+    false_alarm: float | None = None
+    #: when a false alarm is raised
+    false_alarm_time: Dist | None = None
 
     @property
     def allocation_columns(self) -> bool:
         """Whether the table has the allocation columns (``allocator``, ``annunciated``,
-        ``detection_delay``, ``reachable``, ``reachability``): a design names an allocator
-        or the failures can be annunciated."""
-        return bool(self.allocators) or self.annunciated is not None
+        ``detection_delay``, ``false_alarm``, ``false_alarm_time``, ``reachable``,
+        ``reachability``): a design names an allocator, the failures can be annunciated or
+        the detector can raise a false alarm."""
+        return bool(self.allocators) or self.annunciated is not None or self.false_alarm is not None
 
     def allocator_kind(self, design: str) -> str:
         """The allocator of ``design``: its ``+kind`` suffix, else the base scenario's."""
@@ -799,6 +805,7 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         _check_kept_overlap(scenario, acts, onset, duration, prob, problems)
     allocators = _allocation(data.get("allocation"), designs, loop, problems)
     annunciated, delay = _annunciation(ft, problems)
+    false_alarm, false_alarm_time = _false_alarm(ft, onset, loop, float(t_final), problems)
     if problems:
         return None
     return CampaignSpec(
@@ -830,6 +837,8 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         allocators=allocators,
         annunciated=annunciated,
         detection_delay=delay,
+        false_alarm=false_alarm,
+        false_alarm_time=false_alarm_time,
     )
 
 
@@ -965,3 +974,37 @@ def _annunciation(ft: dict[str, Any], problems: list[str]) -> tuple[float | None
             f"onset); the range reaches {lo}."
         )
     return prob, dist
+
+
+def _false_alarm(
+    ft: dict[str, Any], onset: Dist, loop: ClosedLoop, t_final: float, problems: list[str]
+) -> tuple[float | None, Dist | None]:
+    """``[failures] false_alarm``: the probability that the member's detector reports one
+    healthy actuator (of the candidate ``actuators``, drawn uniformly) as failed, from
+    ``false_alarm_time`` (default: the onset distribution) to the end of the run."""
+    prob = ft.get("false_alarm")
+    when = ft.get("false_alarm_time")
+    if prob is None:
+        if when is not None:
+            problems.append(
+                "[failures] `false_alarm_time` is given without `false_alarm`: add "
+                "`false_alarm = 0.1` (the chance that a healthy actuator is reported failed) "
+                "or remove `false_alarm_time`."
+            )
+        return None, None
+    if not _number(prob) or not 0 <= prob <= 1:
+        problems.append(
+            "[failures] `false_alarm` must be the probability (0..1) that a member's detector "
+            f"reports a healthy actuator as failed; got {_short(prob)}."
+        )
+        return None, None
+    if isinstance(when, list) and len(when) == 2 and all(map(_number, when)):
+        when = {"uniform": when}  # [lo, hi]: uniform
+    dist = onset if when is None else _dist(when, "failures.false_alarm_time", problems)
+    lo, hi = min(dist.support()), max(dist.support())
+    if lo < loop.t0 or hi >= t_final:
+        problems.append(
+            f"[failures.false_alarm_time] false alarms must fall in [{loop.t0:g}, {t_final:g}) "
+            f"s, the run; the range is [{lo}, {hi}]."
+        )
+    return float(prob), dist

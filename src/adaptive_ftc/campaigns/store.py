@@ -150,6 +150,7 @@ def schema(spec: CampaignSpec):
     cols += [("compensable", "bool"), ("compensability", "string")]
     if spec.allocation_columns:  # issue 31: annunciated failures, allocators, reachability
         cols += [("annunciated", "int64"), ("detection_delay", "float64")]
+        cols += [("false_alarm", "int64"), ("false_alarm_time", "float64")]
         cols += [("reachable", "bool"), ("reachability", "string"), ("allocator", "string")]
     cols += list(OUTCOME_COLUMNS.items())
     units = column_units(spec)
@@ -181,7 +182,7 @@ def column_units(spec: CampaignSpec) -> dict[str, str]:
     u = _common([_unit(_declared_units(plant, ("actuator_units",), m), j) for j in range(m)])
     units = {"n_failures": "1"}
     if spec.allocation_columns:
-        units.update(annunciated="1", detection_delay="s")
+        units.update(annunciated="1", detection_delay="s", false_alarm_time="s")
     for j in range(1, spec.max_failures + 1):
         units.update({f"f{j}_onset": "s", f"f{j}_recovery": "s", f"f{j}_ramp": "s"})
     for i, _ in spec.initial_state:
