@@ -288,3 +288,21 @@ def test_a_false_alarm_changes_what_a_reallocating_allocator_commands():
     # no failure at all: pinv gives the fixed commands until the alarm, then drops the actuator
     assert np.allclose(moved.u_cmd[before], base.u_cmd[before], atol=1e-8)
     assert np.all(moved.u_cmd[after, j] == 0.0) and np.any(base.u_cmd[after, j] != 0.0)
+
+
+# ---------------------------------------------------------------------------- aftc validate
+def test_validate_prints_the_reachability_timeline(tmp_path, capsys):
+    from adaptive_ftc.cli import main
+    from adaptive_ftc.scenarios.loader import load_scenario
+
+    text = load_scenario("spacecraft-mimo-s1").text
+    old = 'actuator = 1\nmodel = "loss_of_effectiveness"\nonset = 90.0\neffectiveness = 0.5\n'
+    assert old in text
+    path = tmp_path / "two-roll-wheels.toml"  # wheel 1 stuck at 90 s; wheel 4 stuck since 70 s
+    path.write_text(text.replace(old, 'actuator = 1\nmodel = "stuck"\nonset = 90.0\n'))
+    main(["validate", str(path)])
+    out = capsys.readouterr().out
+    lines = out.split("reachability (allocation matrix R")[1].splitlines()[1:]
+    assert lines[0].strip().startswith("t = 0 s (lost actuators: none): all axes reachable")
+    assert "t = 70 s (lost actuators: 4, 5): all axes reachable" in lines[2]
+    assert "t = 90 s (lost actuators: 1, 4, 5): NOT reachable: phi (rank 2 of 3" in lines[3]
