@@ -150,6 +150,9 @@ def test_annunciated_failures_are_drawn_per_failure_with_one_delay_per_member():
             assert a.delay == cols["detection_delay"] and 0.5 <= a.delay <= 1.5
         if not anns:
             assert math.isnan(cols["detection_delay"])
+        flags = [cols[f"f{j + 1}_annunciated"] for j in range(len(mem.failures))]
+        assert flags == [f.actuator in {a.actuator for a in anns} for f in mem.failures]
+        assert not any(cols[f"f{j + 1}_annunciated"] for j in range(len(mem.failures), 3))
         counts.append((len(anns), len(mem.failures)))
     assert any(0 < k < n for k, n in counts)  # some failures reported, others silent
     assert any(k == 0 for k, _ in counts) and any(k == n > 0 for k, n in counts)

@@ -122,6 +122,7 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
     sevs: list[float] = []
     drawn: list[dict[str, Any]] = []
     error = ""
+    reported: set[int] = set()  # actuators whose drawn failure is annunciated
     try:
         k = int(spec.count.draw(rng))
         acts = sorted(int(a) for a in rng.choice(spec.actuators, size=k, replace=False))
@@ -152,6 +153,7 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             cols.update(hw_cols)
         announced = _draw_annunciations(spec, rng, failures)
         alarm = _draw_false_alarm(spec, rng, failures)
+        reported = {a.actuator for a in announced}
         if spec.allocation_columns:
             cols["annunciated"] = len(announced)
             cols["detection_delay"] = announced[0].delay if announced else math.nan
@@ -199,6 +201,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         head[f"f{j + 1}_ramp"] = float(fj.ramp) if fj else math.nan
         head[f"f{j + 1}_severity"] = sevs[j] if fj else math.nan
         head[f"f{j + 1}_params"] = json.dumps(drawn[j], sort_keys=True) if fj else "{}"
+        if spec.allocation_columns:
+            head[f"f{j + 1}_annunciated"] = bool(fj is not None and fj.actuator in reported)
     return Member(
         index=int(index),
         failures=tuple(failures),

@@ -140,6 +140,8 @@ def schema(spec: CampaignSpec):
             (f"f{j}_severity", "float64"),
             (f"f{j}_params", "string"),
         ]
+        if spec.allocation_columns:
+            cols.append((f"f{j}_annunciated", "bool"))
     names = spec.loop.plant.state_names
     cols += [(f"x0_{names[i]}", "float64") for i, _ in spec.initial_state]
     if spec.reference_amplitude is not None:
