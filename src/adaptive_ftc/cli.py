@@ -385,7 +385,7 @@ def _cmd_validate(target: str) -> int:
     print(f"compensability ({conditions}):")
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
-    if loop.failures.failures:  # issue 31: which axes the working actuators still reach
+    if loop.describe_failures():  # issue 31: which axes the working actuators still reach
         from adaptive_ftc.allocation import reachability_timeline
 
         print("reachability (allocation matrix R without the lost actuators, per event):")

@@ -461,7 +461,7 @@ class CampaignSpec:
         if "+" in design:
             return design.split("+", 1)[1]
         alloc = self.base.loop.allocator
-        return "fixed" if alloc is None else type(alloc).kind
+        return "fixed" if alloc is None else str(getattr(type(alloc), "kind", "fixed"))
 
     @property
     def solver(self):
