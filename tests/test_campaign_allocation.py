@@ -197,14 +197,18 @@ def test_the_reachability_verdict_names_the_lost_axis_and_when():
 
 
 # ---------------------------------------------------------------------------- the shipped spec
-def test_the_shipped_spec_compares_four_allocators_and_reaches_the_rank_limit():
-    sp = load_campaign("spacecraft-allocation")
+@pytest.mark.parametrize(
+    "name, axes",
+    [("spacecraft-allocation", ("phi", "theta", "psi")), ("manipulator-allocation", ("q1", "q2"))],
+)
+def test_the_shipped_specs_compare_four_allocators_and_reach_the_rank_limit(name, axes):
+    sp = load_campaign(name)
     assert sp.runs >= 200
     assert [sp.allocator_kind(d) for d in sp.designs] == ["fixed", "pinv", "wls", "adaptive"]
     assert sp.annunciated == 0.5
     cols = [draw_member(sp, i).columns for i in range(sp.runs)]
     lost = [c["reachability"] for c in cols if not c["reachable"]]
-    assert lost and all(c.split(" from ")[0] in ("phi", "theta", "psi") for c in lost)
+    assert lost and all(c.split(" from ")[0] in axes for c in lost)
     two = [c for c in cols if c["n_failures"] == 2]
     assert any(c["reachable"] for c in two) and any(not c["reachable"] for c in two)
     assert {c["annunciated"] for c in cols} >= {0, 1, 2}
