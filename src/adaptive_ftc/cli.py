@@ -385,6 +385,12 @@ def _cmd_validate(target: str) -> int:
     print(f"compensability ({conditions}):")
     for line in report.describe(loop.plant.output_names).splitlines():
         print(f"  {line}")
+    if loop.describe_failures():  # issue 31: which axes the working actuators still reach
+        from adaptive_ftc.allocation import reachability_timeline
+
+        print("reachability (allocation matrix R without the lost actuators, per event):")
+        for event in reachability_timeline(loop):
+            print(f"  {event.describe()}")
     for j in report.dead_actuators:  # a warning: the others may still compensate
         print(
             f"warning: actuator {j + 1} ({loop.plant.actuator_names[j]}) is never effective "

@@ -92,6 +92,8 @@ def replay_member(
             res.meta["campaign_design"] = d
             results[d] = res
             row = {**member.columns, "design": d, **outcome(res, spec)}
+            if spec.allocation_columns:
+                row["allocator"] = spec.allocator_kind(d)
             rows[d] = row
             ref = stored[stored["design"] == d]
             if ref.empty:

@@ -145,6 +145,8 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
         for d in spec.designs:
             row = dict(mem.columns)
             row["design"] = d
+            if spec.allocation_columns:
+                row["allocator"] = spec.allocator_kind(d)
             slot = slots[k]
             k += 1
             if slot is None:

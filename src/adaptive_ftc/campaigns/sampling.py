@@ -9,7 +9,10 @@ failures; which actuators (without replacement, then sorted); per failure in act
 model, onset, ramp, whether it recovers, time to recovery, the model's params then fields in
 spec order; then the initial states, the reference amplitude and the gains in spec order;
 then the hardware (:mod:`adaptive_ftc.campaigns.hardware`): lag, rate limit, travel, sample
-time, noise per state in spec order and the noise seed.
+time, noise per state in spec order and the noise seed; last, when the spec's failures can be
+annunciated (issue 31): per drawn failure in actuator order whether it is annunciated, then
+the member's detection delay; then, when false alarms can be raised, whether one is, which
+healthy actuator and when.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from adaptive_ftc.allocation.inloop import Annunciation
 from adaptive_ftc.campaigns.checks import _fill
 from adaptive_ftc.campaigns.spec import DESIGN_VARIANTS, CampaignSpec, FailureModelSpec
 from adaptive_ftc.errors import ConfigurationError, ExpressionError
@@ -43,12 +47,19 @@ class Member:
     loop: ClosedLoop | None
     error: str
     columns: dict[str, Any]
+    #: the campaign's allocators by kind (designs ``"adaptive+wls"``; ``None``: fixed)
+    allocators: tuple[tuple[str, Any], ...] = ()
 
     def design_loop(self, design: str) -> ClosedLoop:
-        """The member's closed loop for one of the compared designs."""
+        """The member's closed loop for one of the compared designs (``design+kind``: the
+        design with that allocator)."""
         if self.loop is None:
             raise ConfigurationError(f"Member {self.index} is invalid: {self.error}")
-        return DESIGN_VARIANTS[design](self.loop)
+        name, _, kind = design.partition("+")
+        loop = DESIGN_VARIANTS[name](self.loop)
+        if kind:
+            loop = dataclasses.replace(loop, allocator=dict(self.allocators)[kind])
+        return loop
 
 
 def severity(spec: FailureModelSpec, drawn: dict[str, Any], failure: Failure) -> float:
@@ -111,6 +122,7 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
     sevs: list[float] = []
     drawn: list[dict[str, Any]] = []
     error = ""
+    reported: set[int] = set()  # actuators whose drawn failure is annunciated
     try:
         k = int(spec.count.draw(rng))
         acts = sorted(int(a) for a in rng.choice(spec.actuators, size=k, replace=False))
@@ -139,6 +151,15 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         if spec.hardware is not None:
             hw_loop, hw_cols = spec.hardware.draw(rng, base)
             cols.update(hw_cols)
+        announced = _draw_annunciations(spec, rng, failures)
+        alarm = _draw_false_alarm(spec, rng, failures)
+        reported = {a.actuator for a in announced}
+        if spec.allocation_columns:
+            cols["annunciated"] = len(announced)
+            cols["detection_delay"] = announced[0].delay if announced else math.nan
+            cols["false_alarm"] = alarm[0].actuator if alarm else 0
+            cols["false_alarm_time"] = alarm[0].onset if alarm else math.nan
+        announced += alarm
         loop = dataclasses.replace(
             hw_loop,
             controller=ctrl,
@@ -147,7 +168,7 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
             failures=kept + tuple(failures),
             name=f"{spec.name}[{index}]",
             # the base's annunciations belong to its own failures (issue 31)
-            annunciations=base.annunciations if spec.keep_base else (),
+            annunciations=(base.annunciations if spec.keep_base else ()) + announced,
         )
     except (ConfigurationError, ExpressionError, ValueError) as exc:
         loop, error = None, str(exc)
@@ -161,6 +182,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
     else:
         cols["compensable"] = False
         cols["compensability"] = ""
+    if spec.allocation_columns:
+        cols["reachable"], cols["reachability"] = _reachability_verdict(loop)
     head: dict[str, Any] = {
         "index": int(index),
         "seed": int(spec.seed),
@@ -178,6 +201,8 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         head[f"f{j + 1}_ramp"] = float(fj.ramp) if fj else math.nan
         head[f"f{j + 1}_severity"] = sevs[j] if fj else math.nan
         head[f"f{j + 1}_params"] = json.dumps(drawn[j], sort_keys=True) if fj else "{}"
+        if spec.allocation_columns:
+            head[f"f{j + 1}_annunciated"] = bool(fj is not None and fj.actuator in reported)
     return Member(
         index=int(index),
         failures=tuple(failures),
@@ -186,4 +211,55 @@ def draw_member(spec: CampaignSpec, index: int) -> Member:
         loop=loop,
         error=error,
         columns={**head, **cols},
+        allocators=spec.allocators,
     )
+
+
+def _draw_annunciations(
+    spec: CampaignSpec, rng: np.random.Generator, failures: list[Failure]
+) -> tuple[Annunciation, ...]:
+    """Which drawn failures a detector reports (each with probability ``spec.annunciated``, in
+    actuator order) and the detector's delay (one per member), drawn after everything else so
+    a campaign without annunciations draws what it always drew."""
+    if spec.annunciated is None or spec.detection_delay is None:
+        return ()
+    known = [f for f in failures if rng.uniform() < spec.annunciated]
+    delay = float(spec.detection_delay.draw(rng))
+    return tuple(
+        Annunciation(actuator=f.actuator, onset=f.onset, recovery=f.recovery, delay=delay)
+        for f in known
+    )
+
+
+def _draw_false_alarm(
+    spec: CampaignSpec, rng: np.random.Generator, failures: list[Failure]
+) -> tuple[Annunciation, ...]:
+    """A false alarm (with probability ``spec.false_alarm``): one healthy candidate actuator,
+    drawn uniformly, reported failed from a drawn time to the end of the run (after the
+    annunciations, so a campaign without false alarms draws what it always drew)."""
+    if spec.false_alarm is None or spec.false_alarm_time is None:
+        return ()
+    raised = bool(rng.uniform() < spec.false_alarm)
+    healthy = [a for a in spec.actuators if a not in {f.actuator for f in failures}]
+    which = int(rng.choice(healthy)) if healthy else 0
+    when = float(spec.false_alarm_time.draw(rng))
+    if not (raised and healthy):
+        return ()
+    return (Annunciation(actuator=which, onset=when),)
+
+
+def _reachability_verdict(loop: ClosedLoop | None) -> tuple[bool, str]:
+    """Whether every axis stays reachable over the run, and else which axis is lost when
+    (:func:`~adaptive_ftc.allocation.reachability_timeline`), e.g. ``"phi from 61.1 s
+    (actuators 1, 4 lost)"``."""
+    if loop is None:
+        return False, ""
+    from adaptive_ftc.allocation import reachability_timeline
+
+    lost = [
+        f"{', '.join(e.report.unreachable)} from {e.time:g} s (actuators "
+        f"{', '.join(map(str, e.failed))} lost)"
+        for e in reachability_timeline(loop)
+        if not e.report.full
+    ]
+    return not lost, "; ".join(lost)

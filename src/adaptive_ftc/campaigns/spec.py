@@ -71,9 +71,10 @@ EXAMPLES = Path(__file__).with_name("examples")
 
 _COMMON = ("actuator", "onset", "recovery", "ramp")
 _TOP = {"name", "title", "description", "base", "runs", "seed", "chunk_size", "designs"}
-_TOP |= {"duration", "success", "failures", "ranges", "hardware"}
+_TOP |= {"duration", "success", "failures", "ranges", "hardware", "allocation"}
 _FAILURE_KEYS = {"keep_base", "count", "actuators", "onset", "ramp"}
-_FAILURE_KEYS |= {"recovery_probability", "duration", "models"}
+_FAILURE_KEYS |= {"recovery_probability", "duration", "models", "annunciated", "detection_delay"}
+_FAILURE_KEYS |= {"false_alarm", "false_alarm_time"}
 _SUCCESS_KEYS = {"rms_error_final", "final_window", "recovery_tolerance", *ACTIVITY_SUCCESS_KEYS}
 _RANGE_KEYS = {"initial_state", "reference_amplitude", "gains"}
 _TEXT_KEYS = ("name", "title", "description")
@@ -436,6 +437,31 @@ class CampaignSpec:
     hardware: HardwareSpec | None = None
     #: the activity part of the success criterion (``None``: tracking only)
     activity: ActivityCriterion | None = None
+    #: the allocators the designs name (``"adaptive+wls"``), by kind (``None``: fixed)
+    allocators: tuple[tuple[str, Any], ...] = ()
+    #: probability that a drawn failure is annunciated (``None``: not drawn, all silent)
+    annunciated: float | None = None
+    #: the detector's delay, drawn once per member (annunciated failures only)
+    detection_delay: Dist | None = None
+    #: probability that a member's detector reports a healthy actuator (``None``: never)
+    false_alarm: float | None = None
+    #: when a false alarm is raised
+    false_alarm_time: Dist | None = None
+
+    @property
+    def allocation_columns(self) -> bool:
+        """Whether the table has the allocation columns (``allocator``, ``annunciated``,
+        ``detection_delay``, ``false_alarm``, ``false_alarm_time``, ``reachable``,
+        ``reachability``): a design names an allocator, the failures can be annunciated or
+        the detector can raise a false alarm."""
+        return bool(self.allocators) or self.annunciated is not None or self.false_alarm is not None
+
+    def allocator_kind(self, design: str) -> str:
+        """The allocator of ``design``: its ``+kind`` suffix, else the base scenario's."""
+        if "+" in design:
+            return design.split("+", 1)[1]
+        alloc = self.base.loop.allocator
+        return "fixed" if alloc is None else str(getattr(type(alloc), "kind", "fixed"))
 
     @property
     def solver(self):
@@ -598,7 +624,8 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
             )
     except ScenarioError as exc:  # the base scenario itself is broken
         problems.append(f"[base] {exc}")
-    runs, seed, chunk, designs = _top_numbers(data, problems, DESIGN_VARIANTS)
+    available = list(DESIGN_VARIANTS) + _allocated_designs(data.get("designs"), problems)
+    runs, seed, chunk, designs = _top_numbers(data, problems, available)
     if scenario is None:
         return None
     loop = scenario.loop
@@ -776,6 +803,9 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         keep_base = False
     if keep_base and hi_c > 0:
         _check_kept_overlap(scenario, acts, onset, duration, prob, problems)
+    allocators = _allocation(data.get("allocation"), designs, loop, problems)
+    annunciated, delay = _annunciation(ft, problems)
+    false_alarm, false_alarm_time = _false_alarm(ft, onset, loop, float(t_final), problems)
     if problems:
         return None
     return CampaignSpec(
@@ -804,6 +834,11 @@ def _parse(data: dict[str, Any], base_dir: Path, problems: list[str]) -> Campaig
         data=saved,
         hardware=hardware,
         activity=activity,
+        allocators=allocators,
+        annunciated=annunciated,
+        detection_delay=delay,
+        false_alarm=false_alarm,
+        false_alarm_time=false_alarm_time,
     )
 
 
@@ -817,3 +852,159 @@ def _keys(table: Any, allowed: set[str], where: str, problems: list[str]) -> Non
                 f"[{where}] unknown key '{key}'.{did_you_mean(key, allowed)} "
                 f"Allowed keys: {', '.join(sorted(allowed))}."
             )
+
+
+# ---------------------------------------------------------------------------- allocation
+def _allocated_designs(designs: Any, problems: list[str]) -> list[str]:
+    """The ``design+kind`` names of ``designs`` (a design with an allocator of
+    :mod:`adaptive_ftc.allocation`, e.g. ``"adaptive+wls"``); a bad part is reported here,
+    naming the part and the choices."""
+    from adaptive_ftc.allocation import ALLOCATORS
+
+    out: list[str] = []
+    for d in designs if isinstance(designs, list) else []:
+        if not isinstance(d, str) or "+" not in d:
+            continue
+        out.append(d)
+        design, kind = d.split("+", 1)
+        if design not in DESIGN_VARIANTS:
+            problems.append(
+                f"[top] design {_short(d)}: unknown design '{design}' before the '+'."
+                f"{did_you_mean(design, DESIGN_VARIANTS)} Available: "
+                f"{', '.join(DESIGN_VARIANTS)}."
+            )
+        if kind not in ALLOCATORS:
+            problems.append(
+                f"[top] design {_short(d)}: unknown allocation kind '{kind}' after the '+'."
+                f"{did_you_mean(kind, ALLOCATORS)} Use one of: {', '.join(ALLOCATORS)} "
+                "(e.g. 'adaptive+wls')."
+            )
+    return out
+
+
+def _allocation(
+    table: Any, designs: list[str], loop: ClosedLoop, problems: list[str]
+) -> tuple[tuple[str, Any], ...]:
+    """The allocators the designs name (``design+kind``), by kind, built with the options of
+    ``[allocation.<kind>]`` (``None`` for ``fixed``: the thesis's ``u = R^T u0``), each
+    tried on the base loop."""
+    from adaptive_ftc.allocation import ALLOCATORS, allocator_from_spec
+
+    used = list(dict.fromkeys(d.split("+", 1)[1] for d in designs if "+" in d))
+    tunable = [k for k in ALLOCATORS if k != "fixed"]
+    options: dict[str, dict[str, Any]] = {}
+    if table is not None:
+        if not isinstance(table, dict):
+            problems.append(
+                f"[allocation] must be a table of allocator options, e.g. [allocation.adaptive] "
+                f"with `gain = 5.0`; got {_short(table)}."
+            )
+            table = {}
+        for kind, opts in table.items():
+            if kind not in tunable:
+                problems.append(
+                    f"[allocation] unknown key {_short(kind)}.{did_you_mean(str(kind), tunable)} "
+                    f"Options are given per allocation kind: {', '.join(tunable)} "
+                    "(the fixed allocation has none)."
+                )
+            elif not isinstance(opts, dict):
+                problems.append(
+                    f"[allocation.{kind}] must be a table of the allocator's options; got "
+                    f"{_short(opts)}."
+                )
+            elif kind not in used:
+                problems.append(
+                    f"[allocation.{kind}] options for an allocator no design uses: add "
+                    f"'<design>+{kind}' to `designs` (e.g. 'adaptive+{kind}') or remove the table."
+                )
+            else:
+                options[kind] = opts
+    out: list[tuple[str, Any]] = []
+    for kind in used:
+        if kind not in ALLOCATORS:
+            continue  # reported with the design
+        try:
+            alloc = None if kind == "fixed" else allocator_from_spec(kind, **options.get(kind, {}))
+        except ConfigurationError as exc:
+            problems.append(f"[allocation.{kind}] {exc}")
+            continue
+        out.append((kind, alloc))
+        try:
+            dataclasses.replace(loop, allocator=alloc)
+        except ConfigurationError as exc:
+            problems.append(f"[top] designs with '+{kind}': the base loop refuses it: {exc}")
+    return tuple(out)
+
+
+def _annunciation(ft: dict[str, Any], problems: list[str]) -> tuple[float | None, Dist | None]:
+    """``[failures] annunciated`` (true, false or the probability that a drawn failure is
+    reported to the allocator) and ``detection_delay`` (seconds from the onset: a number,
+    ``[lo, hi]`` (uniform) or a distribution table, drawn once per member)."""
+    known = ft.get("annunciated")
+    delay = ft.get("detection_delay")
+    if known is None:
+        if delay is not None:
+            problems.append(
+                "[failures] `detection_delay` is given but no failure is annunciated: add "
+                "`annunciated = true` (or a probability such as 0.5) or remove `detection_delay`."
+            )
+        return None, None
+    if isinstance(known, bool):
+        prob = 1.0 if known else 0.0
+    elif _number(known) and 0 <= known <= 1:
+        prob = float(known)
+    else:
+        problems.append(
+            "[failures] `annunciated` must be true, false or the probability (0..1) that a "
+            f"drawn failure is reported to the allocator; got {_short(known)}."
+        )
+        return None, None
+    if delay is not None and prob == 0:
+        problems.append(
+            "[failures] `detection_delay` is given but `annunciated = false`: every failure is "
+            "silent. Set `annunciated` to true or a probability, or remove `detection_delay`."
+        )
+    if isinstance(delay, list) and len(delay) == 2 and all(map(_number, delay)):
+        delay = {"uniform": delay}  # [lo, hi]: uniform
+    dist = _dist(0.0 if delay is None else delay, "failures.detection_delay", problems)
+    lo = min(dist.support())
+    if not lo >= 0:
+        problems.append(
+            f"[failures.detection_delay] delays must be >= 0 s (a detector reports after the "
+            f"onset); the range reaches {lo}."
+        )
+    return prob, dist
+
+
+def _false_alarm(
+    ft: dict[str, Any], onset: Dist, loop: ClosedLoop, t_final: float, problems: list[str]
+) -> tuple[float | None, Dist | None]:
+    """``[failures] false_alarm``: the probability that the member's detector reports one
+    healthy actuator (of the candidate ``actuators``, drawn uniformly) as failed, from
+    ``false_alarm_time`` (default: the onset distribution) to the end of the run."""
+    prob = ft.get("false_alarm")
+    when = ft.get("false_alarm_time")
+    if prob is None:
+        if when is not None:
+            problems.append(
+                "[failures] `false_alarm_time` is given without `false_alarm`: add "
+                "`false_alarm = 0.1` (the chance that a healthy actuator is reported failed) "
+                "or remove `false_alarm_time`."
+            )
+        return None, None
+    if not _number(prob) or not 0 <= prob <= 1:
+        problems.append(
+            "[failures] `false_alarm` must be the probability (0..1) that a member's detector "
+            f"reports a healthy actuator as failed; got {_short(prob)}."
+        )
+        return None, None
+    if isinstance(when, list) and len(when) == 2 and all(map(_number, when)):
+        when = {"uniform": when}  # [lo, hi]: uniform
+    dist = onset if when is None else _dist(when, "failures.false_alarm_time", problems)
+    lo, hi = min(dist.support()), max(dist.support())
+    if lo < loop.t0 or hi >= t_final:
+        problems.append(
+            f"[failures.false_alarm_time] false alarms must fall in [{loop.t0:g}, {t_final:g}) "
+            f"s, the run; the range is [{lo}, {hi}]."
+        )
+    return float(prob), dist

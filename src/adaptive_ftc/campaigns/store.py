@@ -140,6 +140,8 @@ def schema(spec: CampaignSpec):
             (f"f{j}_severity", "float64"),
             (f"f{j}_params", "string"),
         ]
+        if spec.allocation_columns:
+            cols.append((f"f{j}_annunciated", "bool"))
     names = spec.loop.plant.state_names
     cols += [(f"x0_{names[i]}", "float64") for i, _ in spec.initial_state]
     if spec.reference_amplitude is not None:
@@ -148,6 +150,10 @@ def schema(spec: CampaignSpec):
     if spec.hardware is not None:
         cols += [(c, "float64") for c in spec.hardware.columns(spec.loop.plant.n_actuators)]
     cols += [("compensable", "bool"), ("compensability", "string")]
+    if spec.allocation_columns:  # issue 31: annunciated failures, allocators, reachability
+        cols += [("annunciated", "int64"), ("detection_delay", "float64")]
+        cols += [("false_alarm", "int64"), ("false_alarm_time", "float64")]
+        cols += [("reachable", "bool"), ("reachability", "string"), ("allocator", "string")]
     cols += list(OUTCOME_COLUMNS.items())
     units = column_units(spec)
     return pa.schema(
@@ -177,6 +183,8 @@ def column_units(spec: CampaignSpec) -> dict[str, str]:
     y = _common([_unit(out_u, i) for i in range(p)])
     u = _common([_unit(_declared_units(plant, ("actuator_units",), m), j) for j in range(m)])
     units = {"n_failures": "1"}
+    if spec.allocation_columns:
+        units.update(annunciated="1", detection_delay="s", false_alarm_time="s")
     for j in range(1, spec.max_failures + 1):
         units.update({f"f{j}_onset": "s", f"f{j}_recovery": "s", f"f{j}_ramp": "s"})
     for i, _ in spec.initial_state:
