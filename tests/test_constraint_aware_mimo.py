@@ -103,9 +103,12 @@ def test_manipulator_at_50_hz_keeps_the_arm_the_thesis_law_loses(manipulator):
         record_dt=1e-3,
     )
     aware = replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
-    assert aware.normalization(loop) == pytest.approx(
-        tuple(aware.eta * _b(loop) / (0.5 / 0.02)), rel=1e-9
-    )
+    # the loop rate is the smaller of the digital MIMO cap 0.5/T and the summed-lags bound
+    # 1/(T/2 + s' filter lag), the filter lag defaulting to 2T for a digital law: here the
+    # second binds (20 1/s against 25)
+    w = min(0.5 / 0.02, 1.0 / (0.5 * 0.02 + 2 * 0.02))
+    assert w == pytest.approx(20.0)
+    assert aware.normalization(loop) == pytest.approx(tuple(aware.eta * _b(loop) / w), rel=1e-9)
     judged = []
     for ctrl in (loop.controller, aware):
         with warnings.catch_warnings():
