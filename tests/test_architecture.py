@@ -34,6 +34,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "core": (
         "_atomic",
         "_feedback",
+        "_lazy",
         "_signals",
         "_units",
         "_version",

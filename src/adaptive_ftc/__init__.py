@@ -13,9 +13,9 @@ numpy, the compiler or pandas until a name that needs them is used.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from adaptive_ftc._lazy import lazy_attributes
 from adaptive_ftc._version import __version__
 
 if TYPE_CHECKING:
@@ -150,24 +150,6 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """A public name (imported from its module on first use, then cached here) or a
-    submodule (``adaptive_ftc.plots``), as if ``__init__`` had imported them eagerly."""
-    module = _LAZY.get(name)
-    if module is not None:
-        value = getattr(importlib.import_module(module), name)
-    elif not name.startswith("__"):
-        try:
-            value = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{name}":
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+#: a public name (imported from its module on first use, then cached here) or a submodule
+#: (``adaptive_ftc.plots``), as if ``__init__`` had imported them eagerly
+__getattr__, __dir__ = lazy_attributes(globals(), _LAZY, submodules=True)

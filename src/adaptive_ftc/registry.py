@@ -95,6 +95,26 @@ def _class_name(obj: Any, attr: str, problems: list[str]) -> None:
         problems.append(f"its class must name itself: a non-empty class attribute `{attr}`.")
 
 
+def _require(obj: Any, cls: type, check: str, example: str) -> None:
+    """``check``'s argument must be a ``cls`` instance (a ConfigurationError naming ``obj``
+    and giving ``example``)."""
+    if not isinstance(obj, cls):
+        article = "an" if cls.__name__[0] in "AEIOU" else "a"
+        raise ConfigurationError(
+            f"{check} needs {article} {cls.__name__} instance (e.g. {example}); got {obj!r}."
+        )
+
+
+def _part_problems(obj: Any, *names: str) -> list[str]:
+    """The problems of a part's class: each of ``names`` a non-empty class attribute, and a
+    frozen dataclass."""
+    problems: list[str] = []
+    for attr in names:
+        _class_name(obj, attr, problems)
+    _frozen_dataclass(obj, problems)
+    return problems
+
+
 def check_plant(plant: Plant) -> None:
     """Check a plant: what every design assumes of its equations, and how it is built.
 
@@ -109,10 +129,7 @@ def check_plant(plant: Plant) -> None:
     ConfigurationError
         Listing every problem, naming the plant.
     """
-    if not isinstance(plant, Plant):
-        raise ConfigurationError(
-            f"check_plant needs a Plant instance (e.g. WingRock()); got {plant!r}."
-        )
+    _require(plant, Plant, "check_plant", "WingRock()")
     problems: list[str] = []
     try:
         _check_equations(plant)
@@ -153,14 +170,8 @@ def check_failure_model(failure: Failure) -> None:
     ConfigurationError
         Listing every problem, naming the failure.
     """
-    if not isinstance(failure, Failure):
-        raise ConfigurationError(
-            "check_failure_model needs a Failure instance (e.g. Stuck(actuator=1, onset=5.0)); "
-            f"got {failure!r}."
-        )
-    problems: list[str] = []
-    _class_name(failure, "model", problems)
-    _frozen_dataclass(failure, problems)
+    _require(failure, Failure, "check_failure_model", "Stuck(actuator=1, onset=5.0)")
+    problems = _part_problems(failure, "model")
     before = copy.deepcopy(failure)
     try:
         expr = failure.expression(("t", "u"), strict=False)
@@ -213,15 +224,8 @@ def check_design(
     ConfigurationError
         Listing every problem, naming the design.
     """
-    if not isinstance(design, AdaptiveController):
-        raise ConfigurationError(
-            "check_design needs an AdaptiveController instance (e.g. a scenario's "
-            f"loop.controller); got {design!r}."
-        )
-    problems: list[str] = []
-    _class_name(design, "design", problems)
-    _class_name(design, "equation", problems)
-    _frozen_dataclass(design, problems)
+    _require(design, AdaptiveController, "check_design", "a scenario's loop.controller")
+    problems = _part_problems(design, "design", "equation")
     gains = design.gains()
     flat = np.asarray(
         [v for g in gains for v in (g if isinstance(g, tuple) else (g,))], dtype=float

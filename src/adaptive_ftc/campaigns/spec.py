@@ -936,6 +936,12 @@ def _allocation(
     return tuple(out)
 
 
+def _unused(ft: dict[str, Any], key: str, why: str, fix: str, problems: list[str]) -> None:
+    """A ``[failures]`` key that means nothing without another one: a problem if given."""
+    if ft.get(key) is not None:
+        problems.append(f"[failures] `{key}` is given {why}: add {fix} or remove `{key}`.")
+
+
 def _annunciation(ft: dict[str, Any], problems: list[str]) -> tuple[float | None, Dist | None]:
     """``[failures] annunciated`` (true, false or the probability that a drawn failure is
     reported to the allocator) and ``detection_delay`` (seconds from the onset: a number,
@@ -943,11 +949,13 @@ def _annunciation(ft: dict[str, Any], problems: list[str]) -> tuple[float | None
     known = ft.get("annunciated")
     delay = ft.get("detection_delay")
     if known is None:
-        if delay is not None:
-            problems.append(
-                "[failures] `detection_delay` is given but no failure is annunciated: add "
-                "`annunciated = true` (or a probability such as 0.5) or remove `detection_delay`."
-            )
+        _unused(
+            ft,
+            "detection_delay",
+            "but no failure is annunciated",
+            "`annunciated = true` (or a probability such as 0.5)",
+            problems,
+        )
         return None, None
     if isinstance(known, bool):
         prob = 1.0 if known else 0.0
@@ -985,12 +993,13 @@ def _false_alarm(
     prob = ft.get("false_alarm")
     when = ft.get("false_alarm_time")
     if prob is None:
-        if when is not None:
-            problems.append(
-                "[failures] `false_alarm_time` is given without `false_alarm`: add "
-                "`false_alarm = 0.1` (the chance that a healthy actuator is reported failed) "
-                "or remove `false_alarm_time`."
-            )
+        _unused(
+            ft,
+            "false_alarm_time",
+            "without `false_alarm`",
+            "`false_alarm = 0.1` (the chance that a healthy actuator is reported failed)",
+            problems,
+        )
         return None, None
     if not _number(prob) or not 0 <= prob <= 1:
         problems.append(

@@ -3,8 +3,9 @@ an FMI 2.0 co-simulation FMU built from it (:func:`export_fmu`)."""
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from adaptive_ftc._lazy import lazy_attributes
 
 if TYPE_CHECKING:
     from adaptive_ftc.export.c import ExportedC, export_c
@@ -22,14 +23,4 @@ _LAZY: dict[str, str] = {
 __all__ = ["ExportedC", "ExportedFMU", "export_c", "export_fmu"]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(globals(), _LAZY)

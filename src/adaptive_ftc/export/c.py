@@ -158,17 +158,7 @@ def export_c(
     h, c = out / f"{prefix}.h", out / f"{prefix}.c"
     h.write_text(header)
     c.write_text(source)
-    return ExportedC(
-        header=h,
-        source=c,
-        prefix=prefix,
-        n_y=lib.nx,
-        n_r=3 * lib.p,
-        n_u=lib.m,
-        n_states=lib.ny - lib.nx,
-        sample_time=float(loop.sample_time),
-        state_names=tuple(lib.g.adaptive_names),
-    )
+    return lib.exported(h, c)
 
 
 # ----------------------------------------------------------------------------- the library
@@ -246,6 +236,20 @@ class _Library:
             name = key[2:]
             out.append(Field(name, sl.start, sl.stop - sl.start, name in _SCALARS))
         return [f for f in out if f.size > 0]
+
+    def exported(self, header: Path, source: Path) -> ExportedC:
+        """The :class:`ExportedC` of this library written to ``header`` and ``source``."""
+        return ExportedC(
+            header=header,
+            source=source,
+            prefix=self.prefix,
+            n_y=self.nx,
+            n_r=3 * self.p,
+            n_u=self.m,
+            n_states=self.ny - self.nx,
+            sample_time=float(self.loop.sample_time),
+            state_names=tuple(self.g.adaptive_names),
+        )
 
     def render(self) -> tuple[str, str]:
         pfx = self.prefix

@@ -18,6 +18,20 @@ def _positive(text: str) -> float:
     return v
 
 
+def _add_kind(
+    kinds, name: str, common: dict, *, help: str, description: str, out: str
+) -> argparse.ArgumentParser:
+    """``aftc export <name>``: its parser, with the scenario and ``--out`` arguments."""
+    p = kinds.add_parser(name, help=help, description=description, **common)
+    p.add_argument("scenario", help="scenario name or path to a .toml file")
+    p.add_argument("--out", required=True, help=out)
+    return p
+
+
+def _add_sample_time(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--sample-time", type=_positive, metavar="SECONDS", help=help)
+
+
 def add_parser(sub, **common) -> argparse.ArgumentParser:
     """Add ``export`` (with its ``c`` command) to the ``aftc`` subcommands ``sub``;
     ``common``: keyword arguments of every parser (the exit-status epilog)."""
@@ -29,37 +43,35 @@ def add_parser(sub, **common) -> argparse.ArgumentParser:
         **common,
     )
     kinds = ex.add_subparsers(dest="export_kind", required=True)
-    c = kinds.add_parser(
+    c = _add_kind(
+        kinds,
         "c",
+        common,
         help="the digital controller as a self-contained C99 library",
         description="Write <prefix>.h and <prefix>.c: the scenario's digital controller "
         "(measurement and reference in, actuator commands out; adaptive laws, regressor, s' "
         "filter, allocation), generated from the code the simulator compiles. No heap, libm "
         "only; the scenario's numbers are a const params struct (retune without "
         "regenerating). See docs/deploying.md.",
-        **common,
+        out="folder to write the .h and .c into",
     )
-    c.add_argument("scenario", help="scenario name or path to a .toml file")
-    c.add_argument("--out", required=True, help="folder to write the .h and .c into")
-    c.add_argument(
-        "--sample-time",
-        type=_positive,
-        metavar="SECONDS",
-        help="the controller's period (default: the scenario's [digital] sample_time; "
+    _add_sample_time(
+        c,
+        "the controller's period (default: the scenario's [digital] sample_time; "
         "needed for a continuous scenario)",
     )
     c.add_argument("--prefix", default="aftc", help="prefix of every C name (default: aftc)")
-    f = kinds.add_parser(
+    f = _add_kind(
+        kinds,
         "fmu",
+        common,
         help="the digital controller or the closed loop as an FMI 2.0 co-simulation FMU",
         description="Write <name>.fmu: an FMI 2.0 co-simulation FMU of the scenario's digital "
         "controller (--part controller) or of its closed loop (--part loop), built from the "
         "exported C (its sources and a linux64 binary built with the system C compiler; no "
         "Python inside). Needs FMPy's FMI headers (pip install fmpy). See docs/deploying.md.",
-        **common,
+        out="folder to write the .fmu into",
     )
-    f.add_argument("scenario", help="scenario name or path to a .toml file")
-    f.add_argument("--out", required=True, help="folder to write the .fmu into")
     f.add_argument(
         "--part",
         choices=("controller", "loop"),
@@ -68,12 +80,7 @@ def add_parser(sub, **common) -> argparse.ArgumentParser:
         "scenario's closed loop (plant, failures, actuators, sensors and the controller; no "
         "inputs)",
     )
-    f.add_argument(
-        "--sample-time",
-        type=_positive,
-        metavar="SECONDS",
-        help="the controller's period (default: the scenario's [digital] sample_time)",
-    )
+    _add_sample_time(f, "the controller's period (default: the scenario's [digital] sample_time)")
     f.add_argument("--name", help="model identifier (default: <scenario>_<part>)")
     return ex
 

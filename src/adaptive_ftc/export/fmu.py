@@ -173,17 +173,7 @@ def export_fmu(
             for f in sorted(t.rglob("*")):
                 if f.is_file():
                     z.write(f, f.relative_to(t).as_posix())
-    c = ExportedC(
-        header=Path("sources/aftc.h"),
-        source=Path("sources/aftc.c"),
-        prefix="aftc",
-        n_y=lib.nx,
-        n_r=3 * lib.p,
-        n_u=lib.m,
-        n_states=lib.ny - lib.nx,
-        sample_time=float(loop.sample_time),
-        state_names=tuple(lib.g.adaptive_names),
-    )
+    c = lib.exported(Path("sources/aftc.h"), Path("sources/aftc.c"))
     return ExportedFMU(path=path, model_identifier=name, variables=tuple(variables), c=c)
 
 

@@ -597,31 +597,25 @@ class Translator:
     def _gain(self, fn: _Fn, node: ast.Attribute) -> str | None:
         """``gains(D).name`` -> ``D->gains.name`` (``D->c[GAINS + k]`` of a flat loop's data)."""
         v = node.value
-        if (
+        if not (
             isinstance(v, ast.Call)
             and isinstance(v.func, ast.Name)
             and v.func.id == "gains"
             and len(v.args) == 1
             and isinstance(v.args[0], ast.Name)
-            and fn.types.get(v.args[0].id) == DATA
-            and self.gains_at is not None
         ):
-            if node.attr not in self.gains:
-                raise self._refuse(fn, node, f"an unknown gain {node.attr!r}")
-            return f"{_c_name(v.args[0].id)}->c[{self.gains_at + self.gains.index(node.attr)}]"
-        if (
-            isinstance(v, ast.Call)
-            and isinstance(v.func, ast.Name)
-            and v.func.id == "gains"
-            and len(v.args) == 1
-            and isinstance(v.args[0], ast.Name)
-            and fn.types.get(v.args[0].id) == PARAMS
-        ):
-            if node.attr not in self.gains:
-                raise self._refuse(fn, node, f"an unknown gain {node.attr!r}")
-            self.fields_used.add("gains")
-            return f"{fn.params_name(v.args[0].id)}->gains.{node.attr}"
-        return None
+            return None
+        arg = v.args[0].id
+        kind = fn.types.get(arg)
+        at = self.gains_at if kind == DATA else None  # a flat loop's data: D->c[GAINS + k]
+        if at is None and kind != PARAMS:
+            return None
+        if node.attr not in self.gains:
+            raise self._refuse(fn, node, f"an unknown gain {node.attr!r}")
+        if at is not None:
+            return f"{_c_name(arg)}->c[{at + self.gains.index(node.attr)}]"
+        self.fields_used.add("gains")
+        return f"{fn.params_name(arg)}->gains.{node.attr}"
 
     def _binop(self, fn: _Fn, node: ast.BinOp) -> tuple[str, str]:
         op = _BINOPS.get(type(node.op))

@@ -145,24 +145,70 @@ class _Setup:
     ny: int
 
 
-def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
-    from adaptive_ftc.sim.compose import assemble
-    from adaptive_ftc.sim.engine import SolverOptions, simulate
+@dataclass
+class _Case:
+    """The digital loop of a check, its RK4 step and the folder its exports are written to."""
 
+    loop: ClosedLoop
+    tau: float  # the s' filter's time constant
+    T: float  # the sample period
+    dt: float
+    tmp: Path
+
+    def solver(self):
+        """The simulator's options of the digital run: RK4 at ``dt``, recorded every sample."""
+        from adaptive_ftc.sim.engine import SolverOptions
+
+        return SolverOptions(
+            method="rk4", dt=self.dt, sdot="filtered", filter_tau=self.tau, record_dt=self.T
+        )
+
+
+def _case(scenario, sample_time, t_final, dt, workdir, tmp_prefix: str) -> _Case:
+    """The scenario's digital loop (ended at ``t_final``), the RK4 step (default: the sample
+    period split into steps of at most 1 ms) and the folder (default: a new temporary one)."""
     loop, tau = controller_loop(scenario, sample_time)
     if t_final is not None:
         loop = dataclasses.replace(loop, t_final=float(t_final))
     T = float(loop.sample_time)
     if dt is None:
         dt = T / max(1, math.ceil(T / 1e-3 - 1e-9))
-    tmp = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="aftc-sil-"))
+    tmp = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix=tmp_prefix))
+    return _Case(loop, tau, T, dt, tmp)
+
+
+def _digital_run(case: _Case) -> tuple[Assembled, list[int], SimResult]:
+    """The assembled loop, its sampled intervals and the simulator's run recorded at every
+    sample."""
+    from adaptive_ftc.sim.compose import assemble
+    from adaptive_ftc.sim.engine import simulate
+
+    asm = assemble(case.loop, sdot="filtered", filter_tau=case.tau)
+    bps, samp = asm.breakpoints, asm.data.samp
+    rows = [k for k in range(len(bps) - 1) if samp[k]]
+    grid = np.array([bps[k] for k in rows])
+    return asm, rows, simulate(case.loop, case.solver(), t_eval=grid)
+
+
+def _valid_fmu(case: _Case, **options):
+    """``export_fmu(case.loop, case.tmp, **options)``, validated by FMPy."""
+    from fmpy.validation import validate_fmu
+
+    from adaptive_ftc.export.fmu import export_fmu
+
+    fmu = export_fmu(case.loop, case.tmp, **options)
+    problems = validate_fmu(str(fmu.path))
+    if problems:
+        raise ConfigurationError(f"The FMU does not validate: {'; '.join(problems)}")
+    return fmu
+
+
+def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
+    case = _case(scenario, sample_time, t_final, dt, workdir, "aftc-sil-")
+    loop, tmp = case.loop, case.tmp
     exported = export_c(loop, tmp, prefix="aftc")
     lib = compile_library(exported.source, tmp / "libaftc.so", cc)
-    asm = assemble(loop, sdot="filtered", filter_tau=tau)
-    bps, samp = asm.breakpoints, asm.data.samp
-    grid = np.array([bps[k] for k in range(len(bps) - 1) if samp[k]])
-    solver = SolverOptions(method="rk4", dt=dt, sdot="filtered", filter_tau=tau, record_dt=T)
-    result = simulate(loop, solver, t_eval=grid)
+    asm, _, result = _digital_run(case)
     if result.status != "completed":
         raise ConfigurationError(
             f"The simulator's digital run did not complete ({result.message}); shorten it "
@@ -172,7 +218,7 @@ def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
     ctrl = CompiledController(
         lib, asm.n_x, ny - asm.n_x, loop.plant.n_actuators, asm.layout["w:size"].stop
     )
-    return _Setup(loop, asm, result, ctrl, dt, ny)
+    return _Setup(loop, asm, result, ctrl, case.dt, ny)
 
 
 def verify(
@@ -316,29 +362,11 @@ def verify_fmu(
     plant is the run's; the arguments as :func:`verify`'s). The FMU is validated with
     ``fmpy.validation.validate_fmu`` first."""
     from fmpy import simulate_fmu
-    from fmpy.validation import validate_fmu
 
-    from adaptive_ftc.export.fmu import export_fmu
-    from adaptive_ftc.sim.compose import assemble
-    from adaptive_ftc.sim.engine import SolverOptions, simulate
-
-    loop, tau = controller_loop(scenario, sample_time)
-    if t_final is not None:
-        loop = dataclasses.replace(loop, t_final=float(t_final))
-    T = float(loop.sample_time)
-    if dt is None:
-        dt = T / max(1, math.ceil(T / 1e-3 - 1e-9))
-    tmp = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="aftc-fmu-"))
-    fmu = export_fmu(loop, tmp, name="controller")
-    problems = validate_fmu(str(fmu.path))
-    if problems:
-        raise ConfigurationError(f"The FMU does not validate: {'; '.join(problems)}")
-    asm = assemble(loop, sdot="filtered", filter_tau=tau)
-    bps, samp = asm.breakpoints, asm.data.samp
-    rows = [k for k in range(len(bps) - 1) if samp[k]]
-    grid = np.array([bps[k] for k in rows])
-    solver = SolverOptions(method="rk4", dt=dt, sdot="filtered", filter_tau=tau, record_dt=T)
-    res = simulate(loop, solver, t_eval=grid)
+    case = _case(scenario, sample_time, t_final, dt, workdir, "aftc-fmu-")
+    loop, T = case.loop, case.T
+    fmu = _valid_fmu(case, name="controller")
+    asm, rows, res = _digital_run(case)
     n = min(len(rows), res.time.size)
     nx, p = asm.n_x, loop.plant.n_outputs
     inputs = [v for v in fmu.variables if v.startswith(("y.", "r."))]
@@ -394,22 +422,12 @@ def verify_loop_fmu(
     states at every sample with the simulator's digital run (RK4 at the same step). The FMU
     is validated with ``fmpy.validation.validate_fmu`` first."""
     from fmpy import simulate_fmu
-    from fmpy.validation import validate_fmu
 
-    from adaptive_ftc.export.fmu import export_fmu
-    from adaptive_ftc.sim.engine import SolverOptions, simulate
+    from adaptive_ftc.sim.engine import simulate
 
-    loop, tau = controller_loop(scenario, sample_time)
-    if t_final is not None:
-        loop = dataclasses.replace(loop, t_final=float(t_final))
-    T = float(loop.sample_time)
-    dt = T / max(1, math.ceil(T / 1e-3 - 1e-9))
-    tmp = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="aftc-fmu-"))
-    fmu = export_fmu(loop, tmp, name="loop", part="loop")
-    problems = validate_fmu(str(fmu.path))
-    if problems:
-        raise ConfigurationError(f"The FMU does not validate: {'; '.join(problems)}")
-    solver = SolverOptions(method="rk4", dt=dt, sdot="filtered", filter_tau=tau, record_dt=T)
+    case = _case(scenario, sample_time, t_final, None, workdir, "aftc-fmu-")
+    loop, T, solver = case.loop, case.T, case.solver()
+    fmu = _valid_fmu(case, name="loop", part="loop")
     n = int(math.floor((loop.t_final - loop.t0) / T + 1e-9))
     grid = loop.t0 + T * np.arange(n)
     res = simulate(loop, solver, t_eval=grid)
