@@ -142,6 +142,23 @@ class AdaptiveController(ABC):
         (2.29)); the loop gain of the law is this times ``|Pi|^2`` and the input gain."""
         raise NotImplementedError
 
+    def thesis_assembled(self, loop):
+        """``loop`` with this design's thesis law on ideal, continuous hardware and fresh
+        adaptive states, assembled: where the constraint-aware rules measure the regressor and
+        the loop gain as the loop computes them."""
+        from adaptive_ftc.sim.compose import assemble
+
+        thesis = replace(
+            loop,
+            controller=replace(self, constraint_aware=None),
+            actuators=None,
+            sensors=None,
+            sample_time=0.0,
+            adaptive_initial=(),
+            adapt=True,
+        )
+        return assemble(thesis)
+
     def measured_loop_rate(self, loop) -> tuple[float, float, float]:
         """The law's loop rate on ``loop`` (1/s): in the linear band ``u0`` moves by ``x |Pi|^2
         (s + (k + k0/eps0) int s)`` per unit of the filtered error (``x`` =
@@ -154,18 +171,7 @@ class AdaptiveController(ABC):
         regs = self.regressors_for(loop.plant.n_outputs)
         if not regs:
             return self.loop_rate(), 0.0, 0.0
-        from adaptive_ftc.sim.compose import assemble  # the regressor as the loop computes it
-
-        thesis = replace(
-            loop,
-            controller=replace(self, constraint_aware=None),
-            actuators=None,
-            sensors=None,
-            sample_time=0.0,
-            adaptive_initial=(),
-            adapt=True,
-        )
-        a = assemble(thesis)
+        a = self.thesis_assembled(loop)
         phi = a.regressor_values(loop.t0, a.y0)
         G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
         R = np.atleast_2d(np.asarray(loop.R, dtype=float))

@@ -108,18 +108,7 @@ class MimoDirectAdaptive(AdaptiveController):
     def _output_gains(self, loop, zero_error: bool) -> np.ndarray:
         """``b_i eta |Pi_i|^2`` per output at the loop's initial state, or
         (``zero_error``) with the outputs and their rates on the reference at ``t0``."""
-        from adaptive_ftc.sim.compose import assemble
-
-        thesis = replace(
-            loop,
-            controller=replace(self, constraint_aware=None),
-            actuators=None,
-            sensors=None,
-            sample_time=0.0,
-            adaptive_initial=(),
-            adapt=True,
-        )
-        a = assemble(thesis)
+        a = self.thesis_assembled(loop)
         y = np.array(a.y0, dtype=float)
         plant = loop.plant
         if zero_error:
