@@ -13,8 +13,11 @@ Engines, each on ONE thread so that its wall time is its per-core time:
 * ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
   (the engine's ``method="RK45"`` path; Dopri5 only: scipy has no fixed-step RK4; timed on
   the first ``--check`` members only, as it is some 20x slower);
-* ``diffrax``: vmapped JAX, only when ``jax`` and ``diffrax`` are importable (never installed
-  in CI); this version has no JAX model of the loop yet, so it is reported as not run.
+* ``JAX RK4`` and ``diffrax`` (Dopri5): the same loop written in JAX (``_jaxloop.py``),
+  members vmapped in chunks of ``--chunk`` (default 100), only when ``jax`` and ``diffrax``
+  are importable (``pip install "adaptive-ftc[bench]"``; never installed in CI). JAX RK4 runs
+  this project's step grid (agreement to rounding); diffrax's Dopri5 its own step control
+  (agreement to the tolerance).
 
 Times are CPU seconds (this process's threads for the Python engines, the child process for
 C, start-up and input parsing included), so a loaded machine inflates them less than wall
@@ -77,13 +80,37 @@ def singles(loops, solver) -> np.ndarray:
     return np.array([final_row(simulate(loop, solver)) for loop in loops])
 
 
-def diffrax_note() -> str:
+def jax_engines(base, drawn, t_final: float, chunk: int) -> tuple[str, dict[str, tuple]]:
+    """Per-core seconds per member and final-state rows of the JAX peers (``_jaxloop.py``):
+    ``"JAX RK4"`` (vmapped ``lax.fori_loop``, this project's step grid) and ``"diffrax"``
+    (vmapped ``diffrax.Dopri5``), with a note; ``(note, {})`` when jax or diffrax is not
+    importable.
+    Members run in vmapped chunks of ``chunk`` (the last one padded with copies of the first
+    member, whose time is not counted); compile time excluded (a first call on the same shapes)."""
     try:
-        import diffrax  # noqa: F401
-        import jax  # noqa: F401
+        import _jaxloop as J
     except ImportError:
-        return "diffrax: skipped (jax and diffrax are not importable; pip install jax diffrax)"
-    return "diffrax: importable, but this version has no JAX model of the loop: not run"
+        return "skipped (jax and diffrax are not importable; pip install jax diffrax)", {}
+    rk4, dp = METHODS["RK4 dt 1e-3"], METHODS["Dopri5 1e-6/1e-9"]
+    x0 = base.initial_state
+    members = [J.member_arrays(x0, failure_records(f), t_final, rk4.dt) for f in drawn]
+    n = len(members)
+    chunk = max(1, min(chunk, n))
+    padded = members + [members[0]] * (-n % chunk)
+    batches = [J.stack(padded[i : i + chunk]) for i in range(0, len(padded), chunk)]
+    n_total = int(max(m["steps"].sum() for m in members))  # one compile for every chunk
+    out = {}
+    for name, run in (
+        ("JAX RK4", lambda b: J.rk4(b, n_total)),
+        ("diffrax", lambda b: J.dopri5(b, t_final, dp.rtol, float(dp.atol))),
+    ):
+        np.asarray(run(batches[0]))  # compile
+        t = time.process_time()
+        ys = np.concatenate([np.asarray(run(b)) for b in batches])[:n]
+        per = (time.process_time() - t) / n
+        rows = np.column_stack([np.zeros(n), np.zeros(n), ys])
+        out[name] = (per, rows)
+    return f"run (vmapped chunks of {chunk} members, CPU time of all XLA threads)", out
 
 
 def main() -> int:
@@ -94,6 +121,7 @@ def main() -> int:
     ap.add_argument("--t-final", type=float, default=120.0, help="seconds per run (default 120)")
     ap.add_argument("--check", type=int, default=20, help="members compared with single runs")
     ap.add_argument("--seed", type=int, default=0, help="seed of the failure draws")
+    ap.add_argument("--chunk", type=int, default=100, help="members per vmapped JAX call")
     ap.add_argument("--small", action="store_true", help="CI: 3 members of 8 s, no targets")
     args = ap.parse_args()
     if args.small:
@@ -129,6 +157,8 @@ def main() -> int:
         c_per = t_c / args.n
     except CReferenceError as exc:
         print(f"  C: skipped ({exc})")
+    jax_note, jax_rows = jax_engines(base, drawn, args.t_final, args.chunk)
+    print(f"  JAX peers: {jax_note}")
     failed = False
     for label, solver in METHODS.items():
         iter_simulate(loops[:1], solver, jobs=1).__next__()  # compile or load the cached loop
@@ -137,18 +167,23 @@ def main() -> int:
         lines = [("batch", t_b / args.n, max_diff(b_rows[:k], ref))]
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
+        peer = "JAX RK4" if label.startswith("RK4") else "diffrax"
+        if peer in jax_rows:
+            per, rows = jax_rows[peer]
+            lines.append((peer, per, max_diff(rows[:k], ref)))
         if label.startswith("Dopri5"):
             t_s, s_rows = python_batch(loops[: max(k, 1)], SCIPY)
             lines.append(("scipy RK45", t_s / max(k, 1), max_diff(s_rows[:k], ref)))
         print(f"  {label}:")
+        jax_per = jax_rows[peer][0] if peer in jax_rows else None
         for name, per, diff in lines:
             rel = f"{per / c_per:6.2f}x C (RK4)" if c_per else "  (no C)"
+            rel += f"  {per / jax_per:6.2f}x {peer}" if jax_per else ""
             cost = f"{per * 1e3:9.2f} ms per member per core"
             print(f"    {name:10s} {cost}  {rel}  max diff {diff:.1e}")
         if lines[0][2] != 0.0:
             print(f"    FAILED: a batch member differs from its single run ({lines[0][2]:.1e})")
             failed = True
-    print(f"  {diffrax_note()}")
     return 1 if failed else 0
 
 

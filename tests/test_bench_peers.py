@@ -52,6 +52,17 @@ def test_c_and_scipy_agree_with_the_single_runs(output):
     assert scipy <= 1e-6  # another adaptive method at the same tolerances
 
 
-def test_per_core_times_and_diffrax_status_are_reported(output):
+def test_per_core_times_and_the_jax_peers_status_are_reported(output):
     assert output.count("ms per member per core") >= 3
-    assert re.search(r"^\s+diffrax: (skipped|importable)", output, flags=re.MULTILINE), output
+    assert re.search(r"^\s+JAX peers: (skipped|run)", output, flags=re.MULTILINE), output
+
+
+def test_the_jax_peers_agree_with_the_single_runs_when_installed(output):
+    """JAX RK4 runs this project's step grid (agreement to rounding); diffrax's Dopri5 its own
+    step control (agreement to the tolerance). Skipped where jax is not installed (CI)."""
+    if "JAX peers: skipped" in output:
+        pytest.skip("jax and diffrax are not installed (pip install 'adaptive-ftc[bench]')")
+    (rk4,) = _diffs(output, "JAX RK4")
+    (dopri,) = _diffs(output, "diffrax")
+    assert rk4 <= 1e-12
+    assert dopri <= 1e-6
