@@ -73,9 +73,16 @@ class SignEstimation(AdaptiveController):
         return bound / abs(float(self.rho0)) if math.isfinite(bound) else 1.0
 
     def gains(self) -> SignGains:
+        """``(alpha0, sigma0, alpha1, sigma1)`` as the compiled law uses them: the thesis's, or,
+        under a constraint-aware model that slows the law by ``r`` (``adaptation_scale``),
+        ``r alpha0`` and ``r^2 alpha1``: the direction estimate ``r`` times slower than
+        ``theta`` (see :data:`~adaptive_ftc.controllers.constraints.RHO_FACTOR`)."""
         r = self.adaptation_scale  # 1 for the thesis law
         return SignGains(
-            float(self.alpha0) * r, float(self.sigma0), float(self.alpha1) * r, float(self.sigma1)
+            float(self.alpha0) * r,
+            float(self.sigma0),
+            float(self.alpha1) * r * r,
+            float(self.sigma1),
         )
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
