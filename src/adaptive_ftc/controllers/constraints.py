@@ -236,8 +236,9 @@ C_MARGIN = 0.9
 #: ``|rho|`` stays within [0.96, 1.25] ``|rho0|`` after the first second (the bound is reached
 #: at 100 Hz only), so the bound is 1.25 (round 3: 2, which sized the loop for twice the gain
 #: it ran at and left it under-damped: 100 Hz chattered at 9.5 Hz with ``rho`` near 1). The
-#: cost: from the wrong sign (``rho0 = -1``) the slower estimate finds the direction on 4 of
-#: the 13 cases instead of 5 (docs/hardware.md).
+#: cost: from the wrong sign (``rho0 = -1``) the slower estimate must build up ``1/r`` times
+#: more ``|theta|^2`` to cross zero; acceptable there on 4 of the 13 cases (round 3: 5;
+#: docs/hardware.md).
 RHO_FACTOR = 1.25
 
 
