@@ -16,6 +16,7 @@ from adaptive_ftc.controllers.constraints import RHO_FACTOR
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.scenarios.loader import load_scenario
+from adaptive_ftc.sim.compose import source_of
 from adaptive_ftc.sim.engine import simulate
 
 SCENARIO = "hypersonic-sign-s1-rho0pos"
@@ -99,3 +100,28 @@ def test_a_20ms_lag_keeps_the_direction_and_the_loop_through_both_failures():
     assert float(np.max(np.abs(rho))) <= RHO_FACTOR * loop.controller.rho0 * (1 + 1e-3)
     err = float(np.max(r.rms_error(25.0, 30.0)))
     assert math.isfinite(err) and err <= THRESHOLD, err
+
+
+def _aware(loop):
+    ca = ConstraintAware.from_loop(loop)
+    return replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+
+
+def test_the_compensated_error_hedges_along_the_estimated_direction():
+    """The compensated-error filter ``xi' = -w_h xi + b (u0c - u0_reachable)`` takes the sign
+    of ``rho`` (the loop's measured ``b = |d s'/d u0|`` has none, and §4.4 does not know the
+    direction): with a positive ``b`` the negative-direction plant of scenario 2 (b = (-1,
+    -2), rho0 = -1) hedged with positive feedback and diverged at 1.04 s behind a 2 rad/s
+    rate limit. The designs whose direction is known keep the positive sign."""
+    sc = load_scenario("hypersonic-sign-s2-rho0neg")
+    loop = _aware(replace(sc.loop, t_final=5.0, actuators=Actuators(rate=2.0)))
+    assert "math.copysign(1.0, Y[" in source_of(loop)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        r = simulate(loop, replace(sc.solver, record_dt=1e-3))
+    assert r.status == "completed"
+    assert float(np.max(r.adaptive_state("rho"))) < 0  # the direction kept (negative)
+    err = float(np.max(r.rms_error(2.5, 5.0)))
+    assert err <= THRESHOLD, err
+    direct = load_scenario("hypersonic-direct-s1").loop
+    assert "copysign" not in source_of(_aware(replace(direct, actuators=Actuators(rate=2.0))))

@@ -61,7 +61,8 @@ design, not another design) it derives, by the rules below, one configuration
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
-   ``|d s'/d u0|`` (``input_gain``, by default measured on the loop) and ``u0_reachable =
+   ``|d s'/d u0|`` (``input_gain``, by default measured on the loop; §4.4, whose control
+   direction is unknown, times the sign of its estimate ``rho``) and ``u0_reachable =
    u0 + u0'/w_f`` what the filter delivers: only the part of the command the limits did not
    deliver (not the filter's linear lag, which left a steady error) drives ``xi``, so the
    adaptation does not learn the saturation; ``xi`` returns slowly (``w_h = C_HEDGE
@@ -678,7 +679,7 @@ def project_ball(dY, Y, theta_max, at, size):
             dY[at + l] -= f * Y[at + l]
 
 
-def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
+def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
     (``g.consts``): configurations of the same shape share one compiled loop.
@@ -687,13 +688,16 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
     ``input_gain``) and the prefilters of ``q`` (one per output, with noise), which stop with
     the adaptation; then the measurement filters (one per plant state, with noise) and the
     command filters (one per output, with limits), which run even while adaptation is frozen
-    (``g.free_running`` counts them)."""
+    (``g.free_running`` counts them). ``direction``: an expression of the sign of the input
+    gain the hedging filter assumes (``""``: positive, the loop's nominal ``|d s'/d u0|``;
+    §4.4, whose direction is unknown: the sign of its estimate ``rho``)."""
     p, nx = g.p, g.nx
     c0 = len(g.consts)
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
     wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
     hedged = cfg.filtered and cfg.hedge > 0
+    sign = f" * {direction}" if direction else ""
     # places of the states
     at_h = at
     at_q = at_h + (p if hedged else 0)
@@ -734,7 +738,7 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
         for i in range(p):
             h = at_h + i
             pre += [
-                f"    dY[{h}] = -{wh} * Y[{h}] + {hg} * (uc{i} - (Y[{at_f + i}]"
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg}{sign} * (uc{i} - (Y[{at_f + i}]"
                 f" + dY[{at_f + i}] / {wf}))",
                 f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
                 f" c[K + {i}], c[K0 + {i}], c[EPS0])",
