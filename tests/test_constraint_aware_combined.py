@@ -177,7 +177,7 @@ def test_sign_estimation_bounds_rho_and_sizes_its_loop_for_the_bound():
     assert ctrl.loop_gain_growth() == RHO_FACTOR
     bound = ctrl.bound(aware).constraint_aware
     assert bound.gain_growth == RHO_FACTOR
-    # the adaptation is scaled for the grown gain: half the scale of the same model at rho0
+    # the adaptation is scaled for the grown gain: 1/RHO_FACTOR of the scale at rho0
     at_rho0 = replace(bound, gain_growth=1.0)
     cfg, cfg0 = (replace(ctrl, constraint_aware=m).configuration(2.0) for m in (bound, at_rho0))
     assert cfg.scale == pytest.approx(cfg0.scale / RHO_FACTOR)

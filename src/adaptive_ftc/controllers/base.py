@@ -259,7 +259,12 @@ class AdaptiveController(ABC):
         cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
         if cfg == constraints.IDENTITY:
             return [], [], [], []
-        return constraints.emit(cfg, g, blocks, at, self.single_output)
+        return constraints.emit(cfg, g, blocks, at, self.single_output, self.hedge_direction(g))
+
+    def hedge_direction(self, g) -> str:
+        """The sign of the input gain the compensated-error filter assumes, as generated code:
+        ``""`` (positive: the designs whose control direction is known)."""
+        return ""
 
     # ------------------------------------------------------------------ code generation
     def code_label(self) -> str:

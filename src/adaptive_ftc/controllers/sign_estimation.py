@@ -72,10 +72,24 @@ class SignEstimation(AdaptiveController):
         bound = self.rho_bound()
         return bound / abs(float(self.rho0)) if math.isfinite(bound) else 1.0
 
+    def hedge_direction(self, g) -> str:
+        """The compensated-error filter hedges along the estimated direction, the sign of
+        ``rho`` (the loop's measured ``|d s'/d u0|`` has no sign, and the direction is what this
+        design does not know): with the positive sign a negative-direction plant's hedging
+        was positive feedback (hypersonic-sign-s2-rho0neg at 2 rad/s diverged at 1.0 s)."""
+        return f"math.copysign(1.0, Y[{g.nx + g.adaptive_names.index('rho')}])"
+
     def gains(self) -> SignGains:
+        """``(alpha0, sigma0, alpha1, sigma1)`` as the compiled law uses them: the thesis's, or,
+        under a constraint-aware model that slows the law by ``r`` (``adaptation_scale``),
+        ``r alpha0`` and ``r^2 alpha1``: the direction estimate ``r`` times slower than
+        ``theta`` (see :data:`~adaptive_ftc.controllers.constraints.RHO_FACTOR`)."""
         r = self.adaptation_scale  # 1 for the thesis law
         return SignGains(
-            float(self.alpha0) * r, float(self.sigma0), float(self.alpha1) * r, float(self.sigma1)
+            float(self.alpha0) * r,
+            float(self.sigma0),
+            float(self.alpha1) * r * r,
+            float(self.sigma1),
         )
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
