@@ -15,6 +15,7 @@ from adaptive_ftc.controllers.base import (
     _positive,
     as_tuple,
 )
+from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
@@ -29,6 +30,19 @@ __all__ = ["MimoDirectAdaptive"]
 #: the manipulator at 50 Hz loses the arm after the 12 s failure with it, and tracks to
 #: 2.3e-2 rad with 1/2).
 C_SAMPLE_NORMALISED = 0.5
+
+#: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below the admitted loop
+#: rate ``w`` has its adaptation gain raised to ``eta_i = eta C_RAISE w / g_i`` (normalised:
+#: its loop gain ``g/(1 + g/w)`` is then ``w/2``), its robust slope set to ``w^2 / (m_i g_i)``
+#: and its leakage rate ``eta_i sigma_i`` to the thesis's ``eta sigma`` times ``w / w0``: the
+#: thesis's loop is an integral one (``g`` = 0.04-0.11 1/s on the spacecraft, against ``K`` =
+#: 4005-20005 1/s), and slowed to ``w`` with its leakage kept (2 1/s, above the 0.31 rad/s
+#: reference) it lagged the reference by 9.3e-3 rad behind a 50 ms lag (a damping of 0.2 from
+#: the leakage alone: a faster loop chattered); with the proportional path at the loop rate
+#: (damping from ``g``) and the leakage moved down with the loop, 1.0e-3 rad and 0.3-0.4 N m
+#: of fast content (docs/hardware.md). An output whose loop gain is at ``w`` already (the
+#: manipulator's, at zero error) is unchanged.
+C_RAISE = 2.0
 
 
 class MimoGains(NamedTuple):
@@ -168,22 +182,89 @@ class MimoDirectAdaptive(AdaptiveController):
         rule left them 12x below their admitted slope, lagging the reference by 0.02 rad)."""
         lam, k, k0, eps0 = super().robust_settings()
         ca = self.constraint_aware
-        if ca is None or ca.is_ideal or not self.output_gains or ca.noise > 0:
+        if ca is None or ca.is_ideal or not self.output_gains:
+            return lam, k, k0, eps0
+        raised = self.output_raise()
+        if ca.noise > 0 and not any(m > 1.0 for m in raised):
             # with noise the raised slope multiplies the noise the adaptation integrates
             # (measured: the spacecraft with 1e-3 rad chatters at 88 N m): the shared rule's
             return lam, k, k0, eps0
         p = len(self.output_gains)
-        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
-        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else 1.0)
+        w = self.admitted_rate()
         owner = type(self).__name__
         k_t, k0_t = as_tuple(self.k, p, "k", owner), as_tuple(self.k0, p, "k0", owner)
         k_s, k0_s = as_tuple(k, p, "k", owner), as_tuple(k0, p, "k0", owner)
         out = []
         for i, g in enumerate(self.output_gains):
             thesis = k_t[i] + k0_t[i] / float(self.eps0)
-            target = min(thesis, w * w / g) if g > 0 else thesis
-            out.append(max(k0_s[i], (target - k_s[i]) * float(eps0)))
+            if raised[i] > 1.0:  # the slope of the raised loop gain: w^2 / (m_i g_i)
+                target = min(thesis, w * w / (raised[i] * g))
+                out.append(max(0.0, (target - k_s[i]) * float(eps0)))
+            elif ca.noise > 0:
+                out.append(k0_s[i])
+            else:
+                target = min(thesis, w * w / g) if g > 0 else thesis
+                out.append(max(k0_s[i], (target - k_s[i]) * float(eps0)))
         return lam, k, tuple(out), eps0
+
+    def configuration(self, b_max: float = 1.0, input_gain: float = 0.0):
+        """:meth:`AdaptiveController.configuration`, then, with noise and a raised output
+        (:meth:`output_raise`), the prefilter of the adaptation signal ``q`` at ``C_PREFILTER
+        w`` (at most ``C_EULER / T``) whether or not the noise's std bound is the one that
+        binds: the raised proportional path carries ``m_i`` times the thesis loop's noise
+        into the command. Not the measurement prefilter: measured on the spacecraft with
+        1e-3 rad and 1e-2 rad/s of noise, ``q`` prefiltered: 1.6e-3 rad, 0.93 N m of fast
+        content; the measurements too: the loop is lost (4.1e-2 rad, 8.6 N m); neither:
+        2.1e-3 rad, 2.9 N m."""
+        cfg = super().configuration(b_max, input_gain)
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or ca.noise <= 0 or cfg.prefiltered:
+            return cfg
+        if not any(m > 1.0 for m in self.output_raise()):
+            return cfg
+        om_q = constraints.C_PREFILTER * self.admitted_rate()
+        if ca.sample_time > 0:
+            om_q = min(om_q, constraints.C_EULER / ca.sample_time)
+        return cfg._replace(omega_q=om_q)
+
+    def admitted_rate(self) -> float:
+        """The loop rate ``w`` the designer's model admits (:meth:`ConstraintAware.omega_max`
+        of the measured loop rate); constraint-aware only."""
+        ca = self.constraint_aware
+        if ca is None:
+            raise ConfigurationError(
+                "admitted_rate() of MimoDirectAdaptive needs `constraint_aware`; give the "
+                "design a ConstraintAware (the designer's model of the hardware)."
+            )
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else 1.0)
+        return float(w)
+
+    def output_raise(self) -> tuple[float, ...]:
+        """Constraint-aware only, on a bound design (:meth:`bound`): each output's factor
+        ``m_i = max(1, C_RAISE w / g_i)`` on its adaptation gain (``C_RAISE``); ``()`` for the
+        thesis law, an ideal model or an unbound design."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not self.output_gains:
+            return ()
+        w = self.admitted_rate()
+        return tuple(max(1.0, C_RAISE * w / g) if g > 0 else 1.0 for g in self.output_gains)
+
+    def output_adaptation(self) -> tuple[tuple[float, float], ...]:
+        """Constraint-aware only, on a bound design: each output's ``(eta_i, sigma_i)``: the
+        thesis's where its loop gain is at the admitted rate, else ``eta_i = m_i eta`` and a
+        leakage rate ``eta_i sigma_i = eta sigma w / w0`` (moved down with the loop, as the
+        shared rule's scaled ``gamma`` moves it on a SISO loop); ``()`` otherwise."""
+        raised = self.output_raise()
+        if not raised:
+            return ()
+        ca = self.constraint_aware
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        slow = min(1.0, self.admitted_rate() / w0)
+        eta, sigma = float(self.eta), float(self.sigma)
+        return tuple(
+            (eta * m, sigma * slow / m) if m > 1.0 else (eta, sigma) for m in raised
+        )
 
     def normalization(self, loop) -> tuple[float, ...]:
         """Constraint-aware only: ``c_i`` of the normalised law of each output, ``theta_i' =
@@ -210,7 +291,8 @@ class MimoDirectAdaptive(AdaptiveController):
         b = np.abs(np.sum(R * G, axis=1)) if G.shape == R.shape else np.ones(p)
         if ca.sample_time > 0:
             w = min(w, C_SAMPLE_NORMALISED / ca.sample_time)
-        return tuple(float(self.eta * bi / w) for bi in b)
+        etas = [e for e, _ in ctrl.output_adaptation()] or [float(self.eta)] * len(b)
+        return tuple(float(etas[i] * bi / w) for i, bi in enumerate(b))
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)
@@ -224,15 +306,21 @@ class MimoDirectAdaptive(AdaptiveController):
         g.use("normaliser", normaliser)
         c0 = len(g.consts)
         g.consts.extend(norm)
+        adaptation = self.bound(g.loop).output_adaptation()
+        a0 = len(g.consts)
+        for eta_i, sigma_i in adaptation:
+            g.consts.extend((eta_i, sigma_i))
         lines = [
             "    # adaptive laws (3.37), one per output, normalised (constraint-aware)",
             f"    misc[{int(Misc.GAIN)}] = 1.0",
         ]
         for r, (o, at, size) in enumerate(blocks):
             gain = f"normaliser(phi, c[{c0 + r}], {o}, {size})"
+            eta, sigma = "D.gains.eta", "D.gains.sigma"
+            if adaptation:  # each output's own (raised) gain and leakage
+                eta, sigma = f"c[{a0 + 2 * r}]", f"c[{a0 + 2 * r + 1}]"
             lines.append(
-                f"    theta_law(dY, Y, phi, q[{r}], D.gains.eta, D.gains.sigma, {gain}, {o},"
-                f" {at}, {size})"
+                f"    theta_law(dY, Y, phi, q[{r}], {eta}, {sigma}, {gain}, {o}, {at}, {size})"
             )
         return lines
 
