@@ -9,13 +9,13 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.base import (
     AdaptiveController,
     _nonnegative,
     _positive,
     as_tuple,
 )
-from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
@@ -262,9 +262,7 @@ class MimoDirectAdaptive(AdaptiveController):
         w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
         slow = min(1.0, self.admitted_rate() / w0)
         eta, sigma = float(self.eta), float(self.sigma)
-        return tuple(
-            (eta * m, sigma * slow / m) if m > 1.0 else (eta, sigma) for m in raised
-        )
+        return tuple((eta * m, sigma * slow / m) if m > 1.0 else (eta, sigma) for m in raised)
 
     def normalization(self, loop) -> tuple[float, ...]:
         """Constraint-aware only: ``c_i`` of the normalised law of each output, ``theta_i' =
