@@ -31,18 +31,23 @@ __all__ = ["MimoDirectAdaptive"]
 #: 2.3e-2 rad with 1/2).
 C_SAMPLE_NORMALISED = 0.5
 
-#: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below the admitted loop
-#: rate ``w`` has its adaptation gain raised to ``eta_i = eta C_RAISE w / g_i`` (normalised:
-#: its loop gain ``g/(1 + g/w)`` is then ``w/2``), its robust slope set to ``w^2 / (m_i g_i)``
-#: and its leakage rate ``eta_i sigma_i`` to the thesis's ``eta sigma`` times ``w / w0``: the
-#: thesis's loop is an integral one (``g`` = 0.04-0.11 1/s on the spacecraft, against ``K`` =
-#: 4005-20005 1/s), and slowed to ``w`` with its leakage kept (2 1/s, above the 0.31 rad/s
-#: reference) it lagged the reference by 9.3e-3 rad behind a 50 ms lag (a damping of 0.2 from
-#: the leakage alone: a faster loop chattered); with the proportional path at the loop rate
-#: (damping from ``g``) and the leakage moved down with the loop, 1.0e-3 rad and 0.3-0.4 N m
-#: of fast content (docs/hardware.md). An output whose loop gain is at ``w`` already (the
-#: manipulator's, at zero error) is unchanged.
-C_RAISE = 2.0
+#: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below ``C_RAISE w`` (``w``
+#: the admitted loop rate) has its adaptation gain raised to ``eta_i = m_i eta``, ``m_i = C_RAISE
+#: w / g_i`` (normalised, :meth:`MimoDirectAdaptive.normalization`: its loop gain ``g/(1 +
+#: g/w)`` is then ``3w/4``), its robust slope set to ``w^2 / (m_i g_i) = w / C_RAISE`` (the
+#: integral corner below the crossover) and its leakage rate ``eta_i sigma_i`` to the thesis's
+#: ``eta sigma`` times ``w / w0``. The thesis's spacecraft loop is an integral one (``g`` =
+#: 0.04-0.11 1/s against ``K`` = 4005-20005 1/s, damped by the leakage ``eta sigma`` = 2 1/s
+#: alone); slowed to ``w`` = 4.8 1/s with that leakage kept (above the 0.31 rad/s reference)
+#: it lagged the reference by 9.3e-3 rad behind a 50 ms lag, and a faster loop chattered. With
+#: the proportional path at the loop rate and the leakage moved down with the loop: 1.2e-3 rad
+#: and 0.35 N m of fast content (spacecraft-mimo-s1, all four hardware cases of issue 25
+#: acceptable; docs/hardware.md). Chosen once on spacecraft-mimo-s1 and -s2: 2 met every s1
+#: case but left s2 at 2.5e-3 rad (its target) behind the lag; 4 leaves s2's noise case at
+#: 2.3e-3 rad (target 2.5e-3). An output whose loop gain is above ``C_RAISE w`` already (the
+#: manipulator's, at zero error, 104 and 606 1/s, against ``w`` = 20 behind a 50 ms lag) is
+#: unchanged.
+C_RAISE = 3.0
 
 
 class MimoGains(NamedTuple):
@@ -205,10 +210,11 @@ class MimoDirectAdaptive(AdaptiveController):
         (:meth:`output_raise`), the prefilter of the adaptation signal ``q`` at ``C_PREFILTER
         w`` (at most ``C_EULER / T``) whether or not the noise's std bound is the one that
         binds: the raised proportional path carries ``m_i`` times the thesis loop's noise
-        into the command. Not the measurement prefilter: measured on the spacecraft with
-        1e-3 rad and 1e-2 rad/s of noise, ``q`` prefiltered: 1.6e-3 rad, 0.93 N m of fast
-        content; the measurements too: the loop is lost (4.1e-2 rad, 8.6 N m); neither:
-        2.1e-3 rad, 2.9 N m."""
+        into the command. Not the measurement prefilter: measured on spacecraft-mimo-s1 with
+        1e-3 rad and 1e-2 rad/s of noise (150 s), ``q`` prefiltered: 1.5e-3 rad, 1.1 N m of
+        fast content (target 1.5); neither: 1.5e-3 rad, 4.4 N m; with ``C_RAISE`` = 1, the
+        measurements alone: 2.3e-3 rad, 1.0 N m, both: the loop is lost (4.1e-2 rad, 8.6
+        N m)."""
         cfg = super().configuration(b_max, input_gain)
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or ca.noise <= 0 or cfg.prefiltered:
