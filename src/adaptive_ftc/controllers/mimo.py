@@ -256,9 +256,9 @@ class MimoDirectAdaptive(AdaptiveController):
         shared rule's scaled ``gamma`` moves it on a SISO loop); ``()`` where no output is
         raised (the law then reads the design's own ``eta`` and ``sigma``)."""
         raised = self.output_raise()
-        if not any(m > 1.0 for m in raised):
-            return ()
         ca = self.constraint_aware
+        if ca is None or not any(m > 1.0 for m in raised):
+            return ()
         w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
         slow = min(1.0, self.admitted_rate() / w0)
         eta, sigma = float(self.eta), float(self.sigma)
@@ -266,8 +266,8 @@ class MimoDirectAdaptive(AdaptiveController):
 
     def normalization(self, loop) -> tuple[float, ...]:
         """Constraint-aware only: ``c_i`` of the normalised law of each output, ``theta_i' =
-        eta Pi_i q_i / (1 + c_i |Pi_i|^2)`` with ``c_i = eta b_i / w`` (``eta`` the thesis's
-        gain, ``b_i = |d s_i'/d u0_i|`` of the healthy plant at its initial state, ``w`` the
+        eta_i Pi_i q_i / (1 + c_i |Pi_i|^2)`` with ``c_i = eta_i b_i / w`` (``eta_i`` the
+        thesis's gain, or a raised output's, :meth:`output_adaptation`; ``b_i = |d s_i'/d u0_i|`` of the healthy plant at its initial state, ``w`` the
         loop rate the hardware admits, :meth:`ConstraintAware.omega_max`): the proportional
         loop gain ``g/(1 + g/w)``, ``g = b_i eta |Pi_i(z)|^2``, stays below ``w`` at every
         state, not only at the initial one (the manipulator's raw fuzzy basis: ``|Pi|^2`` is
