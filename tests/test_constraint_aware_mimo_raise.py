@@ -14,8 +14,8 @@ import pytest
 from scipy.signal import butter, sosfiltfilt
 
 from adaptive_ftc.controllers.base import AdaptiveController
-from adaptive_ftc.controllers.constraints import C_PREFILTER, ConstraintAware
-from adaptive_ftc.controllers.mimo import C_RAISE, MimoDirectAdaptive
+from adaptive_ftc.controllers.constraints import C_NOISE_DENSITY, C_PREFILTER, ConstraintAware
+from adaptive_ftc.controllers.mimo import C_RAISE, C_SLOPE, MimoDirectAdaptive
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import load_scenario
@@ -67,9 +67,16 @@ def test_a_slow_output_gets_its_loop_gain_slope_and_leakage_from_the_admitted_ra
     np.testing.assert_allclose(c, etas * _b(loop) / w, rtol=1e-12)
     g_raised = m * g
     np.testing.assert_allclose(g_raised / (1 + g_raised / w), w * C_RAISE / (1 + C_RAISE))
-    # the slope of the raised loop is w^2 / (m g) = w / C: below k, so the robust term is off
+    # the slope of the raised loop is w (C_SLOPE): k (5) lowered to it, the robust term off
     _, k, k0, _ = ctrl.robust_settings()
-    assert w / C_RAISE < k and k0 == (0.0, 0.0, 0.0)
+    assert thesis.k > C_SLOPE * w
+    assert k == pytest.approx((C_SLOPE * w,) * 3, rel=1e-12) and k0 == (0.0, 0.0, 0.0)
+    # at 10 Hz with limits the loop is slower still, and so is the slope
+    slow = replace(thesis, constraint_aware=ConstraintAware(sample_time=0.1, travel=30.0))
+    slow = slow.bound(loop)
+    w_slow = slow.admitted_rate()
+    assert w_slow < 0.6 * w
+    assert slow.robust_settings()[1] == pytest.approx((C_SLOPE * w_slow,) * 3, rel=1e-12)
     # the generated law reads each output's own gain and leakage
     src = source_of(replace(loop, controller=ctrl, actuators=Actuators(tau=0.05)))
     assert "theta_law(dY, Y, phi, q[0], c[" in src and "D.gains.eta" not in src
@@ -103,12 +110,20 @@ def test_with_noise_a_raised_law_prefilters_its_adaptation_signal(spacecraft):
     assert cfg._replace(omega_q=shared.omega_q) == shared
     quiet = replace(thesis, constraint_aware=ConstraintAware(lag=0.05)).bound(loop)
     assert math.isinf(quiet.configuration().omega_q)
+    # a noise whose density the raised path carries within the shared rule's density bound
+    # (m w^2 n_d <= C_NOISE_DENSITY) is left unfiltered: the prefilter's lag costs more
+    faint = replace(thesis, constraint_aware=ConstraintAware(noise=2e-5)).bound(loop)
+    m = max(faint.output_raise())
+    assert m > 1.0
+    wf = faint.admitted_rate()
+    assert m * wf * wf * faint.constraint_aware.noise_density <= C_NOISE_DENSITY
+    assert math.isinf(faint.configuration().omega_q)
 
 
 def test_spacecraft_behind_a_50_ms_lag_no_longer_lags_the_reference(spacecraft):
     """Reduced size (40 s, window 30-40 s). Before the rule (each axis's robust slope at the
     admitted rate, the thesis's leakage 2 1/s): 2.4e-3 rad here, 9.3e-3 at 150 s (3.7x the
-    2.5e-3 target); with it 4.9e-4 here and 1.2e-3 at 150 s."""
+    2.5e-3 target); with it 5e-4 here and 1.3e-3 at 150 s."""
     loop = replace(spacecraft.loop, t_final=40.0, actuators=Actuators(tau=0.05))
     solver = replace(spacecraft.solver, record_dt=1e-3)
     ctrl = replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
@@ -134,3 +149,28 @@ def test_spacecraft_with_noise_tracks_and_the_prefilter_keeps_the_command_quiet(
     assert math.isinf(unfiltered.bound(loop).configuration().omega_q)
     _, fast_unfiltered = _run(loop, solver, unfiltered, (30.0, 40.0))
     assert fast_unfiltered > FAST_MAX
+
+
+def test_at_10_hz_with_limits_the_raised_slope_follows_the_slower_loop(spacecraft, monkeypatch):
+    """Reduced size (40 s, window 30-40 s) of a spacecraft-hardware campaign member: 10 Hz,
+    an 11 ms lag, 162 N m/s, +-38.6 N m (the rule's ``w`` = 2.7 1/s). With the slope at
+    ``w``: 4.6e-3 rad, 0.28 N m; with a slope far above the loop rate (``C_SLOPE`` = 100; at
+    150 s the thesis's ``k`` = 5, 1.9 w, tracked to 0.18 rad with 4.3 N m) the loop is lost
+    at 14 s."""
+    import adaptive_ftc.controllers.mimo as mimo
+
+    loop = replace(
+        spacecraft.loop,
+        t_final=40.0,
+        sample_time=0.1,
+        actuators=Actuators(tau=0.0108, rate=161.7, lower=-38.6, upper=38.6),
+    )
+    solver = replace(spacecraft.solver, method="rk4", dt=1e-3, filter_tau=0.1, record_dt=1e-3)
+    ctrl = replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
+    err, fast = _run(loop, solver, ctrl, (30.0, 40.0))
+    assert err < 1e-2 and fast <= FAST_MAX, (err, fast)
+    monkeypatch.setattr(mimo, "C_SLOPE", 100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        r = simulate(replace(loop, controller=replace(ctrl)), solver)
+    assert r.status != "completed"
