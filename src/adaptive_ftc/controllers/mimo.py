@@ -34,19 +34,19 @@ C_SAMPLE_NORMALISED = 0.5
 #: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below ``C_RAISE w`` (``w``
 #: the admitted loop rate) has its adaptation gain raised to ``eta_i = m_i eta``, ``m_i = C_RAISE
 #: w / g_i`` (normalised, :meth:`MimoDirectAdaptive.normalization`: its loop gain ``g/(1 +
-#: g/w)`` is then ``3w/4``), its robust slope set to ``w^2 / (m_i g_i) = w / C_RAISE`` (the
-#: integral corner below the crossover) and its leakage rate ``eta_i sigma_i`` to the thesis's
-#: ``eta sigma`` times ``w / w0``. The thesis's spacecraft loop is an integral one (``g`` =
-#: 0.04-0.11 1/s against ``K`` = 4005-20005 1/s, damped by the leakage ``eta sigma`` = 2 1/s
-#: alone); slowed to ``w`` = 4.8 1/s with that leakage kept (above the 0.31 rad/s reference)
-#: it lagged the reference by 9.3e-3 rad behind a 50 ms lag, and a faster loop chattered. With
-#: the proportional path at the loop rate and the leakage moved down with the loop: 1.2e-3 rad
-#: and 0.35 N m of fast content (spacecraft-mimo-s1, all four hardware cases of issue 25
-#: acceptable; docs/hardware.md). Chosen once on spacecraft-mimo-s1 and -s2: 2 met every s1
-#: case but left s2 at 2.5e-3 rad (its target) behind the lag; 4 leaves s2's noise case at
-#: 2.3e-3 rad (target 2.5e-3). An output whose loop gain is above ``C_RAISE w`` already (the
-#: manipulator's, at zero error, 104 and 606 1/s, against ``w`` = 20 behind a 50 ms lag) is
-#: unchanged.
+#: g/w)`` is then ``3w/4``), its robust slope set to ``C_SLOPE w`` (the integral corner at the
+#: loop rate) and its leakage rate ``eta_i sigma_i`` to the thesis's ``eta sigma`` times ``w /
+#: w0``. The thesis's spacecraft loop is an integral one (``g`` = 0.04-0.11 1/s against ``K`` =
+#: 4005-20005 1/s, damped by the leakage ``eta sigma`` = 2 1/s alone); slowed to ``w`` = 4.8
+#: 1/s with that leakage kept (above the 0.31 rad/s reference) it lagged the reference by
+#: 9.3e-3 rad behind a 50 ms lag, and a faster loop chattered. With the proportional path at
+#: the loop rate and the leakage moved down with the loop: 1.3e-3 rad and 0.33 N m of fast
+#: content (spacecraft-mimo-s1, all four hardware cases of issue 25 acceptable;
+#: docs/hardware.md). Chosen once on spacecraft-mimo-s1 and -s2 (with the thesis's ``k`` = 5
+#: as the slope, before ``C_SLOPE``): 2 met every s1 case but left s2 at 2.5e-3 rad (its
+#: target) behind the lag; 4 left s2's noise case at 2.3e-3 rad. An output whose loop gain is
+#: above ``C_RAISE w`` already (the manipulator's, at zero error, 104 and 606 1/s, against
+#: ``w`` = 20 behind a 50 ms lag) is unchanged.
 C_RAISE = 3.0
 
 #: the robust term's slope of a raised output: ``K_i' = min(K_i, C_SLOPE w)`` (``k_i`` lowered to
@@ -188,14 +188,15 @@ class MimoDirectAdaptive(AdaptiveController):
 
     def robust_settings(self) -> tuple:
         """:meth:`AdaptiveController.robust_settings`, then, constraint-aware, the robust
-        term's slope ``K_i' = min(K_i, w^2 / (m_i g_i))`` of each raised output
-        (:meth:`output_raise`), reached through its ``k0_i`` at the common ``eps0`` (0 where
-        ``k`` alone is above it): the linear band of the raised loop, proportional gain
-        ``m_i g_i`` and integral corner ``K_i'``, has the poles of ``l^2 + m g l + m g K' =
-        0``, so ``sqrt(m g K') = w``. Round 2 gave each output ``w^2 / g_i`` with the
-        thesis's (slow) ``g_i``: the spacecraft's roll and yaw followed the reference 13x
-        better than with the fastest output's slope, but lagged it by 9.3e-3 rad (the
-        leakage's damping, 0.2, allowed no faster loop). Other outputs: the shared rule's."""
+        term's slope ``K_i' = min(K_i, C_SLOPE w)`` of each raised output
+        (:meth:`output_raise`): ``k_i`` lowered to it where it is above, else reached through
+        ``k0_i`` at the common ``eps0``. The raised loop's linear band, normalised loop gain
+        ``G = 3w/4`` and integral corner ``K_i'``, has the poles of ``l^2 + G l + G K' = 0``:
+        a natural frequency near ``w``, damping 0.43. Round 3 gave each output ``w^2 / g_i``
+        with the thesis's (slow) ``g_i``: the spacecraft's roll and yaw followed the
+        reference 13x better than with the fastest output's slope, but lagged it by 9.3e-3
+        rad (the leakage's damping, 0.2, allowed no faster loop). Other outputs: the shared
+        rule's."""
         lam, k, k0, eps0 = super().robust_settings()
         raised = self.output_raise()
         if not any(m > 1.0 for m in raised):
