@@ -192,6 +192,7 @@ def run_cases(
     duration=None,
     laws=("thesis", "aware"),
     with_oracle: bool = True,
+    only: str | None = None,
 ):
     """Rows of the table (dicts), the ideal run first; per case the oracle's row (with
     ``with_oracle``), then one row per law."""
@@ -208,6 +209,8 @@ def run_cases(
     ideal = metrics(ideal_run, loop, window)
     if cases is None:
         cases = cases_from_ideal(sc, ideal_run)
+        if only is not None:
+            cases = tuple(c for c in cases if only in c.name)
     fast_max = 0.03 * ideal["pp"]
     peak_max = 10.0 * ideal["peak_u"]
     rows = [{"case": "ideal", "law": "thesis", **ideal, "verdict": "-"}]
@@ -273,6 +276,7 @@ def main(argv=None) -> int:
         args.duration,
         tuple(args.laws.split(",")),
         with_oracle=not args.no_oracle,
+        only=args.only,
     )
     print(
         f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, "

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt
 
-from adaptive_ftc.controllers.base import AdaptiveController
 from adaptive_ftc.controllers.constraints import ConstraintAware
 from adaptive_ftc.controllers.mimo import normaliser
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
@@ -128,28 +127,14 @@ def spacecraft():
     return load_scenario("spacecraft-mimo-s1")
 
 
-def test_each_output_gets_the_robust_slope_its_own_loop_gain_admits(spacecraft):
+def test_each_output_gain_is_the_larger_of_its_values_at_t0_and_at_zero_error(spacecraft):
+    """What the raised law of tests/test_constraint_aware_mimo_raise.py starts from."""
     loop = spacecraft.loop
     thesis = loop.controller
     ctrl = replace(thesis, constraint_aware=ConstraintAware(lag=0.05)).bound(loop)
-    g = ctrl.output_gains
-    assert g == pytest.approx(
+    assert ctrl.output_gains == pytest.approx(
         tuple(np.maximum(thesis._output_gains(loop, False), thesis._output_gains(loop, True)))
     )
-    ca = ctrl.constraint_aware
-    w, _ = ca.omega_max(ca.loop_rate, ca.b_max)
-    _, k, k0, eps0 = ctrl.robust_settings()
-    _, k_s, k0_s, eps0_s = AdaptiveController.robust_settings(ctrl)  # the shared rule
-    assert (k, eps0) == (k_s, eps0_s)
-    fastest = int(np.argmax(g))  # pitch: the shared rule's slope, set for it
-    assert k0[fastest] == pytest.approx(k0_s[fastest], rel=1e-12)
-    for i in range(3):
-        if i != fastest:  # roll, yaw: sqrt(g_i K_i') = w
-            slope = k_s + k0[i] / eps0
-            assert math.sqrt(g[i] * slope) == pytest.approx(w, rel=1e-9)
-            assert k0[i] > 5.0 * k0_s[i]
-    noisy = replace(thesis, constraint_aware=ConstraintAware(noise=0.01)).bound(loop)
-    assert noisy.robust_settings() == AdaptiveController.robust_settings(noisy)
     assert replace(thesis, constraint_aware=None).bound(loop).output_gains == ()
 
 
