@@ -226,6 +226,18 @@ C_MARGIN = 0.9
 RHO_FACTOR = 2.0
 
 
+#: the fixed proportional feedback's loop rate, in multiples of the plant's fastest unstable
+#: open-loop mode ``p_u`` (``|lambda|`` of the linearised plant at ``t0``): "respect the
+#: unstable" (Stein, IEEE CSM 23(4) 2003: a loop that stabilises a plant with an unstable pole
+#: ``p`` needs a bandwidth of about ``2p``).
+C_FEEDBACK = 2.0
+#: ... added only where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max``: where the plant's unstable
+#: dynamics are not far below the slowed law's loop rate (the wing rock: ``p_u`` = 30.4 1/s,
+#: ``w_max`` = 10-200 1/s), not where the law is many times faster than them (hypersonic:
+#: ``p_u`` = 0.75, ``w_max`` >= 10; the MIMO plants: none or 0.011).
+C_FEEDBACK_GATE = 0.25
+
+
 class Configuration(NamedTuple):
     """What :meth:`ConstraintAware.configure` derives (the numbers of the compiled law)."""
 
@@ -257,6 +269,9 @@ class Configuration(NamedTuple):
     #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
     #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
     slope_scale: float = 1.0
+    #: gain of the fixed proportional feedback ``u0 += feedback s`` on the filtered error
+    #: (``C_FEEDBACK``; 0 = none)
+    feedback: float = 0.0
 
     @property
     def filtered(self) -> bool:
@@ -384,6 +399,8 @@ class ConstraintAware:
     derivative_lag: float | None = None
     noise_rate: float = 1000.0
     gain_growth: float | None = None
+    feedback: float | None = None
+    unstable_rate: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -410,6 +427,10 @@ class ConstraintAware:
         _number(owner, "noise_rate", self.noise_rate, allow_inf=True, positive=True)
         if self.gain_growth is not None:
             _number(owner, "gain_growth", self.gain_growth, allow_inf=False, positive=True)
+        if self.feedback is not None:
+            _number(owner, "feedback", self.feedback, allow_inf=False)
+        if self.unstable_rate is not None:
+            _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
 
     @property
     def is_ideal(self) -> bool:
@@ -536,12 +557,19 @@ class ConstraintAware:
         return math.isfinite(self.rate) or math.isfinite(self.travel)
 
     def configure(
-        self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
+        self,
+        *,
+        w0: float,
+        b_max: float,
+        lam: float = 1.0,
+        input_gain: float = 0.0,
+        slope: float | None = None,
     ) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
         under this model, for an allocation whose largest gain is ``b_max`` and a filtered
         error ``s = e' + lam e``; ``input_gain`` is the loop's nominal ``|d s'/d u0|``, used
-        when the model's own ``input_gain`` is ``None``."""
+        when the model's own ``input_gain`` is ``None``; ``slope`` the law's ``K = k +
+        k0/eps0`` where the design gives it (used where ``w0`` is the loop gain itself)."""
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
@@ -553,7 +581,11 @@ class ConstraintAware:
             # scaled only where it is itself above w, the integral path so that
             # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
             # manipulator loses the arm with eta scaled below 0.3)
-            big_k = w0 * w0 / g if w0 > g else g
+            # (where g >= K, w0 = g says nothing of K: the design's own slope, ``slope``,
+            # where it gives it; the wing rock's g = 88760 1/s against K = 2020 1/s: with
+            # K taken as g, the integral path fell to 0.8 1/s and a stuck aileron's torque
+            # was still not learnt 5 s later)
+            big_k = w0 * w0 / g if w0 > g else (slope if slope is not None else g)
             g = g * (self.gain_growth or 1.0)  # the largest loop gain along the run (§4.4)
             scale = min(1.0, w / g)
             slope_scale = min(1.0, w * w / (scale * g) / big_k)
@@ -571,8 +603,12 @@ class ConstraintAware:
                 cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
                 lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
+        feedback = self.feedback_gain(w, float(input_gain))
         if limited:
-            omega_f = C_FILTER * w
+            # the command filter passes the fastest path of the law: the fixed feedback's
+            # loop rate where it has one (b feedback, per unit s)
+            b_in = self.input_gain if self.input_gain is not None else float(input_gain)
+            omega_f = C_FILTER * max(w, feedback * b_in)
             if self.lag > 0:
                 omega_f = min(omega_f, 1.0 / self.lag)
             if self.sample_time > 0:
@@ -606,7 +642,21 @@ class ConstraintAware:
             C_HEDGE * w,
             self.theta_max,
             slope_scale,
+            feedback,
         )
+
+    def feedback_gain(self, w: float, input_gain: float) -> float:
+        """The gain of the fixed proportional feedback ``u0 += feedback s``: the loop gain
+        ``self.feedback`` (1/s) over the nominal input gain ``|d s'/d u0|``; 0 = none."""
+        b = self.input_gain if self.input_gain is not None else input_gain
+        if self.feedback is not None:
+            rate = self.feedback
+        else:
+            p_u = self.unstable_rate or 0.0
+            rate = C_FEEDBACK * p_u if C_FEEDBACK * p_u > C_FEEDBACK_GATE * w else 0.0
+        if not rate > 0 or not b > 0:
+            return 0.0
+        return rate / b
 
 
 # ---------------------------------------------------------------- compiled pieces of the law
@@ -634,6 +684,16 @@ def hedged_q(q, s, xi, dxi, k, k0, eps0):
     limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
     2003)."""
     return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
+
+
+def capped_gain(phi, p2max, off, size):
+    """``1 / max(1, |Pi|^2 / p2max)``: the factor that keeps an adaptive law's proportional
+    path ``x |Pi|^2`` at most its value at ``|Pi|^2 = p2max`` (normalised gradient, Ioannou &
+    Sun 1996, §4.3.4, applied only above the bound)."""
+    p2 = 0.0
+    for l in range(size):
+        p2 += phi[off + l] * phi[off + l]
+    return 1.0 / max(1.0, p2 / p2max)
 
 
 def project_interval(d, v, v_max):
@@ -708,6 +768,11 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool):
                 f"    u0[{i}] = Y[{f}]",
                 f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
             ]
+    if cfg.feedback > 0:  # the fixed proportional path on the measured filtered error
+        g.consts.append(cfg.feedback)
+        fb = f"c[{len(g.consts) - 1}]"
+        control.append("    # constraint-aware: fixed proportional feedback on s")
+        control += [f"    u0[{i}] += {fb} * sig[{nx + 2 * p + i}]" for i in range(p)]
     if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")
