@@ -605,10 +605,7 @@ class ConstraintAware:
         omega_f = math.inf
         feedback = self.feedback_gain(w, float(input_gain))
         if limited:
-            # the command filter passes the fastest path of the law: the fixed feedback's
-            # loop rate where it has one (b feedback, per unit s)
-            b_in = self.input_gain if self.input_gain is not None else float(input_gain)
-            omega_f = C_FILTER * max(w, feedback * b_in)
+            omega_f = C_FILTER * w
             if self.lag > 0:
                 omega_f = min(omega_f, 1.0 / self.lag)
             if self.sample_time > 0:
