@@ -80,6 +80,15 @@ design, not another design) it derives, by the rules below, one configuration
    sigma-modification: where the estimate is on the boundary and the law points outward,
    the outward component is removed. Off by default (``theta_max = inf``).
 
+6. **Fixed proportional feedback** where the plant has a fast unstable open-loop mode:
+   ``u0 += (C_FEEDBACK p_u / b) s`` with ``p_u`` the modulus of the linearised plant's fastest
+   unstable mode at ``t0`` (:meth:`AdaptiveController.open_loop_unstable_rate`) and ``b`` the
+   nominal input gain, where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max`` (Stein, IEEE CSM
+   23(4) 2003, "respect the unstable"; a baseline beside the adaptive law as in adaptive
+   augmentation, Lavretsky & Wise 2013, ch. 10), after the command filter. The thesis law's
+   ``u0 = Pi^T theta`` is all adaptive: slowed to the hardware it cannot hold the wing rock
+   (unstable at 30 rad/s), and a raw fuzzy basis vanishes once the state leaves it.
+
 A digital controller integrates every state of the law by forward Euler at its sample time
 ``T`` (:mod:`adaptive_ftc.hardware`); the rules keep every filter of the law at most
 ``C_EULER / T`` (stable Euler filters) and ``w_max T <= C_SAMPLE`` (the discrete-time-aware
