@@ -185,7 +185,9 @@ class AdaptiveController(ABC):
         rate, gain, least = 0.0, 0.0, math.inf
         for i, sl in enumerate(a.theta_slices):
             bi = float(b[i] if len(b) == len(a.theta_slices) else np.max(b))
-            g = bi * (x * float(np.sum(phi[sl] ** 2)) + extra)
+            g = bi * x * float(np.sum(phi[sl] ** 2))
+            if extra:
+                g = bi * (x * float(np.sum(phi[sl] ** 2)) + extra)
             least = min(least, g)
             ri = max(g, math.sqrt(g * (k[i] + k0[i] / float(self.eps0))))
             if ri > rate:

@@ -240,11 +240,13 @@ RHO_FACTOR = 2.0
 #: unstable" (Stein, IEEE CSM 23(4) 2003: a loop that stabilises a plant with an unstable pole
 #: ``p`` needs a bandwidth of about ``2p``).
 C_FEEDBACK = 2.0
-#: ... added only where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max``: where the plant's unstable
-#: dynamics are not far below the slowed law's loop rate (the wing rock: ``p_u`` = 30.4 1/s,
-#: ``w_max`` = 10-200 1/s), not where the law is many times faster than them (hypersonic:
-#: ``p_u`` = 0.75, ``w_max`` >= 10; the MIMO plants: none or 0.011).
-C_FEEDBACK_GATE = 0.25
+#: ... added only where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_hw`` (``w_hw``: the loop rate the
+#: hardware's bounds admit, without the cap ``C_CAP w0``): where the plant's unstable dynamics
+#: are not far below what the hardware lets a loop do (the wing rock: ``p_u`` = 30.4 1/s,
+#: ``w_hw`` = 8-1000 1/s), not where they are many times slower (hypersonic: ``p_u`` = 0.75;
+#: the MIMO plants: none or 0.011). The same regime counts §2.4's compensator in the loop
+#: gain and caps its linear regressor (:class:`FailureEstimation`).
+C_FEEDBACK_GATE = 0.5
 
 
 class Configuration(NamedTuple):
@@ -612,7 +614,7 @@ class ConstraintAware:
                 cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
                 lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
-        feedback = self.feedback_gain(w, float(input_gain))
+        feedback = self.feedback_gain(float(input_gain), b_max)
         if limited:
             omega_f = C_FILTER * w
             if self.lag > 0:
@@ -651,15 +653,28 @@ class ConstraintAware:
             feedback,
         )
 
-    def feedback_gain(self, w: float, input_gain: float) -> float:
+    def fast_unstable(self, b_max: float = 1.0) -> bool:
+        """The plant's fastest unstable open-loop mode (``unstable_rate``, ``p_u``) is not far
+        below the loop rate the hardware admits: ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_hw``,
+        ``w_hw`` the rule's ``w_max`` without its ``C_CAP w0`` term (the hardware's bounds
+        alone; a designer's ``bandwidth`` counts). The wing rock (``p_u`` = 30.4 1/s) under
+        any lag of 1 ms or more; not the hypersonic loops (0.75 1/s) nor the MIMO plants."""
+        p_u = self.unstable_rate or 0.0
+        if not p_u > 0 or self.is_ideal:
+            return False
+        w_hw, _ = self.omega_max(math.inf, b_max)
+        return C_FEEDBACK * p_u > C_FEEDBACK_GATE * w_hw
+
+    def feedback_gain(self, input_gain: float, b_max: float = 1.0) -> float:
         """The gain of the fixed proportional feedback ``u0 += feedback s``: the loop gain
-        ``self.feedback`` (1/s) over the nominal input gain ``|d s'/d u0|``; 0 = none."""
+        ``self.feedback`` (1/s), else ``C_FEEDBACK p_u`` where :meth:`fast_unstable`, over
+        the nominal input gain ``|d s'/d u0|``; 0 = none."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if self.feedback is not None:
             rate = self.feedback
         else:
             p_u = self.unstable_rate or 0.0
-            rate = C_FEEDBACK * p_u if C_FEEDBACK * p_u > C_FEEDBACK_GATE * w else 0.0
+            rate = C_FEEDBACK * p_u if self.fast_unstable(b_max) else 0.0
         if not rate > 0 or not b > 0:
             return 0.0
         return rate / b

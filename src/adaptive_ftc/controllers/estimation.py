@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -80,7 +80,19 @@ class FailureEstimation(AdaptiveController):
         """``eta2 sum_j |varpi_j(t0)|^2``: ``kappa_j' = -eta2 varpi_j q`` moves the compensator
         ``u_f = -sum_j kappa_j^T varpi_j`` by this per unit of ``q``, a proportional path of
         the law beside ``theta``'s (wing rock: 634 x 20 x 3 x 2 = 76100 1/s against 12700 for
-        ``theta``; the rule left it out and the 50 Hz law diverged within 0.12 s)."""
+        ``theta``; the rule left it out and the 50 Hz law diverged within 0.12 s). Counted
+        only on a plant with a fast unstable mode (:meth:`ConstraintAware.fast_unstable`, the
+        wing rock); 0 elsewhere (hypersonic-estimation-s1 behind a 50 ms lag was acceptable
+        without it, 1.6e-4 rad, and is not with it, 1.4e-2)."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal:
+            return 0.0
+        if ca.unstable_rate is None:
+            ca = replace(ca, unstable_rate=self.open_loop_unstable_rate(loop))
+        R = np.asarray(loop.R, dtype=float)
+        b_max = ca.b_max or (float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0)
+        if not ca.fast_unstable(b_max):
+            return 0.0
         t0 = float(loop.t0)
         total = 0.0
         for bj in self.basis_for(loop.plant.n_actuators):
@@ -122,11 +134,13 @@ class FailureEstimation(AdaptiveController):
         ]
 
     def regressor_cap(self, loop) -> float:
-        """Constraint-aware only: the bound on ``|Pi|^2`` above which ``theta``'s law is
-        normalised (:func:`~adaptive_ftc.controllers.constraints.capped_gain`), ``|Pi(z0)|^2``
-        at the loop's initial state; 0: none (the thesis law, an ideal model)."""
+        """Constraint-aware only, on a plant with a fast unstable mode
+        (:meth:`ConstraintAware.fast_unstable`, the wing rock): the bound on ``|Pi|^2`` above
+        which ``theta``'s law is normalised
+        (:func:`~adaptive_ftc.controllers.constraints.capped_gain`), ``|Pi(z0)|^2`` at the
+        loop's initial state; 0: none (the thesis law, an ideal model, other plants)."""
         ca = self.constraint_aware
-        if ca is None or ca.is_ideal:
+        if ca is None or ca.is_ideal or not ca.fast_unstable(ca.b_max or 1.0):
             return 0.0
         a = self.thesis_assembled(loop)
         phi = a.regressor_values(loop.t0, a.y0)
