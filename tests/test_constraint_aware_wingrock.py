@@ -78,7 +78,7 @@ def test_feedback_only_where_the_unstable_mode_is_near_the_loop_rate():
     assert 0 < hb.constraint_aware.unstable_rate < 1.0
     assert hb.configuration().feedback == 0.0
     # ... not even on the most limited hypersonic hardware of docs/hardware.md (lag 50 ms,
-    # 2 rad/s, +-0.5 rad, 50 Hz, noise): the hardware admits 4.7 1/s, against 2 x 0.75
+    # 2 rad/s, +-0.5 rad, 50 Hz, noise): the hardware admits 4.5 1/s, the gate needs 3.0
     combo = replace(
         hy, actuators=Actuators(tau=0.05, rate=2.0, lower=-0.5, upper=0.5), sample_time=0.02
     )
