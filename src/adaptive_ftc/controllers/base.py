@@ -135,6 +135,7 @@ class AdaptiveController(ABC):
             b_max=ca.b_max if ca.b_max is not None else b_max,
             lam=float(lam),
             input_gain=input_gain,
+            slope=self.loop_rate() if self.single_output else None,
         )
 
     def theta_gain(self) -> float:
@@ -180,15 +181,24 @@ class AdaptiveController(ABC):
         k = as_tuple(self.k, p, "k", type(self).__name__)
         k0 = as_tuple(self.k0, p, "k0", type(self).__name__)
         x = abs(float(self.theta_gain()))
+        extra = self.compensator_gain(loop)
         rate, gain, least = 0.0, 0.0, math.inf
         for i, sl in enumerate(a.theta_slices):
             bi = float(b[i] if len(b) == len(a.theta_slices) else np.max(b))
             g = bi * x * float(np.sum(phi[sl] ** 2))
+            if extra:
+                g = bi * (x * float(np.sum(phi[sl] ** 2)) + extra)
             least = min(least, g)
             ri = max(g, math.sqrt(g * (k[i] + k0[i] / float(self.eps0))))
             if ri > rate:
                 rate, gain = ri, g
         return (rate, gain, least) if rate > 0 else (self.loop_rate(), 0.0, 0.0)
+
+    def compensator_gain(self, loop) -> float:
+        """The rate (per unit of ``q``, before the input gain) at which the design's
+        compensator moves ``u0`` at ``t0``, beside ``theta``'s ``x |Pi|^2``: 0; §2.4's
+        ``u_f = -sum_j kappa_j^T varpi_j(t)`` overrides it."""
+        return 0.0
 
     def bound(self, loop):
         """The design with its designer's model completed from ``loop`` (what the compiled
@@ -206,6 +216,8 @@ class AdaptiveController(ABC):
             updates["input_gain"] = self.nominal_input_gain(loop)
         if ca.gain_growth is None:
             updates["gain_growth"] = self.loop_gain_growth()
+        if ca.unstable_rate is None:
+            updates["unstable_rate"] = self.open_loop_unstable_rate(loop)
         if ca.loop_rate is None:
             updates["loop_rate"], gain, least = self.measured_loop_rate(loop)
             if ca.loop_gain is None and gain > 0:
@@ -213,6 +225,32 @@ class AdaptiveController(ABC):
             if ca.min_loop_gain is None and least > 0:
                 updates["min_loop_gain"] = least
         return replace(self, constraint_aware=replace(ca, **updates))
+
+    @staticmethod
+    def open_loop_unstable_rate(loop) -> float:
+        """The modulus of the plant's fastest unstable open-loop mode at the loop's initial
+        state with zero command (the largest ``|lambda|`` over the eigenvalues of the
+        linearised plant with a positive real part; 0 where there is none), by central
+        differences of the plant's derivative: the wing rock's 5.5 +- 29.9j gives 30.4 1/s,
+        the hypersonic short period 0.75 1/s."""
+        plant = loop.plant
+        x0 = np.asarray(loop.initial_state, dtype=float)
+        u = np.zeros(plant.n_actuators)
+        n = x0.size
+        jac = np.zeros((n, n))
+        for i in range(n):
+            h = 1e-6 * max(1.0, abs(float(x0[i])))
+            xp, xm = x0.copy(), x0.copy()
+            xp[i] += h
+            xm[i] -= h
+            fp = np.asarray(plant.derivative(loop.t0, xp, u), dtype=float)
+            fm = np.asarray(plant.derivative(loop.t0, xm, u), dtype=float)
+            jac[:, i] = (fp - fm) / (2.0 * h)
+        if not np.all(np.isfinite(jac)):
+            return 0.0
+        ev = np.linalg.eigvals(jac)
+        unstable = np.abs(ev[ev.real > 1e-9])
+        return float(unstable.max()) if unstable.size else 0.0
 
     def loop_gain_growth(self) -> float:
         """The factor by which the law's loop gain can grow along the run over the one at
@@ -257,6 +295,8 @@ class AdaptiveController(ABC):
         if ca is not None and ca.input_gain is None and not ca.is_ideal:
             gain = self.nominal_input_gain(g.loop)
         cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
+        if cfg.feedback and not self.regressors_for(g.p):
+            cfg = cfg._replace(feedback=0.0)  # a baseline's own law (the oracle) keeps its
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         return constraints.emit(cfg, g, blocks, at, self.single_output, self.hedge_direction(g))

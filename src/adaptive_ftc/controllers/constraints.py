@@ -85,6 +85,15 @@ design, not another design) it derives, by the rules below, one configuration
    sigma-modification: where the estimate is on the boundary and the law points outward,
    the outward component is removed. Off by default (``theta_max = inf``).
 
+6. **Fixed proportional feedback** where the plant has a fast unstable open-loop mode:
+   ``u0 += (C_FEEDBACK p_u / b) s`` with ``p_u`` the modulus of the linearised plant's fastest
+   unstable mode at ``t0`` (:meth:`AdaptiveController.open_loop_unstable_rate`) and ``b`` the
+   nominal input gain, where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max`` (Stein, IEEE CSM
+   23(4) 2003, "respect the unstable"; a baseline beside the adaptive law as in adaptive
+   augmentation, Lavretsky & Wise 2013, ch. 10), after the command filter. The thesis law's
+   ``u0 = Pi^T theta`` is all adaptive: slowed to the hardware it cannot hold the wing rock
+   (unstable at 30 rad/s), and a raw fuzzy basis vanishes once the state leaves it.
+
 A digital controller integrates every state of the law by forward Euler at its sample time
 ``T`` (:mod:`adaptive_ftc.hardware`); the rules keep every filter of the law at most
 ``C_EULER / T`` (stable Euler filters) and ``w_max T <= C_SAMPLE`` (the discrete-time-aware
@@ -243,6 +252,20 @@ C_MARGIN = 0.9
 RHO_FACTOR = 1.25
 
 
+#: the fixed proportional feedback's loop rate, in multiples of the plant's fastest unstable
+#: open-loop mode ``p_u`` (``|lambda|`` of the linearised plant at ``t0``): "respect the
+#: unstable" (Stein, IEEE CSM 23(4) 2003: a loop that stabilises a plant with an unstable pole
+#: ``p`` needs a bandwidth of about ``2p``).
+C_FEEDBACK = 2.0
+#: ... added only where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_hw`` (``w_hw``: the loop rate the
+#: hardware's bounds admit, without the cap ``C_CAP w0``): where the plant's unstable dynamics
+#: are not far below what the hardware lets a loop do (the wing rock: ``p_u`` = 30.4 1/s,
+#: ``w_hw`` = 8-1000 1/s), not where they are many times slower (hypersonic: ``p_u`` = 0.75;
+#: the MIMO plants: none or 0.011). The same regime counts §2.4's compensator in the loop
+#: gain and caps its linear regressor (:class:`FailureEstimation`).
+C_FEEDBACK_GATE = 0.5
+
+
 class Configuration(NamedTuple):
     """What :meth:`ConstraintAware.configure` derives (the numbers of the compiled law)."""
 
@@ -274,6 +297,9 @@ class Configuration(NamedTuple):
     #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
     #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
     slope_scale: float = 1.0
+    #: gain of the fixed proportional feedback ``u0 += feedback s`` on the filtered error
+    #: (``C_FEEDBACK``; 0 = none)
+    feedback: float = 0.0
 
     @property
     def filtered(self) -> bool:
@@ -401,6 +427,8 @@ class ConstraintAware:
     derivative_lag: float | None = None
     noise_rate: float = 1000.0
     gain_growth: float | None = None
+    feedback: float | None = None
+    unstable_rate: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -427,6 +455,10 @@ class ConstraintAware:
         _number(owner, "noise_rate", self.noise_rate, allow_inf=True, positive=True)
         if self.gain_growth is not None:
             _number(owner, "gain_growth", self.gain_growth, allow_inf=False, positive=True)
+        if self.feedback is not None:
+            _number(owner, "feedback", self.feedback, allow_inf=False)
+        if self.unstable_rate is not None:
+            _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
 
     @property
     def is_ideal(self) -> bool:
@@ -553,12 +585,19 @@ class ConstraintAware:
         return math.isfinite(self.rate) or math.isfinite(self.travel)
 
     def configure(
-        self, *, w0: float, b_max: float, lam: float = 1.0, input_gain: float = 0.0
+        self,
+        *,
+        w0: float,
+        b_max: float,
+        lam: float = 1.0,
+        input_gain: float = 0.0,
+        slope: float | None = None,
     ) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
         under this model, for an allocation whose largest gain is ``b_max`` and a filtered
         error ``s = e' + lam e``; ``input_gain`` is the loop's nominal ``|d s'/d u0|``, used
-        when the model's own ``input_gain`` is ``None``."""
+        when the model's own ``input_gain`` is ``None``; ``slope`` the law's ``K = k +
+        k0/eps0`` where the design gives it (used where ``w0`` is the loop gain itself)."""
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
@@ -570,7 +609,11 @@ class ConstraintAware:
             # scaled only where it is itself above w, the integral path so that
             # sqrt(g' K') <= w (a loop whose adaptation is slow already keeps it: the
             # manipulator loses the arm with eta scaled below 0.3)
-            big_k = w0 * w0 / g if w0 > g else g
+            # (where g >= K, w0 = g says nothing of K: the design's own slope, ``slope``,
+            # where it gives it; the wing rock's g = 88760 1/s against K = 2020 1/s: with
+            # K taken as g, the integral path fell to 0.8 1/s and a stuck aileron's torque
+            # was still not learnt 5 s later)
+            big_k = w0 * w0 / g if w0 > g else (slope if slope is not None else g)
             growth = self.gain_growth or 1.0
             g = g * growth  # the largest loop gain along the run (§4.4)
             scale = min(1.0, w / g)
@@ -592,6 +635,7 @@ class ConstraintAware:
                 cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
                 lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
+        feedback = self.feedback_gain(float(input_gain), b_max)
         if limited:
             omega_f = C_FILTER * w
             if self.lag > 0:
@@ -627,7 +671,34 @@ class ConstraintAware:
             C_HEDGE * w,
             self.theta_max,
             slope_scale,
+            feedback,
         )
+
+    def fast_unstable(self, b_max: float = 1.0) -> bool:
+        """The plant's fastest unstable open-loop mode (``unstable_rate``, ``p_u``) is not far
+        below the loop rate the hardware admits: ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_hw``,
+        ``w_hw`` the rule's ``w_max`` without its ``C_CAP w0`` term (the hardware's bounds
+        alone; a designer's ``bandwidth`` counts). The wing rock (``p_u`` = 30.4 1/s) under
+        any lag of 1 ms or more; not the hypersonic loops (0.75 1/s) nor the MIMO plants."""
+        p_u = self.unstable_rate or 0.0
+        if not p_u > 0 or self.is_ideal:
+            return False
+        w_hw, _ = self.omega_max(math.inf, b_max)
+        return C_FEEDBACK * p_u > C_FEEDBACK_GATE * w_hw
+
+    def feedback_gain(self, input_gain: float, b_max: float = 1.0) -> float:
+        """The gain of the fixed proportional feedback ``u0 += feedback s``: the loop gain
+        ``self.feedback`` (1/s), else ``C_FEEDBACK p_u`` where :meth:`fast_unstable`, over
+        the nominal input gain ``|d s'/d u0|``; 0 = none."""
+        b = self.input_gain if self.input_gain is not None else input_gain
+        if self.feedback is not None:
+            rate = self.feedback
+        else:
+            p_u = self.unstable_rate or 0.0
+            rate = C_FEEDBACK * p_u if self.fast_unstable(b_max) else 0.0
+        if not rate > 0 or not b > 0:
+            return 0.0
+        return rate / b
 
 
 # ---------------------------------------------------------------- compiled pieces of the law
@@ -655,6 +726,16 @@ def hedged_q(q, s, xi, dxi, k, k0, eps0):
     limited command caused (Farrell et al. 2009; pseudo-control hedging, Johnson & Calise
     2003)."""
     return q - dxi - k * xi + k0 * (math.tanh((s - xi) / eps0) - math.tanh(s / eps0))
+
+
+def capped_gain(phi, p2max, off, size):
+    """``1 / max(1, |Pi|^2 / p2max)``: the factor that keeps an adaptive law's proportional
+    path ``x |Pi|^2`` at most its value at ``|Pi|^2 = p2max`` (normalised gradient, Ioannou &
+    Sun 1996, §4.3.4, applied only above the bound)."""
+    p2 = 0.0
+    for l in range(size):
+        p2 += phi[off + l] * phi[off + l]
+    return 1.0 / max(1.0, p2 / p2max)
 
 
 def project_interval(d, v, v_max):
@@ -732,6 +813,11 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                 f"    u0[{i}] = Y[{f}]",
                 f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
             ]
+    if cfg.feedback > 0:  # the fixed proportional path on the measured filtered error
+        g.consts.append(cfg.feedback)
+        fb = f"c[{len(g.consts) - 1}]"
+        control.append("    # constraint-aware: fixed proportional feedback on s")
+        control += [f"    u0[{i}] += {fb} * sig[{nx + 2 * p + i}]" for i in range(p)]
     if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, NamedTuple
+
+import numpy as np
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
+from adaptive_ftc.controllers.constraints import capped_gain
 from adaptive_ftc.controllers.laws import kappa_law, theta_law
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.expressions import Expression
@@ -73,6 +76,31 @@ class FailureEstimation(AdaptiveController):
     def theta_gain(self) -> float:
         return float(self.eta1)
 
+    def compensator_gain(self, loop) -> float:
+        """``eta2 sum_j |varpi_j(t0)|^2``: ``kappa_j' = -eta2 varpi_j q`` moves the compensator
+        ``u_f = -sum_j kappa_j^T varpi_j`` by this per unit of ``q``, a proportional path of
+        the law beside ``theta``'s (wing rock: 634 x 20 x 3 x 2 = 76100 1/s against 12700 for
+        ``theta``; the rule left it out and the 50 Hz law diverged within 0.12 s). Counted
+        only on a plant with a fast unstable mode (:meth:`ConstraintAware.fast_unstable`, the
+        wing rock); 0 elsewhere (hypersonic-estimation-s1 behind a 50 ms lag was acceptable
+        without it, 1.6e-4 rad, and is not with it, 1.4e-2)."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal:
+            return 0.0
+        if ca.unstable_rate is None:
+            ca = replace(ca, unstable_rate=self.open_loop_unstable_rate(loop))
+        R = np.asarray(loop.R, dtype=float)
+        b_max = ca.b_max or (float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0)
+        if not ca.fast_unstable(b_max):
+            return 0.0
+        t0 = float(loop.t0)
+        total = 0.0
+        for bj in self.basis_for(loop.plant.n_actuators):
+            for text in bj:
+                v = Expression(text, ("t",), context="basis function")(t=t0)
+                total += float(v) ** 2
+        return float(self.eta2) * total
+
     def gains(self) -> EstimationGains:
         r = self.adaptation_scale  # 1 for the thesis law
         return EstimationGains(float(self.eta1) * r, float(self.eta2) * r, float(self.sigma))
@@ -105,12 +133,39 @@ class FailureEstimation(AdaptiveController):
             "    u0[0] += comp",
         ]
 
+    def regressor_cap(self, loop) -> float:
+        """Constraint-aware only, on a plant with a fast unstable mode
+        (:meth:`ConstraintAware.fast_unstable`, the wing rock): the bound on ``|Pi|^2`` above
+        which ``theta``'s law is normalised
+        (:func:`~adaptive_ftc.controllers.constraints.capped_gain`), ``|Pi(z0)|^2`` at the
+        loop's initial state; 0: none (the thesis law, an ideal model, other plants)."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not ca.fast_unstable(ca.b_max or 1.0):
+            return 0.0
+        a = self.thesis_assembled(loop)
+        phi = a.regressor_values(loop.t0, a.y0)
+        return float(sum(np.sum(phi[sl] ** 2) for sl in a.theta_slices))
+
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)
         g.use("kappa_law", kappa_law)
+        cap = self.regressor_cap(g.loop)
+        if cap > 0:
+            # constraint-aware: the linear regressor's |Pi|^2 grows with the error squared,
+            # and with it the slowed law's loop gain (the 50 Hz law diverged at 0.57 s)
+            g.use("capped_gain", capped_gain)
+            g.consts.append(cap)
+            at = len(g.consts) - 1
+            laws = [
+                f"    theta_law(dY, Y, phi, q[0], D.gains.eta1, D.gains.sigma,"
+                f" capped_gain(phi, c[{at}], {o}, {size}), {o}, {a}, {size})"
+                for o, a, size in blocks
+            ]
+        else:
+            laws = self.theta_laws(blocks, "D.gains.eta1", "D.gains.sigma", "1.0")
         return [
             "    # adaptive laws (2.72)-(2.73)",
             f"    misc[{int(Misc.GAIN)}] = 1.0",
-            *self.theta_laws(blocks, "D.gains.eta1", "D.gains.sigma", "1.0"),
+            *laws,
             f"    kappa_law(dY, Y, wb, q[0], D.gains.eta2, D.gains.sigma, 0, {extra_at}, {g.n_w})",
         ]
