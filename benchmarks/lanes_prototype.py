@@ -1,4 +1,4 @@
-"""Prototype (issue 29): members of hypersonic-direct-s1 in SIMD lanes, measured against single runs and C.
+"""Prototype (issue 29): members of hypersonic-direct-s1 in SIMD lanes, against single runs and C.
 
 Run: ``python benchmarks/lanes_prototype.py [--n 32] [--widths 4,8,16] [--rounds 3] [--seed 0]
 [--variants a,b,c,d]``.
@@ -31,6 +31,7 @@ Variants (each for every width ``W``):
   ``2^n`` built from the exponent bits through an int64 view), strict IEEE otherwise.
 - ``c``: ``a`` with ``fastmath=True``.
 - ``d``: ``b`` with ``fastmath=True``.
+- ``e``: ``b`` with the rhs pasted into its five call sites (no copies; 2-3x the compile time).
 
 ``tanh`` (one per rhs and lane) and the reference's ``sin``/``cos`` (cached per lane and time, two
 times per step) stay scalar libm calls in every variant.
@@ -85,11 +86,11 @@ GROWTH_TIMES = (1.0, 10.0, 30.0, 60.0, 120.0)
 # rows of the lane buffer B[N_B * W]: every lane quantity is one row of W numbers, all in one
 # array at constant offsets, so LLVM can prove that the rows a statement reads and writes are
 # disjoint and vectorise it across lanes (separate arrays may alias: nothing vectorises)
-Y, K1, K2, K3, K4, YT, YN, FE = (NY * i for i in range(8))  # state, stages, stage state, ...
-T, TM, T1, HH, H2, H6 = range(8 * NY, 8 * NY + 6)  # per lane t, t + h/2, t + h, h, h/2, h/6
-FA, FB = 8 * NY + 6, 8 * NY + 8  # failure map u_f = a u + b per elevator (2 rows each)
-ACT = 8 * NY + 10  # 1.0 while the lane is running
-WK = 8 * NY + 11  # work rows (relative to WK):
+Y, K1, K2, K3, K4, YT, YN, FE, DY = (NY * i for i in range(9))  # state, stages, stage state...
+T, TM, T1, HH, H2, H6, TIN = range(9 * NY, 9 * NY + 7)  # per lane t, t+h/2, t+h, h, h/2, h/6
+FA, FB = 9 * NY + 7, 9 * NY + 9  # failure map u_f = a u + b per elevator (2 rows each)
+ACT = 9 * NY + 11  # 1.0 while the lane is running
+WK = 9 * NY + 12  # work rows (relative to WK):
 R0, R1, R2, REFT = 0, 1, 2, 3  # reference y_d, y_d', y_d'' and the time they belong to
 ED, S, SD, QQ, U0 = 4, 5, 6, 7, 8  # e', s (2.18), s', q (2.20), u0 = phi^T theta (2.22)
 ARG = 9  # 10 rows: exp arguments of the memberships
@@ -118,10 +119,14 @@ def as_double(typingctx, bits):
     return sig, codegen
 
 
-def build_engine(W: int, vector_exp: bool, fastmath: bool):
+def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = True):
     """Compile the lane engine for ``W`` lanes: returns ``run_group`` (see its docstring) and the
     lane exp (``lane_exp(B, nrow)``: rows ``0..nrow`` of ``B`` into rows ``nrow..2 nrow``, for
-    the accuracy check)."""
+    the accuracy check).
+
+    ``shared_rhs``: one compiled rhs reading rows ``TIN, YT`` and writing ``DY`` (the stages
+    copy their time in and the derivative out); else the rhs is pasted into each of its five
+    call sites with their own rows (no copies, about 5 times the code and compile time)."""
     opts = dict(nogil=True, error_model="numpy", fastmath=fastmath)
     inl = njit(inline="always", **opts)
     c13, c12, c11, c10, c9, c8, c7, c6, c5, c4, c3, c2, c1, c0 = TAYLOR
@@ -175,8 +180,17 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool):
         amp, omega, lam, k, k0, eps0, gamma, sigma = C[0], C[1], C[2], C[3], C[4], C[5], C[6], C[7]
         r_1, r_2 = C[8], C[9]
         p_scale, k_alpha, a2, a1, a0, k_q, q2, q1, q0, k_e = (
-            C[10], C[11], C[12], C[13], C[14], C[15], C[16], C[17], C[18], C[19],
-        )  # fmt: skip
+            C[10],
+            C[11],
+            C[12],
+            C[13],
+            C[14],
+            C[15],
+            C[16],
+            C[17],
+            C[18],
+            C[19],
+        )
         # reference, cached per lane while its time stays the same (k2, k3; k4 and the next k1)
         for w in range(W):
             t = B[tt * W + w]
@@ -249,6 +263,32 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool):
                     - gs * B[(y + 2 + l) * W + w]
                 )
 
+    if shared_rhs:
+
+        @njit(**opts)
+        def rhs_rows(B, C):
+            """The rhs on rows TIN, YT -> DY (compiled once)."""
+            rhs(B, C, TIN, YT, DY)
+
+        @inl
+        def stage(B, C, tt, y, dy):
+            """rhs at the times of row tt and the state in rows y.. into rows dy.. (copies)."""
+            for w in range(W):
+                B[TIN * W + w] = B[tt * W + w]
+            if y != YT:
+                for i in range(NY * W):
+                    B[YT * W + i] = B[y * W + i]
+            rhs_rows(B, C)
+            for i in range(NY * W):
+                B[dy * W + i] = B[DY * W + i]
+
+    else:
+
+        @inl
+        def stage(B, C, tt, y, dy):
+            """rhs at the times of row tt and the state in rows y.. into rows dy.. (pasted)."""
+            rhs(B, C, tt, y, dy)
+
     @njit(**opts)
     def run_group(y0, brk, nph, FA_, FB_, dt, t_rec, C, bound, out_Y, status, nrec_out):
         """RK4 of W members in lockstep of step count, each on its own break times.
@@ -309,19 +349,19 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool):
                 B[TM * W + w] = t + 0.5 * hh
             if n_active == 0:
                 break
-            rhs(B, C, T, Y, K1)
+            stage(B, C, T, Y, K1)
             for i in range(NY):
                 for w in range(W):
                     B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[H2 * W + w] * B[(K1 + i) * W + w]
-            rhs(B, C, TM, YT, K2)
+            stage(B, C, TM, YT, K2)
             for i in range(NY):
                 for w in range(W):
                     B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[H2 * W + w] * B[(K2 + i) * W + w]
-            rhs(B, C, TM, YT, K3)
+            stage(B, C, TM, YT, K3)
             for i in range(NY):
                 for w in range(W):
                     B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[HH * W + w] * B[(K3 + i) * W + w]
-            rhs(B, C, T1, YT, K4)
+            stage(B, C, T1, YT, K4)
             for i in range(NY):
                 for w in range(W):
                     B[(YN + i) * W + w] = B[(Y + i) * W + w] + B[H6 * W + w] * (
@@ -352,7 +392,7 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool):
                         need_fe = True
                     rr += 1
             if need_fe:
-                rhs(B, C, T1, YN, FE)
+                stage(B, C, T1, YN, FE)
             for w in range(W):
                 if not active[w]:
                     continue
@@ -499,8 +539,20 @@ def run_lanes(engine, W, grp: Group, y0, dt, t_rec, C, bound):
     status = np.zeros(n, dtype=np.int64)
     for g in range(0, n, W):
         s = slice(g, g + W)
-        engine(y0, grp.brk[s], grp.nph[s], grp.FA[s], grp.FB[s], dt, t_rec, C, bound,
-               out[s], status[s], nrec[s])  # fmt: skip
+        engine(
+            y0,
+            grp.brk[s],
+            grp.nph[s],
+            grp.FA[s],
+            grp.FB[s],
+            dt,
+            t_rec,
+            C,
+            bound,
+            out[s],
+            status[s],
+            nrec[s],
+        )
     return out, nrec, status
 
 
@@ -552,9 +604,15 @@ def main() -> int:
     args = ap.parse_args()
     widths = [int(v) for v in args.widths.split(",")]
     variants = args.variants.split(",")
-    known = {"a": (False, False), "b": (True, False), "c": (False, True), "d": (True, True)}
+    known = {  # (vector exp, fastmath, shared rhs)
+        "a": (False, False, True),
+        "b": (True, False, True),
+        "c": (False, True, True),
+        "d": (True, True, True),
+        "e": (True, False, False),
+    }
     if args.n < 1 or args.rounds < 1 or min(widths) < 1 or not set(variants) <= set(known):
-        print("error: --n, --rounds and --widths must be positive, variants among a,b,c,d")
+        print("error: --n, --rounds and --widths must be positive, variants among a,b,c,d,e")
         return 2
     try:
         exe = build()
@@ -591,11 +649,15 @@ def main() -> int:
     for v in variants:
         for W in widths:
             engines[v, W] = build_engine(W, *known[v])
-    print(f"{SCENARIO}: {args.n} members (failures drawn as bench_batch.py, seed {args.seed}), "
-          f"RK4 dt {dt:g}, {loop.t_final:g} s, records every {solver.record_dt:g} s")  # fmt: skip
+    print(
+        f"{SCENARIO}: {args.n} members (failures drawn as bench_batch.py, seed {args.seed}), "
+        f"RK4 dt {dt:g}, {loop.t_final:g} s, records every {solver.record_dt:g} s"
+    )
     ok = True
-    print("agreement with each member's own single run (max |diff| / signal scale, all members"
-          " and states; then the growth over time for the largest width):")  # fmt: skip
+    print(
+        "agreement with each member's own single run (max |diff| / signal scale, all members"
+        " and states; then the growth over time for the largest width):"
+    )
     for v in variants:
         for W in widths:
             run_group, lane_exp = engines[v, W]
@@ -604,8 +666,10 @@ def main() -> int:
             for m in range(args.n):
                 ref = singles[m]
                 if nrec[m] != ref.shape[0] or status[m] != 0:
-                    print(f"  {v} W={W}: member {m} recorded {nrec[m]} rows, status "
-                          f"{status[m]}; its single run {ref.shape[0]}")  # fmt: skip
+                    print(
+                        f"  {v} W={W}: member {m} recorded {nrec[m]} rows, status "
+                        f"{status[m]}; its single run {ref.shape[0]}"
+                    )
                     ok = False
                     continue
                 got = out[m, : nrec[m]]
@@ -620,16 +684,19 @@ def main() -> int:
                 growth = []
                 for tg in GROWTH_TIMES:
                     k = int(np.searchsorted(t_rec, tg + 1e-9))
-                    growth.append(max(relative_diff(out[m, :k], singles[m][:k])
-                                      for m in range(args.n)))  # fmt: skip
-                print("      up to t = " + ", ".join(
-                    f"{tg:g} s: {g:.1e}" for tg, g in zip(GROWTH_TIMES, growth)))  # fmt: skip
+                    growth.append(
+                        max(relative_diff(out[m, :k], singles[m][:k]) for m in range(args.n))
+                    )
+                pairs = zip(GROWTH_TIMES, growth, strict=True)
+                print("      up to t = " + ", ".join(f"{tg:g} s: {g:.1e}" for tg, g in pairs))
         if known[v][0]:
             _, lane_exp = engines[v, widths[0]]
             m1, a1 = exp_accuracy(lane_exp, widths[0], -4.0, 0.0)
             m2, a2 = exp_accuracy(lane_exp, widths[0], -700.0, 700.0)
-            print(f"  variant {v} exp vs libm: max {m1} ulp (mean {a1:.2f}) on [-4, 0] (the "
-                  f"basis' range), max {m2} ulp (mean {a2:.2f}) on [-700, 700]")  # fmt: skip
+            print(
+                f"  variant {v} exp vs libm: max {m1} ulp (mean {a1:.2f}) on [-4, 0] (the "
+                f"basis' range), max {m2} ulp (mean {a2:.2f}) on [-700, 700]"
+            )
     print(f"  (compiling {len(engines)} engines: {time.perf_counter() - t_compile:.1f} s)")
 
     # timing: interleaved rounds of C, library single runs and every engine
@@ -649,13 +716,17 @@ def main() -> int:
     c_min, c_med = min(times["C"]), statistics.median(times["C"])
     s_min, s_med = min(times["single"]), statistics.median(times["single"])
     load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-    print(f"time per member, one thread, {args.rounds} interleaved rounds (min / median); "
-          f"load after: {load}")  # fmt: skip
+    print(
+        f"time per member, one thread, {args.rounds} interleaved rounds (min / median); "
+        f"load after: {load}"
+    )
     print(f"  {'':10s} {'ms':>15s} {'x C':>13s} {'x single':>13s}")
     for name, xs in times.items():
         lo, med = min(xs), statistics.median(xs)
-        print(f"  {name:10s} {1e3 * lo:6.2f} / {1e3 * med:6.2f}   {lo / c_min:5.2f} / "
-              f"{med / c_med:5.2f}   {lo / s_min:5.2f} / {med / s_med:5.2f}")  # fmt: skip
+        print(
+            f"  {name:10s} {1e3 * lo:6.2f} / {1e3 * med:6.2f}   {lo / c_min:5.2f} / "
+            f"{med / c_med:5.2f}   {lo / s_min:5.2f} / {med / s_med:5.2f}"
+        )
     if not ok:
         print("FAILED: a lane engine disagrees with the single runs")
         return 1
