@@ -32,16 +32,21 @@ Variants (each for every width ``W``):
 - ``c``: ``a`` with ``fastmath=True``.
 - ``d``: ``b`` with ``fastmath=True``.
 - ``e``: ``b`` with the rhs pasted into its five call sites (no copies; 2-3x the compile time).
+- ``f``: ``b`` with tanh, sin and cos written here too (fdlibm / Cephes kernels): no libm call
+  left in the rhs.
 
 ``tanh`` (one per rhs and lane) and the reference's ``sin``/``cos`` (cached per lane and time, two
-times per step) stay scalar libm calls in every variant.
+times per step) stay scalar libm calls in every variant but ``f``.
 
 Timing (single thread, one process, interleaved rounds; per member = group time / members):
-the same members run as single runs of the library (``CompiledLoop.integrate()``, its
-``Integration.wall``: integration with recording, no signals), through the C reference in
-``integrate`` mode (``c/hypersonic_loop.c``, one process per member, the time measured inside the
-C) and through every lane engine (group allocation, integration and recording). Prints min and
-median per member and the ratios to C and to the library's single run.
+the same members run as single runs of the library (``CompiledLoop.integrate()``: integration
+with recording, no signals), through the C reference in ``integrate`` mode
+(``c/hypersonic_loop.c``, one process per member) and through every lane engine (group
+allocation, integration and recording). Prints min and median per member of the CPU time (this
+process's ``time.process_time``; the C children's user + system time, which includes their
+start, about 1 ms) and of the wall time (the library's ``Integration.wall``, the C's own
+``elapsed``), and the ratios to C and to the library's single run. On a shared machine the CPU
+time is the steadier figure (time spent waiting for a core is not in it).
 
 Agreement: every lane's recorded trajectory (12001 x 27) against its own single run, max |diff|
 per state divided by that state's max |value| in the single run (the signal scale); the exit status
@@ -60,6 +65,7 @@ os.environ.setdefault("NUMBA_SLP_VECTORIZE", "1")
 
 import argparse  # noqa: E402
 import math  # noqa: E402
+import resource  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -97,6 +103,7 @@ ARG = 9  # 10 rows: exp arguments of the memberships
 MU = 19  # 10 rows: memberships
 PHI = 29  # 25 rows: firing strengths
 N_B = WK + PHI + 25
+NO_TIME = -1e300  # the reference cache holds no time yet
 
 # Cody-Waite split of ln 2 (fdlibm): n * LN2_HI is exact for |n| < 2^20
 LN2_HI = 6.93147180369123816490e-01
@@ -119,17 +126,55 @@ def as_double(typingctx, bits):
     return sig, codegen
 
 
-def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = True):
-    """Compile the lane engine for ``W`` lanes: returns ``run_group`` (see its docstring) and the
-    lane exp (``lane_exp(B, nrow)``: rows ``0..nrow`` of ``B`` into rows ``nrow..2 nrow``, for
-    the accuracy check).
+# fdlibm: pi/2 in two parts (n * PIO2_1 exact for |n| < 2^20) and the sin/cos kernels on
+# [-pi/4, pi/4]; Cephes: tanh on |x| <= 0.625 as x + x^3 P(x^2) / Q(x^2)
+TWO_OVER_PI = 6.36619772367581382433e-01
+PIO2_1 = 1.57079632673412561417e00
+PIO2_1T = 6.07710050650619224932e-11
+S1, S2, S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+S4, S5, S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+C1, C2, C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+C4, C5, C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+TP0, TP1, TP2 = -9.64399179425052238628e-1, -9.92877231001918586564e1, -1.61468768441708447952e3
+TQ0, TQ1, TQ2 = 1.12811678491632931402e2, 2.23548839060100448583e3, 4.84406305325125486048e3
+
+
+def build_engine(
+    W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = True, vector_trig: bool = False
+):
+    """Compile the lane engine for ``W`` lanes: returns ``run_group`` (see its docstring) and
+    ``kernels`` (the exp, tanh, sin and cos written here, for the accuracy check).
 
     ``shared_rhs``: one compiled rhs reading rows ``TIN, YT`` and writing ``DY`` (the stages
     copy their time in and the derivative out); else the rhs is pasted into each of its five
-    call sites with their own rows (no copies, about 5 times the code and compile time)."""
+    call sites with their own rows (no copies, about 5 times the code and compile time).
+    ``vector_trig``: tanh, sin and cos written here too (no libm call left in the rhs)."""
     opts = dict(nogil=True, error_model="numpy", fastmath=fastmath)
     inl = njit(inline="always", **opts)
     c13, c12, c11, c10, c9, c8, c7, c6, c5, c4, c3, c2, c1, c0 = TAYLOR
+
+    @inl
+    def vexp(x):
+        """exp of one number without calls (the polynomial of exp_rows; inlined, vectorises)."""
+        v = max(min(x, EXP_HI), EXP_LO)
+        n = math.floor(v * LOG2E + 0.5)
+        z = (v - n * LN2_HI) - n * LN2_LO
+        p = c13
+        p = p * z + c12
+        p = p * z + c11
+        p = p * z + c10
+        p = p * z + c9
+        p = p * z + c8
+        p = p * z + c7
+        p = p * z + c6
+        p = p * z + c5
+        p = p * z + c4
+        p = p * z + c3
+        p = p * z + c2
+        p = p * z + c1
+        p = p * z + c0
+        p = p * as_double((np.int64(n) + 1023) << 52)  # times 2^n
+        return p if x >= EXP_LO else 0.0
 
     if vector_exp:
 
@@ -168,10 +213,84 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = Tr
                 for w in range(W):
                     B[(dst + r) * W + w] = math.exp(B[(src + r) * W + w])
 
+    @inl
+    def vsin_cos(x):
+        """(sin x, cos x) without calls: fdlibm kernels after a two-part reduction by pi/2
+        (enough for the |x| < 1e5 of a reference's phase)."""
+        n = math.floor(x * TWO_OVER_PI + 0.5)
+        r = (x - n * PIO2_1) - n * PIO2_1T
+        z = r * r
+        sr = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))))
+        cr = 1.0 - (0.5 * z - z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))))
+        quad = np.int64(n) & 3
+        sn = sr if quad == 0 else (cr if quad == 1 else (-sr if quad == 2 else -cr))
+        cs = cr if quad == 0 else (-sr if quad == 1 else (-cr if quad == 2 else sr))
+        return sn, cs
+
+    @inl
+    def vtanh(x):
+        """tanh x without calls, as Cephes: x + x^3 P/Q on |x| <= 0.625, else from exp (both
+        computed, one selected)."""
+        ax = min(abs(x), 20.0)
+        big = 1.0 - 2.0 / (vexp(2.0 * ax) + 1.0)
+        big = big if x >= 0.0 else -big
+        z = x * x
+        small = x + x * z * ((TP0 * z + TP1) * z + TP2) / (((z + TQ0) * z + TQ1) * z + TQ2)
+        return small if ax <= 0.625 else big
+
     @njit(**opts)
-    def lane_exp(B, nrow):
-        for g in range(B.size // (2 * nrow * W)):
-            exp_rows(B[2 * g * nrow * W : 2 * (g + 1) * nrow * W], 0, nrow, nrow)
+    def kernels(x, out):
+        """out[0..3] = exp, tanh, sin, cos of x (for the accuracy check)."""
+        for i in range(x.size):
+            out[0, i] = vexp(x[i])
+            out[1, i] = vtanh(x[i])
+            out[2, i], out[3, i] = vsin_cos(x[i])
+
+    if vector_trig:
+
+        @inl
+        def reference(B, tt, amp, omega):
+            """y_d = A sin(w t) and its derivatives for all lanes when any lane's time moved."""
+            moved = False
+            for w in range(W):
+                moved |= B[(WK + REFT) * W + w] != B[tt * W + w]
+            if not moved:
+                return
+            for w in range(W):
+                sn, cs = vsin_cos(omega * B[tt * W + w])
+                B[(WK + R0) * W + w] = amp * sn
+                B[(WK + R1) * W + w] = amp * (cs * omega)
+                B[(WK + R2) * W + w] = amp * (((-sn) * omega) * omega)
+                B[(WK + REFT) * W + w] = B[tt * W + w]
+
+        @inl
+        def robust(B, k, k0, eps0):
+            """q = s' + k s + k0 tanh(s / eps0) (2.20), tanh without calls."""
+            for w in range(W):
+                s = B[(WK + S) * W + w]
+                B[(WK + QQ) * W + w] = B[(WK + SD) * W + w] + k * s + k0 * vtanh(s / eps0)
+
+    else:
+
+        @inl
+        def reference(B, tt, amp, omega):
+            """y_d = A sin(w t) and its derivatives, per lane whose time moved (libm)."""
+            for w in range(W):
+                t = B[tt * W + w]
+                if B[(WK + REFT) * W + w] != t:
+                    sn = math.sin(omega * t)
+                    cs = math.cos(omega * t)
+                    B[(WK + R0) * W + w] = amp * sn
+                    B[(WK + R1) * W + w] = amp * (cs * omega)
+                    B[(WK + R2) * W + w] = amp * (((-sn) * omega) * omega)
+                    B[(WK + REFT) * W + w] = t
+
+        @inl
+        def robust(B, k, k0, eps0):
+            """q = s' + k s + k0 tanh(s / eps0) (2.20), libm's tanh per lane."""
+            for w in range(W):
+                s = B[(WK + S) * W + w]
+                B[(WK + QQ) * W + w] = B[(WK + SD) * W + w] + k * s + k0 * math.tanh(s / eps0)
 
     @inl
     def rhs(B, C, tt, y, dy):
@@ -192,15 +311,7 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = Tr
             C[19],
         )
         # reference, cached per lane while its time stays the same (k2, k3; k4 and the next k1)
-        for w in range(W):
-            t = B[tt * W + w]
-            if B[(WK + REFT) * W + w] != t:
-                sn = math.sin(omega * t)
-                cs = math.cos(omega * t)
-                B[(WK + R0) * W + w] = amp * sn
-                B[(WK + R1) * W + w] = amp * (cs * omega)
-                B[(WK + R2) * W + w] = amp * (((-sn) * omega) * omega)
-                B[(WK + REFT) * W + w] = t
+        reference(B, tt, amp, omega)
         # tracking errors and filtered error (2.18)
         for w in range(W):
             e = B[(WK + R0) * W + w] - B[y * W + w]
@@ -250,9 +361,7 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = Tr
             B[(dy + 1) * W + w] = xd1
             B[(WK + SD) * W + w] = B[(WK + R2) * W + w] - xd1 + lam * B[(WK + ED) * W + w]
         # q = s' + k s + k0 tanh(s / eps0) (2.20)
-        for w in range(W):
-            s = B[(WK + S) * W + w]
-            B[(WK + QQ) * W + w] = B[(WK + SD) * W + w] + k * s + k0 * math.tanh(s / eps0)
+        robust(B, k, k0, eps0)
         # theta' = gamma phi q - gamma sigma theta (2.29)
         g = gamma * 1.0
         gs = gamma * sigma
@@ -311,7 +420,7 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = Tr
         r = np.zeros(W, dtype=np.int64)
         active = np.ones(W, dtype=np.bool_)
         for w in range(W):
-            B[(WK + REFT) * W + w] = np.nan
+            B[(WK + REFT) * W + w] = NO_TIME  # not NaN: fastmath assumes there is none
             B[ACT * W + w] = 1.0
             for i in range(NY):
                 B[(Y + i) * W + w] = y0[i]
@@ -459,7 +568,7 @@ def build_engine(W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = Tr
         for w in range(W):
             nrec_out[w] = r[w]
 
-    return run_group, lane_exp
+    return run_group, kernels
 
 
 # ---------------------------------------------------------------------------------- members
@@ -560,27 +669,39 @@ def run_lanes(engine, W, grp: Group, y0, dt, t_rec, C, bound):
 
 
 def ulps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance in units in the last place between positive doubles."""
-    return np.abs(a.view(np.int64) - b.view(np.int64))
+    """Distance in units in the last place between doubles (of the same sign; 0 and -0 apart
+    by one)."""
+    ia, ib = a.view(np.int64), b.view(np.int64)
+    ia = np.where(ia < 0, np.int64(-(2**63)) - ia, ia)  # order the negatives too
+    ib = np.where(ib < 0, np.int64(-(2**63)) - ib, ib)
+    return np.abs(ia - ib)
 
 
 @njit
-def _libm_exp(x, out):
+def _libm(x, out):
     for i in range(x.size):
-        out[i] = math.exp(x[i])
+        out[0, i] = math.exp(x[i])
+        out[1, i] = math.tanh(x[i])
+        out[2, i] = math.sin(x[i])
+        out[3, i] = math.cos(x[i])
 
 
-def exp_accuracy(lane_exp, W: int, lo: float, hi: float, n: int = 1 << 18) -> tuple[int, float]:
-    """Max and mean ulps of the lane exp against libm's exp on ``n`` points in [lo, hi]."""
-    rng = np.random.default_rng(1)
-    x = np.sort(rng.uniform(lo, hi, n))
-    ref = np.empty(n)
-    _libm_exp(x, ref)
-    B = np.zeros((n // W, 2, W))
-    B[:, 0, :] = x.reshape(n // W, W)
-    lane_exp(B.reshape(-1), 1)
-    u = ulps(B[:, 1, :].reshape(-1), ref)
-    return int(u.max()), float(u.mean())
+KERNELS = ("exp", "tanh", "sin", "cos")
+
+
+def kernel_ulps(kernels, lo: float, hi: float, n: int = 1 << 18) -> list[tuple[int, float]]:
+    """Max and mean ulps of the prototype's exp, tanh, sin, cos against libm on ``n`` points
+    in [lo, hi]."""
+    x = np.random.default_rng(1).uniform(lo, hi, n)
+    ref = np.empty((4, n))
+    got = np.empty((4, n))
+    _libm(x, ref)
+    kernels(x, got)
+    out = []
+    for k in range(4):
+        u = ulps(got[k], ref[k])
+        out.append((int(u.max()), float(u.mean())))
+    return out
 
 
 def relative_diff(lanes: np.ndarray, single: np.ndarray) -> float:
@@ -590,6 +711,12 @@ def relative_diff(lanes: np.ndarray, single: np.ndarray) -> float:
 
 
 # ---------------------------------------------------------------------------------- main
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes (the C runs) so far."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
 
 
 def main() -> int:
@@ -604,15 +731,16 @@ def main() -> int:
     args = ap.parse_args()
     widths = [int(v) for v in args.widths.split(",")]
     variants = args.variants.split(",")
-    known = {  # (vector exp, fastmath, shared rhs)
-        "a": (False, False, True),
-        "b": (True, False, True),
-        "c": (False, True, True),
-        "d": (True, True, True),
-        "e": (True, False, False),
+    known = {  # (vector exp, fastmath, shared rhs, vector tanh/sin/cos)
+        "a": (False, False, True, False),
+        "b": (True, False, True, False),
+        "c": (False, True, True, False),
+        "d": (True, True, True, False),
+        "e": (True, False, False, False),
+        "f": (True, False, True, True),
     }
     if args.n < 1 or args.rounds < 1 or min(widths) < 1 or not set(variants) <= set(known):
-        print("error: --n, --rounds and --widths must be positive, variants among a,b,c,d,e")
+        print("error: --n, --rounds and --widths must be positive, variants among a,b,c,d,e,f")
         return 2
     try:
         exe = build()
@@ -660,7 +788,7 @@ def main() -> int:
     )
     for v in variants:
         for W in widths:
-            run_group, lane_exp = engines[v, W]
+            run_group, _ = engines[v, W]
             out, nrec, status = run_lanes(run_group, W, grp, y0, dt, t_rec, C, bound)
             worst, same = 0.0, True
             for m in range(args.n):
@@ -689,44 +817,57 @@ def main() -> int:
                     )
                 pairs = zip(GROWTH_TIMES, growth, strict=True)
                 print("      up to t = " + ", ".join(f"{tg:g} s: {g:.1e}" for tg, g in pairs))
+        if v == "e":
+            continue  # the same kernels as b
         if known[v][0]:
-            _, lane_exp = engines[v, widths[0]]
-            m1, a1 = exp_accuracy(lane_exp, widths[0], -4.0, 0.0)
-            m2, a2 = exp_accuracy(lane_exp, widths[0], -700.0, 700.0)
-            print(
-                f"  variant {v} exp vs libm: max {m1} ulp (mean {a1:.2f}) on [-4, 0] (the "
-                f"basis' range), max {m2} ulp (mean {a2:.2f}) on [-700, 700]"
-            )
+            _, kernels = engines[v, widths[0]]
+            names = KERNELS if known[v][3] else KERNELS[:1]
+            ranges = {"exp": [(-4.0, 0.0), (-700.0, 700.0)], "tanh": [(-20.0, 20.0)]}
+            ranges.update(sin=[(0.0, 24.0)], cos=[(0.0, 24.0)])  # 24 = omega t_final
+            for k, name in enumerate(names):
+                for lo, hi in ranges[name]:
+                    mx, mean = kernel_ulps(kernels, lo, hi)[k]
+                    print(
+                        f"  variant {v}: its {name} vs libm on [{lo:g}, {hi:g}]: max {mx} ulp "
+                        f"(mean {mean:.2f})"
+                    )
     print(f"  (compiling {len(engines)} engines: {time.perf_counter() - t_compile:.1f} s)")
 
-    # timing: interleaved rounds of C, library single runs and every engine
-    times: dict[str, list[float]] = {"C": [], "single": []}
+    # timing: interleaved rounds of C, library single runs and every engine; CPU time (this
+    # process's, or the C children's) and wall time
+    cpu: dict[str, list[float]] = {"C": [], "single": []}
+    wall: dict[str, list[float]] = {"C": [], "single": []}
     for key in engines:
-        times[f"{key[0]} W={key[1]}"] = []
+        cpu[f"{key[0]} W={key[1]}"] = []
+        wall[f"{key[0]} W={key[1]}"] = []
     for _ in range(args.rounds):
         tc = 0.0
+        c0 = _children_cpu()
         for f in members:
             tc += run_single(exe, mode="integrate", failures=f, read=False).elapsed[0]
-        times["C"].append(tc / args.n)
-        times["single"].append(sum(cl.integrate().wall for cl in compiled) / args.n)
+        cpu["C"].append((_children_cpu() - c0) / args.n)
+        wall["C"].append(tc / args.n)
+        c0 = time.process_time()
+        wall["single"].append(sum(cl.integrate().wall for cl in compiled) / args.n)
+        cpu["single"].append((time.process_time() - c0) / args.n)
         for (v, W), (run_group, _) in engines.items():
-            t = time.perf_counter()
+            c0, t0 = time.process_time(), time.perf_counter()
             run_lanes(run_group, W, grp, y0, dt, t_rec, C, bound)
-            times[f"{v} W={W}"].append((time.perf_counter() - t) / args.n)
-    c_min, c_med = min(times["C"]), statistics.median(times["C"])
-    s_min, s_med = min(times["single"]), statistics.median(times["single"])
+            cpu[f"{v} W={W}"].append((time.process_time() - c0) / args.n)
+            wall[f"{v} W={W}"].append((time.perf_counter() - t0) / args.n)
     load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-    print(
-        f"time per member, one thread, {args.rounds} interleaved rounds (min / median); "
-        f"load after: {load}"
-    )
-    print(f"  {'':10s} {'ms':>15s} {'x C':>13s} {'x single':>13s}")
-    for name, xs in times.items():
-        lo, med = min(xs), statistics.median(xs)
-        print(
-            f"  {name:10s} {1e3 * lo:6.2f} / {1e3 * med:6.2f}   {lo / c_min:5.2f} / "
-            f"{med / c_med:5.2f}   {lo / s_min:5.2f} / {med / s_med:5.2f}"
-        )
+    print(f"time per member, one thread, {args.rounds} interleaved rounds; load after: {load}")
+    for what, times in (("CPU time", cpu), ("wall time", wall)):
+        c_min, c_med = min(times["C"]), statistics.median(times["C"])
+        s_min, s_med = min(times["single"]), statistics.median(times["single"])
+        print(f"  {what} (min / median):")
+        print(f"  {'':10s} {'ms':>15s} {'x C':>13s} {'x single':>13s}")
+        for name, xs in times.items():
+            lo, med = min(xs), statistics.median(xs)
+            print(
+                f"  {name:10s} {1e3 * lo:6.2f} / {1e3 * med:6.2f}   {lo / c_min:5.2f} / "
+                f"{med / c_med:5.2f}   {lo / s_min:5.2f} / {med / s_med:5.2f}"
+            )
     if not ok:
         print("FAILED: a lane engine disagrees with the single runs")
         return 1
