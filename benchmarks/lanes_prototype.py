@@ -95,8 +95,8 @@ GROWTH_TIMES = (1.0, 10.0, 30.0, 60.0, 120.0)
 Y, K1, K2, K3, K4, YT, YN, FE, DY = (NY * i for i in range(9))  # state, stages, stage state...
 T, TM, T1, HH, H2, H6, TIN = range(9 * NY, 9 * NY + 7)  # per lane t, t+h/2, t+h, h, h/2, h/6
 FA, FB = 9 * NY + 7, 9 * NY + 9  # failure map u_f = a u + b per elevator (2 rows each)
-ACT = 9 * NY + 11  # 1.0 while the lane is running
-WK = 9 * NY + 12  # work rows (relative to WK):
+ACT, BAD = 9 * NY + 11, 9 * NY + 12  # 1.0 while the lane runs; 1.0 where its step diverged
+WK = 9 * NY + 13  # work rows (relative to WK):
 R0, R1, R2, REFT = 0, 1, 2, 3  # reference y_d, y_d', y_d'' and the time they belong to
 ED, S, SD, QQ, U0 = 4, 5, 6, 7, 8  # e', s (2.18), s', q (2.20), u0 = phi^T theta (2.22)
 ARG = 9  # 10 rows: exp arguments of the memberships
@@ -479,18 +479,22 @@ def build_engine(
                         + 2.0 * B[(K3 + i) * W + w]
                         + B[(K4 + i) * W + w]
                     )
-            # per lane: divergence, then does any record of this step need f(t1, yn)?
+            # divergence of every lane at once (a select per state, no branch), then per lane:
+            # stop a diverged one; does any record of this step need f(t1, yn)?
+            for w in range(W):
+                B[BAD * W + w] = 0.0
+            for i in range(NY):
+                for w in range(W):
+                    ok = abs(B[(YN + i) * W + w]) < bound  # False for NaN too
+                    B[BAD * W + w] = B[BAD * W + w] if ok else 1.0
             need_fe = False
             for w in range(W):
                 if not active[w]:
                     continue
-                for i in range(NY):
-                    if not (abs(B[(YN + i) * W + w]) < bound):
-                        status[w] = 1
-                        active[w] = False
-                        B[ACT * W + w] = 0.0
-                        break
-                if not active[w]:
+                if B[BAD * W + w] != 0.0:
+                    status[w] = 1
+                    active[w] = False
+                    B[ACT * W + w] = 0.0
                     continue
                 t1 = B[T1 * W + w]
                 last = ph[w] == nph[w] - 1 and st[w] == nst[w] - 1
