@@ -1,7 +1,7 @@
 """Prototype (issue 29): members of hypersonic-direct-s1 in SIMD lanes, against single runs and C.
 
 Run: ``python benchmarks/lanes_prototype.py [--n 32] [--widths 4,8,16] [--rounds 3] [--seed 0]
-[--variants a,b,c,d]``.
+[--variants a,b,c:8,d:8,e:8,f,g]``.
 
 Not library code: a hand-written, lane-parallel (struct-of-arrays) form of the §2.3 direct loop
 (plant (2.50), 5 x 5 raw fuzzy basis (2.40), control (2.22), robust term (2.20), theta law (2.29),
@@ -34,6 +34,8 @@ Variants (each for every width ``W``):
 - ``e``: ``b`` with the rhs pasted into its five call sites (no copies; 2-3x the compile time).
 - ``f``: ``b`` with tanh, sin and cos written here too (fdlibm / Cephes kernels): no libm call
   left in the rhs.
+- ``g``: ``f`` pasted (as ``e``) and with ``fastmath={"contract"}`` (fused multiply-adds only;
+  NaN, infinities and the order of operations kept).
 
 ``tanh`` (one per rhs and lane) and the reference's ``sin``/``cos`` (cached per lane and time, two
 times per step) stay scalar libm calls in every variant but ``f``.
@@ -644,29 +646,20 @@ class Group:
 
 
 def run_lanes(engine, W, grp: Group, y0, dt, t_rec, C, bound):
-    """All members through ``engine`` in groups of ``W``: ``(records[n, nrec, 27], nrec[n],
+    """All members through ``engine`` in groups of ``W`` (the last group filled up with copies
+    of the first member, their results dropped): ``(records[n, nrec, 27], nrec[n],
     status[n])``."""
     n = grp.n
-    out = np.empty((n, t_rec.size, NY))
-    nrec = np.zeros(n, dtype=np.int64)
-    status = np.zeros(n, dtype=np.int64)
-    for g in range(0, n, W):
+    total = -(-n // W) * W
+    pick = np.r_[np.arange(n), np.zeros(total - n, dtype=np.int64)]
+    brk, nph, fa, fb = grp.brk[pick], grp.nph[pick], grp.FA[pick], grp.FB[pick]
+    out = np.empty((total, t_rec.size, NY))
+    nrec = np.zeros(total, dtype=np.int64)
+    status = np.zeros(total, dtype=np.int64)
+    for g in range(0, total, W):
         s = slice(g, g + W)
-        engine(
-            y0,
-            grp.brk[s],
-            grp.nph[s],
-            grp.FA[s],
-            grp.FB[s],
-            dt,
-            t_rec,
-            C,
-            bound,
-            out[s],
-            status[s],
-            nrec[s],
-        )
-    return out, nrec, status
+        engine(y0, brk[s], nph[s], fa[s], fb[s], dt, t_rec, C, bound, out[s], status[s], nrec[s])
+    return out[:n], nrec[:n], status[:n]
 
 
 # ---------------------------------------------------------------------------------- checks
@@ -731,10 +724,13 @@ def main() -> int:
     ap.add_argument("--widths", default="4,8,16", help="lane widths W (default 4,8,16)")
     ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds (default 3)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
-    ap.add_argument("--variants", default="a,b,c,d", help="variants (default a,b,c,d)")
+    ap.add_argument(
+        "--variants",
+        default="a,b,c:8,d:8,e:8,f,g",
+        help="variants, each with its own widths after a colon (8+16) or all of --widths "
+        "(default a,b,c:8,d:8,e:8,f,g)",
+    )
     args = ap.parse_args()
-    widths = [int(v) for v in args.widths.split(",")]
-    variants = args.variants.split(",")
     known = {  # (vector exp, fastmath, shared rhs, vector tanh/sin/cos)
         "a": (False, False, True, False),
         "b": (True, False, True, False),
@@ -742,9 +738,26 @@ def main() -> int:
         "d": (True, True, True, False),
         "e": (True, False, False, False),
         "f": (True, False, True, True),
+        "g": (True, {"contract"}, False, True),
     }
-    if args.n < 1 or args.rounds < 1 or min(widths) < 1 or not set(variants) <= set(known):
-        print("error: --n, --rounds and --widths must be positive, variants among a,b,c,d,e,f")
+    try:
+        widths = [int(v) for v in args.widths.split(",")]
+        plan = []
+        for item in args.variants.split(","):
+            v, _, ws = item.partition(":")
+            plan.append((v, [int(w) for w in ws.split("+")] if ws else widths))
+    except ValueError:
+        plan = []
+    if (
+        args.n < 1
+        or args.rounds < 1
+        or not plan
+        or any(v not in known or min(ws) < 1 for v, ws in plan)
+    ):
+        print(
+            "error: --n, --rounds and --widths must be positive integers, --variants a list "
+            "of a..g, each optionally with widths (b:8+16)"
+        )
         return 2
     try:
         exe = build()
@@ -777,10 +790,16 @@ def main() -> int:
 
     # compile every engine, check its exp and its agreement
     engines: dict[tuple[str, int], object] = {}
+    compile_s: dict[tuple[str, int], float] = {}
     t_compile = time.perf_counter()
-    for v in variants:
-        for W in widths:
+    for v, ws in plan:
+        for W in ws:
+            t0 = time.perf_counter()
             engines[v, W] = build_engine(W, *known[v])
+            # numba compiles on the first call: a one-member group over 1 ms
+            one = Group([()], 0.0, 1e-3)
+            run_lanes(engines[v, W][0], W, one, y0, dt, t_rec[:1], C, bound)
+            compile_s[v, W] = time.perf_counter() - t0
     print(
         f"{SCENARIO}: {args.n} members (failures drawn as bench_batch.py, seed {args.seed}), "
         f"RK4 dt {dt:g}, {loop.t_final:g} s, records every {solver.record_dt:g} s"
@@ -790,8 +809,8 @@ def main() -> int:
         "agreement with each member's own single run (max |diff| / signal scale, all members"
         " and states; then the growth over time for the largest width):"
     )
-    for v in variants:
-        for W in widths:
+    for v, ws in plan:
+        for W in ws:
             run_group, _ = engines[v, W]
             out, nrec, status = run_lanes(run_group, W, grp, y0, dt, t_rec, C, bound)
             worst, same = 0.0, True
@@ -811,8 +830,11 @@ def main() -> int:
             verdict = "ok" if worst <= limit else "FAILED"
             ok = ok and worst <= limit
             note = "bit-identical" if same else f"{worst:.2e}"
-            print(f"  variant {v}, W = {W:2d}: {note} (limit {limit:g}: {verdict})")
-            if W == widths[-1]:
+            print(
+                f"  variant {v}, W = {W:2d}: {note} (limit {limit:g}: {verdict}); compiled in "
+                f"{compile_s[v, W]:.1f} s"
+            )
+            if W == ws[-1]:
                 growth = []
                 for tg in GROWTH_TIMES:
                     k = int(np.searchsorted(t_rec, tg + 1e-9))
@@ -824,7 +846,7 @@ def main() -> int:
         if v == "e":
             continue  # the same kernels as b
         if known[v][0]:
-            _, kernels = engines[v, widths[0]]
+            _, kernels = engines[v, ws[0]]
             names = KERNELS if known[v][3] else KERNELS[:1]
             ranges = {"exp": [(-4.0, 0.0), (-700.0, 700.0)], "tanh": [(-20.0, 20.0)]}
             ranges.update(sin=[(0.0, 24.0)], cos=[(0.0, 24.0)])  # 24 = omega t_final
