@@ -154,11 +154,17 @@ TQ0, TQ1, TQ2 = 1.12811678491632931402e2, 2.23548839060100448583e3, 4.8440630532
 
 
 def build_engine(
-    W: int, vector_exp: bool, fastmath: bool, shared_rhs: bool = True, vector_trig: bool = False
+    W: int,
+    vector_exp: bool,
+    fastmath: bool | set[str],
+    shared_rhs: bool = True,
+    vector_trig: bool = False,
 ):
     """Compile the lane engine for ``W`` lanes: returns ``run_group`` (see its docstring) and
     ``kernels`` (the exp, tanh, sin and cos written here, for the accuracy check).
 
+    ``vector_exp``: the call-free exp for the fuzzy basis (else libm's, a call per lane);
+    ``fastmath``: numba's option (True, or a set of LLVM flags such as ``{"contract"}``);
     ``shared_rhs``: one compiled rhs reading rows ``TIN, YT`` and writing ``DY`` (the stages
     copy their time in and the derivative out); else the rhs is pasted into each of its five
     call sites with their own rows (no copies, about 5 times the code and compile time).
