@@ -274,6 +274,10 @@ class Configuration(NamedTuple):
     #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
     #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
     slope_scale: float = 1.0
+    #: prefilter bandwidth of the measurements the *adaptation's* regressor sees (rad/s; inf
+    #: = none): ``u0 = Pi(x)^T theta`` keeps the measured ``x``, the law of ``theta`` gets
+    #: ``Pi`` of the prefiltered ``x`` (§4.3 under noise, :func:`adaptation_regressor_rule`)
+    omega_r: float = math.inf
 
     @property
     def filtered(self) -> bool:
@@ -290,6 +294,17 @@ class Configuration(NamedTuple):
     @property
     def projected(self) -> bool:
         return math.isfinite(self.theta_max)
+
+    @property
+    def adaptation_regressor_filtered(self) -> bool:
+        """The adaptation's regressor sees prefiltered measurements (the command's does not)."""
+        return math.isfinite(self.omega_r) and not self.measured_through_filter
+
+    @property
+    def has_measurement_filters(self) -> bool:
+        """One prefilter state per plant state (all the law's measurements, or only what the
+        adaptation's regressor sees)."""
+        return self.measured_through_filter or self.adaptation_regressor_filtered
 
 
 IDENTITY = Configuration(
@@ -630,6 +645,33 @@ class ConstraintAware:
         )
 
 
+def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float) -> Configuration:
+    """§4.3 (Nussbaum) under noise: the law of ``theta`` sees the regressor of prefiltered
+    measurements (``omega_r = C_MEASURE w``, at most ``C_EULER / T``), the command ``u0 =
+    Pi(x)^T theta`` still the measured one, where the noise of ``s`` the law runs with (at
+    most ``lam_factor`` times the model's: ``lam`` multiplies the position noise) is above
+    the density bound at the loop rate, ``w^2 lam_factor n_d > C_NOISE_DENSITY``. Not where
+    the std bound binds (every measurement is prefiltered there already).
+
+    Why: ``theta' = alpha0 N(tau) Pi(x_m) q`` multiplies two noisy signals whose noise is
+    correlated (the measured pitch rate enters ``Pi`` and, through ``e' = y_d' - q_m``, ``s``
+    and the dirty derivative ``s'`` in ``q``), so the gradient has a bias of the order of
+    ``|dPi/dx| noise^2 / tau_d`` that no error balances: the classic noise-driven parameter
+    drift (Ioannou & Sun 1996, §8.3). Measured on hypersonic-nussbaum-s1-pos with 1 % noise:
+    ``|theta|`` drifts to 0.5 over the run (0.07 with the prefiltered regressor) and the
+    drifted ``theta`` carries the measurement noise into the command through ``Pi(x_m)``
+    (fast content 2.06e-2 rad, 100-500 Hz half of it; 1.74e-2 with the prefiltered
+    regressor). Prefiltering what ``u0`` sees as well lags the loop (measured: worse)."""
+    if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter:
+        return cfg
+    if w * w * max(1.0, cfg.lam_factor) * ca.noise_density <= C_NOISE_DENSITY:
+        return cfg
+    omega_r = C_MEASURE * w
+    if ca.sample_time > 0:
+        omega_r = min(omega_r, C_EULER / ca.sample_time)
+    return cfg._replace(omega_r=omega_r)
+
+
 # ---------------------------------------------------------------- compiled pieces of the law
 def command_filter(uc, uf, omega_f, u_max, u_rate):
     """Derivative of the command filter: ``clip(w_f (clip(uc, -U, U) - uf), -R, R)``
@@ -679,6 +721,24 @@ def project_ball(dY, Y, theta_max, at, size):
             dY[at + l] -= f * Y[at + l]
 
 
+def _filtered_regressors(g, at_m: int) -> list[str]:
+    """Generated lines writing ``phi`` again, from the prefiltered plant states ``Y[at_m:]``
+    (inputs that are not plant states, errors and ``s``, stay as measured): ``u0 = Pi^T
+    theta`` is computed before, so only the adaptive laws after these lines see them."""
+    nx = g.nx
+    lines = ["    # constraint-aware: the adaptation's regressor of the prefiltered measurements"]
+    off = 0
+    for r, reg in enumerate(g.loop.controller.regressors_for(g.p)):
+        idx = [g.signal(name, "the adaptation's regressor") for name in reg.inputs]
+        for ln in reg.emit(g, idx, off, r):
+            for i in sorted(set(idx)):
+                if i < nx:
+                    ln = ln.replace(f"sig[{i}]", f"Y[{at_m + i}]")
+            lines.append(ln)
+        off += reg.size
+    return lines
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -696,19 +756,22 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
     wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
+    if cfg.adaptation_regressor_filtered:  # appended only here: other loops keep their c
+        wm = f"c[{len(g.consts)}]"
+        g.consts.append(cfg.omega_r)
     hedged = cfg.filtered and cfg.hedge > 0
     sign = f" * {direction}" if direction else ""
     # places of the states
     at_h = at
     at_q = at_h + (p if hedged else 0)
     at_m = at_q + (p if cfg.prefiltered else 0)
-    at_f = at_m + (nx if cfg.measured_through_filter else 0)
+    at_f = at_m + (nx if cfg.has_measurement_filters else 0)
     end = at_f + (p if cfg.filtered else 0)
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
         g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
-    if cfg.measured_through_filter:
+    if cfg.has_measurement_filters:
         g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
     if cfg.filtered:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
@@ -722,6 +785,14 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
             f"        sig[i] = Y[{at_m} + i]",
         ]
+    elif cfg.adaptation_regressor_filtered:  # the law sees x + noise; its filter runs beside
+        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        measure = [
+            f"    for i in range({nx}):  # constraint-aware: the adaptation's regressor sees",
+            f"        sig[i] = {seen}",
+            f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
+        ]
+        pre += _filtered_regressors(g, at_m)
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")

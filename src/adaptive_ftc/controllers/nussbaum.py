@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.expressions import Expression
@@ -67,6 +68,21 @@ class NussbaumAdaptive(AdaptiveController):
     def theta_gain(self) -> float:
         """``alpha0 |N(tau0)|``: the law's gain at the initial ``tau``."""
         return float(self.alpha0) * abs(float(self.nussbaum_expression()(tau=float(self.tau0))))
+
+    def configuration(
+        self, b_max: float = 1.0, input_gain: float = 0.0
+    ) -> constraints.Configuration:
+        """The shared rule's configuration and, under noise above the density bound, the
+        adaptation's regressor of prefiltered measurements
+        (:func:`~adaptive_ftc.controllers.constraints.adaptation_regressor_rule`: the noise
+        of ``Pi`` and of ``q`` is correlated, and ``theta`` drifts with it)."""
+        cfg = super().configuration(b_max, input_gain)
+        ca = self.constraint_aware
+        if ca is None or cfg == constraints.IDENTITY or ca.noise <= 0:
+            return cfg
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else b_max)
+        return constraints.adaptation_regressor_rule(cfg, ca, w)
 
     def gains(self) -> NussbaumGains:
         r = self.adaptation_scale  # 1 for the thesis law
