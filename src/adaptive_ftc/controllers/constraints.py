@@ -661,7 +661,15 @@ def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float)
     ``|theta|`` drifts to 0.5 over the run (0.07 with the prefiltered regressor) and the
     drifted ``theta`` carries the measurement noise into the command through ``Pi(x_m)``
     (fast content 2.06e-2 rad, 100-500 Hz half of it; 1.74e-2 with the prefiltered
-    regressor). Prefiltering what ``u0`` sees as well lags the loop (measured: worse)."""
+    regressor). Prefiltering what ``u0`` sees as well lags the loop (measured: worse).
+
+    With it, ``lam`` is raised at most ``LAM_FACTOR_NOISE`` times, as where the std bound
+    binds: ``lam`` multiplies the position noise in ``s``, which the loop tracks up to its
+    rate (the rest of the fast content, 1-3 Hz about ``w``): measured, the noise case at
+    ``lam`` x4 (the shared rule's 8) has 1.74e-2 rad, x2 1.10e-2 (error 4.9e-4 -> 7.3e-4).
+    The cost: the wrong-signed runs (hypersonic-nussbaum-s1-neg, -s2-neg) need the larger
+    ``lam`` to find the direction (``tau' = alpha1 q^2`` against the wrong-signed loop's
+    growth) and diverge at 0.9 s with noise (docs/hardware.md)."""
     if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter:
         return cfg
     if w * w * max(1.0, cfg.lam_factor) * ca.noise_density <= C_NOISE_DENSITY:
@@ -669,7 +677,7 @@ def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float)
     omega_r = C_MEASURE * w
     if ca.sample_time > 0:
         omega_r = min(omega_r, C_EULER / ca.sample_time)
-    return cfg._replace(omega_r=omega_r)
+    return cfg._replace(omega_r=omega_r, lam_factor=min(cfg.lam_factor, LAM_FACTOR_NOISE))
 
 
 # ---------------------------------------------------------------- compiled pieces of the law
