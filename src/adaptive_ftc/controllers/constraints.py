@@ -79,7 +79,11 @@ design, not another design) it derives, by the rules below, one configuration
    ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
    5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
    travel limits the loop was lost, error 0.12 rad), while the same law without them stayed
-   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error.
+   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error. §4.3 (Nussbaum) adds its own
+   rule where the std bound does not bind but the noise of ``s``, counted with the raised
+   ``lam``, is above the density bound: its adaptation's regressor sees prefiltered
+   measurements (``u0`` still the measured ones) and ``lam`` is raised at most
+   ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`).
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
