@@ -1,6 +1,7 @@
-"""§4.3 Nussbaum under sensor noise (issue 25): the law of ``theta`` sees the regressor of
-prefiltered measurements where the noise is above the density bound (docs/hardware.md,
-"§4.3 Nussbaum")."""
+"""§4.3 Nussbaum under sensor noise (issue 25): where the noise is above the density bound,
+the law of ``theta`` sees the regressor of prefiltered measurements, ``lam`` is raised at most
+``LAM_FACTOR_NOISE`` times and ``tau`` integrates the prefiltered ``q`` at the thesis's rate
+(docs/hardware.md, "§4.3 Nussbaum")."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from scipy.signal import butter, sosfiltfilt
 from adaptive_ftc.controllers import ConstraintAware
 from adaptive_ftc.controllers.constraints import (
     C_MEASURE,
+    C_PREFILTER,
     LAM_FACTOR_NOISE,
     adaptation_regressor_rule,
 )
@@ -108,3 +110,42 @@ def test_the_capped_lam_quiets_the_command(noisy_30s):
     fast = max(float(np.sqrt(np.mean((u - sosfiltfilt(sos, u))[sel] ** 2))) for u in r.u_cmd.T)
     assert fast < 1.0e-2
     assert float(np.max(r.rms_error(10.0, 30.0))) < 8.7e-4
+
+
+def test_tau_sees_the_prefiltered_q_at_the_thesis_rate(scenario):
+    """Where the noise rule applies, ``tau' = alpha1 q_f^2`` with ``q_f`` prefiltered at
+    ``C_PREFILTER w`` and the thesis's ``alpha1``; elsewhere round 3's ``r alpha1``."""
+    loop = _noisy(scenario.loop)
+    bound = _aware(loop).controller.bound(loop)
+    ca = bound.constraint_aware
+    w, _ = ca.omega_max(ca.loop_rate, ca.b_max)
+    assert bound.tau_prefilter() == pytest.approx(C_PREFILTER * w)
+    assert bound.gains().alpha1 == scenario.loop.controller.alpha1
+    assert "tau_law(Y[" in source_of(_aware(loop))
+    lagged = replace(scenario.loop, actuators=Actuators(tau=0.05))
+    bound = _aware(lagged).controller.bound(lagged)
+    assert math.isinf(bound.tau_prefilter())
+    r = bound.adaptation_scale
+    assert bound.gains().alpha1 == pytest.approx(r * scenario.loop.controller.alpha1)
+
+
+def test_the_noise_does_not_drift_the_nussbaum_argument(noisy_30s):
+    """``tau`` integrates ``q^2``, the noise's power with the measured ``q``: 1 -> 1.05 in
+    30 s at ``r alpha1`` (1.19 at 120 s), and at the thesis's ``alpha1`` the loop is lost at
+    49 s; with the prefiltered ``q``, 1.003."""
+    assert noisy_30s.adaptive_state("tau")[-1] < 1.01
+
+
+def test_the_wrong_signed_noisy_loop_finds_its_direction():
+    """hypersonic-nussbaum-s1-neg with 1 % noise: with ``lam`` x2 and ``r alpha1`` the
+    wrong-signed loop diverged at 0.9 s, before ``N(tau)`` changed sign; the search at the
+    thesis's rate finds the direction (5 s)."""
+    sc = load_scenario("hypersonic-nussbaum-s1-neg")
+    loop = _aware(_noisy(replace(sc.loop, t_final=5.0)))
+    solver = replace(sc.solver, method="rk4", dt=1e-3, record_dt=1e-2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        r = simulate(loop, solver)
+    assert r.status == "completed"
+    assert np.all(r.gain[r.time >= 2.0] < 0)  # the negative direction, for good
+    assert float(np.max(r.rms_error(4.0, 5.0))) < 1e-2
