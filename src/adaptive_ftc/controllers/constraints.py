@@ -82,8 +82,9 @@ design, not another design) it derives, by the rules below, one configuration
    at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error. §4.3 (Nussbaum) adds its own
    rule where the std bound does not bind but the noise of ``s``, counted with the raised
    ``lam``, is above the density bound: its adaptation's regressor sees prefiltered
-   measurements (``u0`` still the measured ones) and ``lam`` is raised at most
-   ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`).
+   measurements (``u0`` still the measured ones), ``lam`` is raised at most
+   ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`) and ``tau`` integrates
+   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``).
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
