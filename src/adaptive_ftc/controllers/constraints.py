@@ -79,7 +79,12 @@ design, not another design) it derives, by the rules below, one configuration
    ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
    5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
    travel limits the loop was lost, error 0.12 rad), while the same law without them stayed
-   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error.
+   at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error. §4.3 (Nussbaum) adds its own
+   rule where the std bound does not bind but the noise of ``s``, counted with the raised
+   ``lam``, is above the density bound: its adaptation's regressor sees prefiltered
+   measurements (``u0`` still the measured ones), ``lam`` is raised at most
+   ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`) and ``tau`` integrates
+   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``).
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
@@ -300,6 +305,10 @@ class Configuration(NamedTuple):
     #: gain of the fixed proportional feedback ``u0 += feedback s`` on the filtered error
     #: (``C_FEEDBACK``; 0 = none)
     feedback: float = 0.0
+    #: prefilter bandwidth of the measurements the *adaptation's* regressor sees (rad/s; inf
+    #: = none): ``u0 = Pi(x)^T theta`` keeps the measured ``x``, the law of ``theta`` gets
+    #: ``Pi`` of the prefiltered ``x`` (§4.3 under noise, :func:`adaptation_regressor_rule`)
+    omega_r: float = math.inf
 
     @property
     def filtered(self) -> bool:
@@ -316,6 +325,17 @@ class Configuration(NamedTuple):
     @property
     def projected(self) -> bool:
         return math.isfinite(self.theta_max)
+
+    @property
+    def adaptation_regressor_filtered(self) -> bool:
+        """The adaptation's regressor sees prefiltered measurements (the command's does not)."""
+        return math.isfinite(self.omega_r) and not self.measured_through_filter
+
+    @property
+    def has_measurement_filters(self) -> bool:
+        """One prefilter state per plant state (all the law's measurements, or only what the
+        adaptation's regressor sees)."""
+        return self.measured_through_filter or self.adaptation_regressor_filtered
 
 
 IDENTITY = Configuration(
@@ -701,6 +721,41 @@ class ConstraintAware:
         return rate / b
 
 
+def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float) -> Configuration:
+    """§4.3 (Nussbaum) under noise: the law of ``theta`` sees the regressor of prefiltered
+    measurements (``omega_r = C_MEASURE w``, at most ``C_EULER / T``), the command ``u0 =
+    Pi(x)^T theta`` still the measured one, where the noise of ``s`` the law runs with (at
+    most ``lam_factor`` times the model's: ``lam`` multiplies the position noise) is above
+    the density bound at the loop rate, ``w^2 lam_factor n_d > C_NOISE_DENSITY``. Not where
+    the std bound binds (every measurement is prefiltered there already).
+
+    Why: ``theta' = alpha0 N(tau) Pi(x_m) q`` multiplies two noisy signals whose noise is
+    correlated (the measured pitch rate enters ``Pi`` and, through ``e' = y_d' - q_m``, ``s``
+    and the dirty derivative ``s'`` in ``q``), so the gradient has a bias of the order of
+    ``|dPi/dx| noise^2 / tau_d`` that no error balances: the classic noise-driven parameter
+    drift (Ioannou & Sun 1996, §8.3). Measured on hypersonic-nussbaum-s1-pos with 1 % noise:
+    ``|theta|`` drifts to 0.5 over the run (0.07 with the prefiltered regressor) and the
+    drifted ``theta`` carries the measurement noise into the command through ``Pi(x_m)``
+    (fast content 2.06e-2 rad, 100-500 Hz half of it; 1.74e-2 with the prefiltered
+    regressor). Prefiltering what ``u0`` sees as well lags the loop (measured: worse).
+
+    With it, ``lam`` is raised at most ``LAM_FACTOR_NOISE`` times, as where the std bound
+    binds: ``lam`` multiplies the position noise in ``s``, which the loop tracks up to its
+    rate (the rest of the fast content, 1-3 Hz about ``w``): measured, the noise case at
+    ``lam`` x4 (the shared rule's 8) has 1.74e-2 rad, x2 1.10e-2 (error 4.9e-4 -> 7.3e-4).
+    The cost: the wrong-signed runs (hypersonic-nussbaum-s1-neg, -s2-neg) need the larger
+    ``lam`` to find the direction (``tau' = alpha1 q^2`` against the wrong-signed loop's
+    growth) and diverge at 0.9 s with noise (docs/hardware.md)."""
+    if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter:
+        return cfg
+    if w * w * max(1.0, cfg.lam_factor) * ca.noise_density <= C_NOISE_DENSITY:
+        return cfg
+    omega_r = C_MEASURE * w
+    if ca.sample_time > 0:
+        omega_r = min(omega_r, C_EULER / ca.sample_time)
+    return cfg._replace(omega_r=omega_r, lam_factor=min(cfg.lam_factor, LAM_FACTOR_NOISE))
+
+
 # ---------------------------------------------------------------- compiled pieces of the law
 def command_filter(uc, uf, omega_f, u_max, u_rate):
     """Derivative of the command filter: ``clip(w_f (clip(uc, -U, U) - uf), -R, R)``
@@ -760,6 +815,24 @@ def project_ball(dY, Y, theta_max, at, size):
             dY[at + l] -= f * Y[at + l]
 
 
+def _filtered_regressors(g, at_m: int) -> list[str]:
+    """Generated lines writing ``phi`` again, from the prefiltered plant states ``Y[at_m:]``
+    (inputs that are not plant states, errors and ``s``, stay as measured): ``u0 = Pi^T
+    theta`` is computed before, so only the adaptive laws after these lines see them."""
+    nx = g.nx
+    lines = ["    # constraint-aware: the adaptation's regressor of the prefiltered measurements"]
+    off = 0
+    for r, reg in enumerate(g.loop.controller.regressors_for(g.p)):
+        idx = [g.signal(name, "the adaptation's regressor") for name in reg.inputs]
+        for ln in reg.emit(g, idx, off, r):
+            for i in sorted(set(idx)):
+                if i < nx:
+                    ln = ln.replace(f"sig[{i}]", f"Y[{at_m + i}]")
+            lines.append(ln)
+        off += reg.size
+    return lines
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -777,19 +850,22 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
     wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
+    if cfg.adaptation_regressor_filtered:  # appended only here: other loops keep their c
+        wm = f"c[{len(g.consts)}]"
+        g.consts.append(cfg.omega_r)
     hedged = cfg.filtered and cfg.hedge > 0
     sign = f" * {direction}" if direction else ""
     # places of the states
     at_h = at
     at_q = at_h + (p if hedged else 0)
     at_m = at_q + (p if cfg.prefiltered else 0)
-    at_f = at_m + (nx if cfg.measured_through_filter else 0)
+    at_f = at_m + (nx if cfg.has_measurement_filters else 0)
     end = at_f + (p if cfg.filtered else 0)
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
         g.adaptive_names += [f"q_prefilter{i + 1}" for i in range(p)]
-    if cfg.measured_through_filter:
+    if cfg.has_measurement_filters:
         g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
     if cfg.filtered:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
@@ -803,6 +879,14 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
             f"        sig[i] = Y[{at_m} + i]",
         ]
+    elif cfg.adaptation_regressor_filtered:  # the law sees x + noise; its filter runs beside
+        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        measure = [
+            f"    for i in range({nx}):  # constraint-aware: the adaptation's regressor sees",
+            f"        sig[i] = {seen}",
+            f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
+        ]
+        pre += _filtered_regressors(g, at_m)
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")

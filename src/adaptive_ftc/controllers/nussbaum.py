@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.base import AdaptiveController, _nonnegative, _positive
 from adaptive_ftc.controllers.laws import theta_law
 from adaptive_ftc.expressions import Expression
@@ -68,9 +70,50 @@ class NussbaumAdaptive(AdaptiveController):
         """``alpha0 |N(tau0)|``: the law's gain at the initial ``tau``."""
         return float(self.alpha0) * abs(float(self.nussbaum_expression()(tau=float(self.tau0))))
 
+    def configuration(
+        self, b_max: float = 1.0, input_gain: float = 0.0
+    ) -> constraints.Configuration:
+        """The shared rule's configuration and, under noise above the density bound, the
+        adaptation's regressor of prefiltered measurements
+        (:func:`~adaptive_ftc.controllers.constraints.adaptation_regressor_rule`: the noise
+        of ``Pi`` and of ``q`` is correlated, and ``theta`` drifts with it)."""
+        cfg = super().configuration(b_max, input_gain)
+        ca = self.constraint_aware
+        if ca is None or cfg == constraints.IDENTITY or ca.noise <= 0:
+            return cfg
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else b_max)
+        return constraints.adaptation_regressor_rule(cfg, ca, w)
+
+    def tau_prefilter(self) -> float:
+        """Bandwidth (rad/s) of the prefilter of ``q`` in the law of ``tau`` (``inf``: none):
+        ``C_PREFILTER w`` (at most ``C_EULER / T``) where the noise rule applies
+        (:meth:`configuration`). ``tau' = alpha1 q^2`` integrates the noise's power: with the
+        measured ``q`` the noise case's ``tau`` drifts from 1 to 1.19 in 120 s (``N(tau)``
+        down 12 %, towards its sign change at ``pi/2``), at the thesis's ``alpha1`` to 5.4
+        and the loop is lost at 49 s; with the prefiltered ``q`` it stays below 1.01."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or ca.noise <= 0:
+            return math.inf
+        if not self.configuration().adaptation_regressor_filtered:
+            return math.inf
+        w0 = ca.loop_rate if ca.loop_rate is not None else self.loop_rate()
+        w, _ = ca.omega_max(w0, ca.b_max if ca.b_max is not None else 1.0)
+        omega = constraints.C_PREFILTER * w
+        if ca.sample_time > 0:
+            omega = min(omega, constraints.C_EULER / ca.sample_time)
+        return omega
+
     def gains(self) -> NussbaumGains:
+        """``(alpha0, alpha1, sigma)`` as the compiled law uses them: the thesis's, or, under a
+        constraint-aware model that slows the law by ``r``, ``r alpha0`` and ``r alpha1``;
+        where ``tau`` sees the prefiltered ``q`` (:meth:`tau_prefilter`), the thesis's
+        ``alpha1``: ``tau`` is not in the loop's linear band, and the direction search must
+        outrun the wrong-signed loop (hypersonic-nussbaum-s1-neg with noise diverged at 0.9 s
+        with ``r alpha1``)."""
         r = self.adaptation_scale  # 1 for the thesis law
-        return NussbaumGains(float(self.alpha0) * r, float(self.alpha1) * r, float(self.sigma))
+        a1 = float(self.alpha1) * (1.0 if math.isfinite(self.tau_prefilter()) else r)
+        return NussbaumGains(float(self.alpha0) * r, a1, float(self.sigma))
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.adaptive_names.append("tau")
@@ -83,10 +126,21 @@ class NussbaumAdaptive(AdaptiveController):
         )
         g.use("theta_law", theta_law)
         g.use("tau_law", tau_law)
-        return [
+        lines = [
             "    # adaptive laws (4.25)-(4.27)",
             f"    gain = nussbaum(Y[{extra_at}], c)",
             f"    misc[{int(Misc.GAIN)}] = gain",
             f"    dY[{extra_at}] = tau_law(q[0], D.gains.alpha1)",
-            *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain"),
         ]
+        omega = self.tau_prefilter()
+        if math.isfinite(omega):  # constraint-aware, noise: tau sees q prefiltered
+            g.adaptive_names.append("tau_q_prefilter")
+            g.y0_extra.append(0.0)
+            at = len(g.consts)
+            g.consts.append(omega)
+            qf = extra_at + 1
+            lines[-1:] = [
+                f"    dY[{qf}] = c[{at}] * (q[0] - Y[{qf}])  # constraint-aware: prefiltered q",
+                f"    dY[{extra_at}] = tau_law(Y[{qf}], D.gains.alpha1)",
+            ]
+        return [*lines, *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain")]
