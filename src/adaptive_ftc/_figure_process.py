@@ -93,6 +93,7 @@ class FigureProcess:
             try:
                 message = self._conn.recv()
             except EOFError:
+                self._process.join(timeout=5)  # it is gone: its exit status, once reaped
                 code = self._process.exitcode
                 raise FigureError(
                     f"the figure process ended without drawing the figures (exit status {code}); "
