@@ -111,8 +111,10 @@ def _aftc_run_in_a_new_process(args: list[str]) -> dict:
         f"heavy = [m for m in {_HEAVY!r} if m in sys.modules]\n"
         "print(json.dumps({'status': status, 'heavy': heavy}))\n"
     )
+    src = Path(__file__).resolve().parents[1] / "src"
+    env = {**os.environ, "PYTHONPATH": str(src) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, check=False
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, env=env
     )
     assert out.returncode == 0, out.stderr[-2000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
