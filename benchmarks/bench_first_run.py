@@ -41,6 +41,8 @@ from pathlib import Path
 from _cref import CReferenceError, build, run_single
 from bench_reproduce import _timed
 
+#: this checkout's package, the one timed (``--against`` adds another)
+HERE = Path(__file__).resolve().parents[1] / "src"
 #: issue 29's targets, seconds end to end on a quiet 2-core machine
 TARGETS = {"cold": 5.0, "warm": 1.5}
 
@@ -116,7 +118,7 @@ def main() -> int:
         return 2
     with tempfile.TemporaryDirectory(prefix="aftc-bench-pyc-") as pyc:
         bytecode = Path(pyc) if os.environ.get("PYTHONDONTWRITEBYTECODE") else None
-        trees = {"this": _env(None, bytecode)}
+        trees = {"this": _env(str(HERE), bytecode)}
         if args.against:
             trees["against"] = _env(args.against, bytecode)
         start = min(_timed([sys.executable, "-c", "pass"], trees["this"])[0] for _ in range(5))
@@ -146,7 +148,7 @@ def main() -> int:
     )
     best: dict[tuple[str, str], float] = {}
     for name, runs in rounds.items():
-        label = "" if name == "this" else f" [{args.against}]"
+        label = f" [{HERE if name == 'this' else args.against}]"
         for what in runs[0]:
             walls = [r[what][0] for r in runs]
             low, med = min(walls), statistics.median(walls)
