@@ -144,7 +144,7 @@ def _kernel():
 def sosfiltfilt_odd(sos: np.ndarray, zi: np.ndarray, u: np.ndarray, pad: int) -> np.ndarray:
     """``scipy.signal.sosfiltfilt(sos, u, axis=0, padtype="odd", padlen=pad)`` for a 2-d
     record ``u`` (samples, columns) with ``0 < pad < len(u)``; ``zi`` is ``sosfilt_zi(sos)``."""
-    from numba.core.config import DISABLE_JIT
+    from numba.core.config import DISABLE_JIT  # type: ignore[attr-defined]  # set at import
 
     if DISABLE_JIT:
         from scipy.signal import sosfiltfilt
