@@ -523,13 +523,45 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
             # divergence is reported below from each result's status (a frozen baseline is
             # expected to diverge under some failures)
             warnings.simplefilter("ignore", DivergenceWarning)
+            # the runs the figures show first: the figures are drawn beside the others
+            drawn = [k for k in variants if k in ("adaptive", *_OVERLAID)]
+            rest = [k for k in variants if k not in drawn]
             # the runs are alike (one scenario, one duration): the ETA counts them as equals
             with EtaBar(len(variants), desc=sc.name, disable=args.quiet, unit="run") as bar:
-                for key, loop in variants.items():
+                for key in drawn:
                     # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
-                    results[key] = sc.stamp(simulate(loop, solver))
+                    results[key] = sc.stamp(simulate(variants[key], solver))
                     bar.tick()
-        main = results["adaptive"]
+                main = results["adaptive"]
+                specs = (
+                    list(sc.figure_specs) or plots.default_figure_specs(main)
+                    if main.time.size and not args.no_figures
+                    else []
+                )
+                baselines = {
+                    k.replace("_", " "): v
+                    for k, v in results.items()
+                    # a run with no samples: none
+                    if k in _OVERLAID and v.time.size
+                }
+                names = [f"fig_{spec.get('number', i + 1)}.png" for i, spec in enumerate(specs)]
+                jobs = [
+                    # the direction figures' zoom window is re-run densely here (it simulates)
+                    {
+                        "spec": spec,
+                        "path": stage / "figures" / name,
+                        "zoom": plots.dense_zoom(sc, main, spec, solver),
+                    }
+                    for spec, name in zip(specs, names, strict=True)
+                ]
+                if figure_process is not None and jobs:  # drawn there from now on
+                    figure_process.draw(
+                        main, jobs, baselines=baselines or None, formats=formats, dpi=args.dpi
+                    )
+                for key in rest:
+                    results[key] = sc.stamp(simulate(variants[key], solver))
+                    bar.tick()
+        results = {k: results[k] for k in variants}  # in the variants' order: files, summary
         if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
             discard_staged(stage)
             print(
@@ -542,27 +574,6 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
             print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
-        specs = [] if args.no_figures else list(sc.figure_specs) or plots.default_figure_specs(main)
-        baselines = {
-            k.replace("_", " "): v
-            for k, v in results.items()
-            # a run with no samples: none
-            if k in ("frozen", "failure_free", "thesis_law") and v.time.size
-        }
-        names = [f"fig_{spec.get('number', i + 1)}.png" for i, spec in enumerate(specs)]
-        jobs = [
-            # the direction figures' zoom window is re-run densely here (it simulates)
-            {
-                "spec": spec,
-                "path": stage / "figures" / name,
-                "zoom": plots.dense_zoom(sc, main, spec, solver),
-            }
-            for spec, name in zip(specs, names, strict=True)
-        ]
-        if figure_process is not None and jobs:  # drawn there while the data is written here
-            figure_process.draw(
-                main, jobs, baselines=baselines or None, formats=formats, dpi=args.dpi
-            )
         # what is being written, file by file (a figure takes a second or two); the ETA
         # weighs a data file by its size
         sizes = {k: _n_values(r) for k, r in results.items()}
@@ -679,6 +690,9 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
         return EXIT_CLAIMS_FAILED
     return EXIT_OK
 
+
+#: The runs the figures of 'aftc run' draw beside the adaptive one
+_OVERLAID = ("frozen", "failure_free", "thesis_law")
 
 #: File-name suffix of each 'aftc run' variant: the spelling of 'aftc reproduce'
 #: (reproduce.VARIANTS), so both write data/<name>_fixed-gain.nc
