@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy
 from scipy.signal import butter, sosfilt_zi, sosfiltfilt
 
 from adaptive_ftc.sim import zerophase
@@ -50,6 +51,13 @@ def test_a_lowpass_design_is_read_back_from_the_cache_folder_not_redesigned(tmp_
     fresh, fresh_zi = zerophase.lowpass_design(4, 1.0, 977.0)
     assert np.array_equal(fresh, sos) and np.array_equal(fresh_zi, zi)
     assert json.loads(stored.read_text())["sos"] == sos.tolist()
+    # a design of another scipy version is redesigned by this one
+    data = json.loads(stored.read_text())
+    data["sos"][0][0] = 0.5
+    data["key"] = data["key"].replace(scipy.__version__, "0.0.0")
+    stored.write_text(json.dumps(data))
+    zerophase.lowpass_design.cache_clear()
+    assert np.array_equal(zerophase.lowpass_design(4, 1.0, 977.0)[0], sos)
     zerophase.lowpass_design.cache_clear()
 
 

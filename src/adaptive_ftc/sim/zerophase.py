@@ -82,7 +82,10 @@ def lowpass_design(order: int, f_c: float, fs: float) -> tuple[np.ndarray, np.nd
     """``(sos, zi)`` of the Butterworth low-pass of ``order`` at ``f_c`` Hz for records at
     ``fs`` Hz: scipy's ``butter(order, f_c, fs=fs, output="sos")`` and ``sosfilt_zi`` of it,
     read from the cache folder when an earlier process designed it (read-only arrays)."""
-    key = json.dumps([int(order), float(f_c), float(fs)])
+    import scipy  # its version only (a few ms): scipy.signal is imported on a miss
+
+    # a design is scipy's: another scipy version designs it again
+    key = json.dumps([int(order), float(f_c), float(fs), scipy.__version__])
     path = _design_path(key)
     design = _read_design(path, key) if path is not None else None
     if design is None:
