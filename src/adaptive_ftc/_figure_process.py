@@ -21,6 +21,7 @@ import os
 import signal
 import sys
 from collections.abc import Iterator, Mapping, Sequence
+from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 from typing import Any
 
@@ -79,13 +80,19 @@ class FigureProcess:
         baselines: Mapping[str, Any] | None,
         formats: Sequence[str],
         dpi: int | None,
-    ) -> None:
+    ) -> bool:
         """Send the figures to draw: ``save_figure(result, job["spec"], job["path"],
-        zoom_result=job["zoom"], baselines=..., formats=..., dpi=...)`` for each job."""
+        zoom_result=job["zoom"], baselines=..., formats=..., dpi=...)`` for each job.
+        ``False`` when they cannot be sent (a result holding an object that cannot be pickled,
+        e.g. from a user's notebook): the caller draws them itself."""
+        request = (result, dict(baselines) if baselines else None, list(jobs), tuple(formats), dpi)
+        try:
+            payload = ForkingPickler.dumps(request)
+        except Exception:  # noqa: BLE001 - whatever pickling raises: draw in the caller
+            return False
+        self._conn.send_bytes(payload)
         self._n = len(jobs)
-        self._conn.send(
-            (result, dict(baselines) if baselines else None, list(jobs), tuple(formats), dpi)
-        )
+        return True
 
     def finished(self) -> Iterator[int]:
         """The index of each figure as the child finishes it, in order."""
@@ -120,7 +127,7 @@ def _serve(conn: Any) -> None:  # pragma: no cover - runs in the forked child
     except Exception:  # noqa: BLE001 - a failed warm-up shows again on the real figure
         pass
     try:
-        request = conn.recv()
+        request = conn.recv()  # the bytes of ForkingPickler.dumps: what recv() reads
     except EOFError:
         return
     if request is None:

@@ -555,9 +555,10 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
                     for spec, name in zip(specs, names, strict=True)
                 ]
                 if figure_process is not None and jobs:  # drawn there from now on
-                    figure_process.draw(
+                    if not figure_process.draw(
                         main, jobs, baselines=baselines or None, formats=formats, dpi=args.dpi
-                    )
+                    ):
+                        figure_process = None  # they cannot be sent: drawn here, below
                 for key in rest:
                     results[key] = sc.stamp(simulate(variants[key], solver))
                     bar.tick()
