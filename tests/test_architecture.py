@@ -34,6 +34,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "core": (
         "_atomic",
         "_feedback",
+        "_figure_process",
         "_lazy",
         "_signals",
         "_units",

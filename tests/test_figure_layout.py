@@ -421,6 +421,7 @@ def test_figure_titles_quote_angles_in_the_unit_of_their_axes():
 
 
 def test_aftc_run_draws_the_direction_zoom_re_simulated(tmp_path, monkeypatch):
+    from adaptive_ftc._figure_process import FigureProcess
     from adaptive_ftc.cli import main
 
     src = tmp_path / "short.toml"
@@ -436,6 +437,8 @@ def test_aftc_run_draws_the_direction_zoom_re_simulated(tmp_path, monkeypatch):
         return real(result, spec, path, **kwargs)
 
     monkeypatch.setattr(plots, "save_figure", spy)
+    # drawn in this process, where the spy sees the call (not in aftc run's figure process)
+    monkeypatch.setattr(FigureProcess, "start", classmethod(lambda cls: None))
     assert main(["run", str(src), "--out", str(tmp_path / "o"), "--quiet", "--no-baselines"]) == 0
     (kind, zoom), *_ = seen
     assert kind == "direction" and zoom is not None and zoom.time.size > 500

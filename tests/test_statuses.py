@@ -305,19 +305,19 @@ def test_ctrl_c_while_a_data_file_is_written_waits_for_the_write(tmp_path, monke
     raised inside HDF5 with xarray's file lock held, and closing the file then hung forever.
     The interrupt now waits for the write and is raised right after it: the file is whole and
     the next write does not block."""
-    import xarray as xr
+    from adaptive_ftc.sim import ncwrite  # the writer (xarray's file, without xarray: issue 29)
 
     r = _run(_scenario(tmp_path, "w", "", 1.0))
-    write = xr.Dataset.to_netcdf
+    write = ncwrite.write
 
-    def interrupted_write(self, *args, **kwargs):
+    def interrupted_write(*args, **kwargs):
         _thread.interrupt_main()  # Ctrl-C in the middle of the write
-        return write(self, *args, **kwargs)
+        return write(*args, **kwargs)
 
-    monkeypatch.setattr(xr.Dataset, "to_netcdf", interrupted_write)
+    monkeypatch.setattr(ncwrite, "write", interrupted_write)
     with pytest.raises(KeyboardInterrupt):
         r.to_netcdf(tmp_path / "a.nc")
-    monkeypatch.setattr(xr.Dataset, "to_netcdf", write)
+    monkeypatch.setattr(ncwrite, "write", write)
     from adaptive_ftc import SimResult
 
     back = SimResult.from_netcdf(tmp_path / "a.nc")  # complete, and the lock was released

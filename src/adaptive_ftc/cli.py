@@ -227,6 +227,12 @@ def _parser() -> argparse.ArgumentParser:
         "it fails)",
     )
     r.add_argument("--csv", action="store_true", help="also write CSV tables")
+    r.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="write no figures (the data files, metrics.json and claims.csv only; faster: "
+        "matplotlib is not loaded)",
+    )
     r.add_argument("--float32", action="store_true", help="store the data in single precision")
     r.add_argument(
         "--decimate",
@@ -415,18 +421,9 @@ def _n_values(result) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from adaptive_ftc._atomic import (
-        check_output_dir,
-        commit_staged,
-        discard_staged,
-        inside,
-        safe_stem,
-        staging_dir,
-    )
-    from adaptive_ftc._feedback import EtaBar, figure_cost, write_cost
+    from adaptive_ftc._atomic import check_output_dir
     from adaptive_ftc.scenarios.loader import load_scenario
     from adaptive_ftc.sim.budget import check_run_size
-    from adaptive_ftc.sim.engine import simulate
 
     sc = load_scenario(args.scenario)  # validate everything before touching the output folder
     if args.t_final is not None:  # ClosedLoop checks it (after t0)
@@ -455,7 +452,26 @@ def _cmd_run(args: argparse.Namespace) -> int:
     formats = _formats(args.formats or "png")
     check_run_size(sc.loop, solver)
     out = check_output_dir(args.out)
+    figure_process = None
+    if not args.no_figures:
+        from adaptive_ftc._figure_process import FigureProcess
+
+        # forked before any thread starts: its matplotlib loads while the loops run here
+        figure_process = FigureProcess.start()
+    try:
+        return _run_and_write(args, sc, solver, out, formats, figure_process)
+    finally:
+        if figure_process is not None:
+            figure_process.close()
+
+
+def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure_process) -> int:
+    """The runs of ``aftc run`` and their files (figures drawn by ``figure_process`` when it
+    is not ``None``, beside the data files)."""
     from adaptive_ftc import plots
+    from adaptive_ftc._atomic import commit_staged, discard_staged, inside, safe_stem, staging_dir
+    from adaptive_ftc._feedback import EtaBar, figure_cost, write_cost
+    from adaptive_ftc.sim.engine import simulate
 
     fair = (
         not args.no_baselines
@@ -507,13 +523,46 @@ def _cmd_run(args: argparse.Namespace) -> int:
             # divergence is reported below from each result's status (a frozen baseline is
             # expected to diverge under some failures)
             warnings.simplefilter("ignore", DivergenceWarning)
+            # the runs the figures show first: the figures are drawn beside the others
+            drawn = [k for k in variants if k in ("adaptive", *_OVERLAID)]
+            rest = [k for k in variants if k not in drawn]
             # the runs are alike (one scenario, one duration): the ETA counts them as equals
             with EtaBar(len(variants), desc=sc.name, disable=args.quiet, unit="run") as bar:
-                for key, loop in variants.items():
+                for key in drawn:
                     # Ctrl-C inside the compiled loop raises SimulationInterrupted (exit 130)
-                    results[key] = sc.stamp(simulate(loop, solver))
+                    results[key] = sc.stamp(simulate(variants[key], solver))
                     bar.tick()
-        main = results["adaptive"]
+                main = results["adaptive"]
+                specs = (
+                    list(sc.figure_specs) or plots.default_figure_specs(main)
+                    if main.time.size and not args.no_figures
+                    else []
+                )
+                baselines = {
+                    k.replace("_", " "): v
+                    for k, v in results.items()
+                    # a run with no samples: none
+                    if k in _OVERLAID and v.time.size
+                }
+                names = [f"fig_{spec.get('number', i + 1)}.png" for i, spec in enumerate(specs)]
+                jobs = [
+                    # the direction figures' zoom window is re-run densely here (it simulates)
+                    {
+                        "spec": spec,
+                        "path": stage / "figures" / name,
+                        "zoom": plots.dense_zoom(sc, main, spec, solver),
+                    }
+                    for spec, name in zip(specs, names, strict=True)
+                ]
+                if figure_process is not None and jobs:  # drawn there from now on
+                    if not figure_process.draw(
+                        main, jobs, baselines=baselines or None, formats=formats, dpi=args.dpi
+                    ):
+                        figure_process = None  # they cannot be sent: drawn here, below
+                for key in rest:
+                    results[key] = sc.stamp(simulate(variants[key], solver))
+                    bar.tick()
+        results = {k: results[k] for k in variants}  # in the variants' order: files, summary
         if main.time.size == 0:  # reported, not plotted: there is nothing to draw or store
             discard_staged(stage)
             print(
@@ -526,7 +575,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"warning: {main.message}", file=sys.stderr)
         summary = {}
         base_stem = safe_stem(sc.name)  # the name is a label; the file stem is derived
-        specs = list(sc.figure_specs) or plots.default_figure_specs(main)
         # what is being written, file by file (a figure takes a second or two); the ETA
         # weighs a data file by its size
         sizes = {k: _n_values(r) for k, r in results.items()}
@@ -552,26 +600,25 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 res.to_csv(inside(stage, stage / "data" / f"{stem}.csv"))
             summary[key] = res.metrics()
             writing.tick(write_cost(sizes[key]))
-        baselines = {
-            k.replace("_", " "): v
-            for k, v in results.items()
-            # a run with no samples: none
-            if k in ("frozen", "failure_free", "thesis_law") and v.time.size
-        }
+
+        def drawn_here():
+            for job in jobs:
+                plots.save_figure(
+                    main,
+                    job["spec"],
+                    job["path"],
+                    baselines=baselines or None,
+                    zoom_result=job["zoom"],
+                    formats=formats,
+                    dpi=args.dpi,
+                )
+                yield
+
+        done = figure_process.finished() if figure_process is not None else drawn_here()
         figures = []
-        for i, spec in enumerate(specs):
-            name = f"fig_{spec.get('number', i + 1)}.png"
+        for name in names:
             writing.note(f"figures/{name}")
-            zoom = plots.dense_zoom(sc, main, spec, solver)  # direction figures' zoom window
-            plots.save_figure(
-                main,
-                spec,
-                stage / "figures" / name,
-                baselines=baselines or None,
-                zoom_result=zoom,
-                formats=formats,
-                dpi=args.dpi,
-            )
+            next(done)
             figures += [str(out / "figures" / Path(name).with_suffix(f".{f}")) for f in formats]
             writing.tick(figure_cost(len(formats)))
         writing.close()
@@ -644,6 +691,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return EXIT_CLAIMS_FAILED
     return EXIT_OK
 
+
+#: The runs the figures of 'aftc run' draw beside the adaptive one
+_OVERLAID = ("frozen", "failure_free", "thesis_law")
 
 #: File-name suffix of each 'aftc run' variant: the spelling of 'aftc reproduce'
 #: (reproduce.VARIANTS), so both write data/<name>_fixed-gain.nc

@@ -63,7 +63,6 @@ Examples
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -188,13 +187,14 @@ def _uniform(t: np.ndarray, *signals: np.ndarray) -> tuple[np.ndarray, list[np.n
 
 def _lowpass(u: np.ndarray, f_c: float, dt: float) -> np.ndarray | None:
     """Zero-phase Butterworth low-pass of each column; ``None`` when the record is too short
-    for the filter's padding or ``f_c`` is at or above its Nyquist frequency."""
-    from scipy.signal import sosfiltfilt
+    for the filter's padding or ``f_c`` is at or above its Nyquist frequency (scipy's
+    ``sosfiltfilt``, bit for bit, without importing scipy.signal: sim/zerophase.py)."""
+    from adaptive_ftc.sim.zerophase import lowpass_design, sosfiltfilt_odd
 
     fs = 1.0 / dt
     if not f_c < 0.5 * fs:
         return None
-    sos = _butter(f_c, fs).copy()  # scipy writes into a read-only array otherwise
+    sos, zi = lowpass_design(_ORDER, f_c, fs)
     if u.shape[0] <= 3 * (2 * len(sos) + 1):
         return None
     # odd extension (value and slope continue through the ends) over three time constants of
@@ -202,17 +202,7 @@ def _lowpass(u: np.ndarray, f_c: float, dt: float) -> np.ndarray | None:
     # hypersonic run's 0.3 rad, 0.03 Hz command at 1 ms records (the final window ends at the
     # record's end); three periods of f_c leave 7e-6
     pad = min(u.shape[0] - 1, max(3 * (2 * len(sos) + 1), math.ceil(3.0 / (f_c * dt))))
-    return sosfiltfilt(sos, u, axis=0, padtype="odd", padlen=pad)
-
-
-@functools.lru_cache(maxsize=32)
-def _butter(f_c: float, fs: float) -> np.ndarray:
-    """The low-pass's second-order sections (designed once per cut-off and record rate)."""
-    from scipy.signal import butter
-
-    sos = butter(_ORDER, f_c, btype="low", fs=fs, output="sos")
-    sos.setflags(write=False)
-    return sos
+    return sosfiltfilt_odd(sos, zi, u, pad)
 
 
 def command_activity(

@@ -342,6 +342,14 @@ class SimResult:
         """
         import xarray as xr
 
+        data, coords = self._layout(decimate)
+        ds = xr.Dataset(data, coords=coords)
+        ds.attrs.update(self._global_attrs(timing=timing, decimate=decimate, float32=float32))
+        return ds
+
+    def _layout(self, decimate: int) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The variables of :meth:`to_xarray`, ``name -> (dims, values, attributes)``: the
+        data variables and the coordinates, in the order of the file."""
         if isinstance(decimate, bool) or not isinstance(decimate, int) or decimate < 1:
             raise ConfigurationError(
                 f"`decimate` must be a whole number >= 1 (keep every k-th sample); got "
@@ -437,43 +445,39 @@ class SimResult:
             np.arange(len(self.state_names), dtype=np.int32),
             {"long_name": "position of each plant state in the state vector", "units": "1"},
         )
-        ds = xr.Dataset(
-            data,
-            coords={
-                "time": (
-                    "time",
-                    self.time[idx],
-                    {
-                        "standard_name": "time",
-                        "long_name": "simulation time t",
-                        "units": TIME_UNITS,
-                        "calendar": "standard",
-                        "axis": "T",
-                        "comment": "t in seconds of the run's own clock; the epoch is a "
-                        "convention (t = 0 at 1970-01-01 00:00:00 UTC): open the file with "
-                        "xarray.open_dataset(..., decode_times=False) for t as float seconds",
-                    },
-                ),
-                "state_name": ("state", list(self.state_names), {"long_name": "plant state name"}),
-                "output_name": (
-                    "output",
-                    list(self.output_names),
-                    {"long_name": "controlled output name"},
-                ),
-                "actuator_name": (
-                    "actuator",
-                    list(self.actuator_names),
-                    {"long_name": "actuator name"},
-                ),
-                "param_name": (
-                    "param",
-                    list(self.adaptive_names),
-                    {"long_name": "adaptive parameter name"},
-                ),
-            },
-        )
-        ds.attrs.update(self._global_attrs(timing=timing, decimate=decimate, float32=float32))
-        return ds
+        coords = {
+            "time": (
+                "time",
+                self.time[idx],
+                {
+                    "standard_name": "time",
+                    "long_name": "simulation time t",
+                    "units": TIME_UNITS,
+                    "calendar": "standard",
+                    "axis": "T",
+                    "comment": "t in seconds of the run's own clock; the epoch is a "
+                    "convention (t = 0 at 1970-01-01 00:00:00 UTC): open the file with "
+                    "xarray.open_dataset(..., decode_times=False) for t as float seconds",
+                },
+            ),
+            "state_name": ("state", list(self.state_names), {"long_name": "plant state name"}),
+            "output_name": (
+                "output",
+                list(self.output_names),
+                {"long_name": "controlled output name"},
+            ),
+            "actuator_name": (
+                "actuator",
+                list(self.actuator_names),
+                {"long_name": "actuator name"},
+            ),
+            "param_name": (
+                "param",
+                list(self.adaptive_names),
+                {"long_name": "adaptive parameter name"},
+            ),
+        }
+        return data, coords
 
     def _global_attrs(self, *, timing: bool, decimate: int, float32: bool) -> dict[str, Any]:
         from adaptive_ftc._version import __version__
@@ -653,24 +657,16 @@ class SimResult:
 
         if isinstance(complevel, bool) or not isinstance(complevel, int) or not 0 <= complevel <= 9:
             raise ConfigurationError(f"`complevel` must be a whole number 0..9; got {complevel!r}.")
-        ds = self.to_xarray(timing=timing, decimate=decimate, float32=float32)
-        encoding: dict[str, dict[str, Any]] = {}
-        for name, var in ds.variables.items():
-            if var.dtype.kind != "f":
-                continue
-            enc: dict[str, Any] = {"_FillValue": None}
-            if complevel and var.ndim and var.size:
-                enc.update(zlib=True, complevel=complevel, shuffle=True)
-            if float32 and name != "time":
-                enc["dtype"] = "float32"
-            encoding[str(name)] = enc
+        data, coords = self._layout(decimate)
+        attrs = self._global_attrs(timing=timing, decimate=decimate, float32=float32)
         path = Path(path)
         from adaptive_ftc._signals import sigint_deferred
+        from adaptive_ftc.sim import ncwrite
 
-        # Ctrl-C waits for the write: raised inside HDF5 it left xarray's file lock taken and
-        # the process hung on the file's close
+        # the file of xarray's Dataset.to_netcdf, without importing xarray (sim/ncwrite.py);
+        # Ctrl-C waits for the write (raised inside HDF5 it left the file open)
         with sigint_deferred(), atomic_path(path) as tmp:
-            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+            ncwrite.write(tmp, data, coords, attrs, float32=float32, complevel=complevel)
         return path
 
     def to_csv(self, path: str | Path) -> Path:
