@@ -189,12 +189,10 @@ def _uniform(t: np.ndarray, *signals: np.ndarray) -> tuple[np.ndarray, list[np.n
 def _lowpass(u: np.ndarray, f_c: float, dt: float) -> np.ndarray | None:
     """Zero-phase Butterworth low-pass of each column; ``None`` when the record is too short
     for the filter's padding or ``f_c`` is at or above its Nyquist frequency."""
-    from scipy.signal import sosfiltfilt
-
     fs = 1.0 / dt
     if not f_c < 0.5 * fs:
         return None
-    sos = _butter(f_c, fs).copy()  # scipy writes into a read-only array otherwise
+    sos, zi = _design(f_c, fs)
     if u.shape[0] <= 3 * (2 * len(sos) + 1):
         return None
     # odd extension (value and slope continue through the ends) over three time constants of
@@ -202,17 +200,44 @@ def _lowpass(u: np.ndarray, f_c: float, dt: float) -> np.ndarray | None:
     # hypersonic run's 0.3 rad, 0.03 Hz command at 1 ms records (the final window ends at the
     # record's end); three periods of f_c leave 7e-6
     pad = min(u.shape[0] - 1, max(3 * (2 * len(sos) + 1), math.ceil(3.0 / (f_c * dt))))
-    return sosfiltfilt(sos, u, axis=0, padtype="odd", padlen=pad)
+    return _filtfilt(sos, zi, u, pad)
+
+
+def _filtfilt(sos: np.ndarray, zi: np.ndarray, x: np.ndarray, pad: int) -> np.ndarray:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=pad)``, step by step
+    as scipy does it (the same numbers bit for bit), with the filter's initial state ``zi``
+    (:func:`scipy.signal.sosfilt_zi`, a linear solve per section) designed once, not per
+    call."""
+    from scipy.signal import sosfilt
+
+    # scipy's odd extension (signal._arraytools.odd_ext) along axis 0
+    ext = np.concatenate(
+        (2 * x[0:1] - x[pad:0:-1], x, 2 * x[-1:] - x[-2 : -(pad + 2) : -1]), axis=0
+    )
+    z = zi.reshape(zi.shape[0], 2, 1)
+    y, _ = sosfilt(sos, ext, axis=0, zi=z * ext[0:1])
+    y, _ = sosfilt(sos, y[::-1], axis=0, zi=z * y[-1:])
+    return y[::-1][pad:-pad]
+
+
+def _design(f_c: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """The low-pass's second-order sections and their initial state for a unit step (fresh
+    writable copies: scipy writes into a read-only array otherwise)."""
+    sos, zi = _butter(f_c, fs)
+    return sos.copy(), zi.copy()
 
 
 @functools.lru_cache(maxsize=32)
-def _butter(f_c: float, fs: float) -> np.ndarray:
-    """The low-pass's second-order sections (designed once per cut-off and record rate)."""
-    from scipy.signal import butter
+def _butter(f_c: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """The low-pass's second-order sections and :func:`scipy.signal.sosfilt_zi` of them
+    (designed once per cut-off and record rate)."""
+    from scipy.signal import butter, sosfilt_zi
 
     sos = butter(_ORDER, f_c, btype="low", fs=fs, output="sos")
+    zi = sosfilt_zi(sos)
     sos.setflags(write=False)
-    return sos
+    zi.setflags(write=False)
+    return sos, zi
 
 
 def command_activity(
@@ -261,36 +286,39 @@ def command_activity(
     grid, (u, pos), dt = _uniform(t, u, pos)
     lo_t = grid[0] if grid.size and start is None else (start if start is not None else 0.0)
     hi_t = grid[-1] if grid.size and end is None else (end if end is not None else 0.0)
-    mask = (grid >= lo_t - 1e-9) & (grid <= hi_t + 1e-9)
+    # the window's records: a span of rows (the grid increases), [i0, i1)
+    i0 = int(np.searchsorted(grid, lo_t - 1e-9, side="left"))
+    i1 = max(i0, int(np.searchsorted(grid, hi_t + 1e-9, side="right")))
+    # (_uniform's grid increases: it drops repeated times and resamples an uneven record)
     span = float(hi_t - lo_t)
-    idx = np.flatnonzero(mask)
+    n_win = i1 - i0
     ok = bool(math.isfinite(dt) and dt <= max_record_dt(f_c, sample_time) * (1 + 1e-9))
     # the record around the window, MARGIN / f_c seconds on each side (or to its ends), is
     # filtered, then the window cut
     a = int(np.searchsorted(grid, lo_t - MARGIN / f_c - 1e-9)) if grid.size else 0
     b = int(np.searchsorted(grid, hi_t + MARGIN / f_c + 1e-9, side="right")) if grid.size else 0
     part = u[a:b]
-    lp = None
-    if grid.size >= 2 and idx.size and np.all(np.isfinite(part)):
+    lp = None  # the low-pass over the window's rows
+    if grid.size >= 2 and n_win and np.all(np.isfinite(part)):
         low = _lowpass(part, f_c, dt)
         if low is not None:
-            lp = np.full_like(u, np.nan)
-            lp[a:b] = low
-    rate, lower, upper = _limits_at(grid, limits, u.shape[1])
+            lp = low[i0 - a : i1 - a]
+    # the limits in effect over the window's records only
+    rate, lower, upper = _limits_at(grid[i0:i1], limits, u.shape[1])
     out: dict[str, ActuatorActivity] = {}
     for j, name in enumerate(names):
-        uj, pj = u[idx, j], pos[idx, j]
-        if idx.size < 2:
+        uj, pj = np.ascontiguousarray(u[i0:i1, j]), pos[i0:i1, j]  # uj: as u[idx, j] was
+        if n_win < 2:
             nan = math.nan
             fast = tv = prate = rfrac = tfrac = peak = p2p = nan
         else:
-            fast = float(np.sqrt(np.mean((uj - lp[idx, j]) ** 2))) if lp is not None else math.nan
+            fast = float(np.sqrt(np.mean((uj - lp[:, j]) ** 2))) if lp is not None else math.nan
             du = np.diff(uj)
             tv = float(np.sum(np.abs(du)) / span) if span > 0 else math.nan
             prate = float(np.max(np.abs(du)) / dt)
             peak = float(np.max(np.abs(uj)))
             p2p = float(np.max(uj) - np.min(uj))
-            r = rate[idx[:-1], j]
+            r = rate[:-1, j]
             limited = np.isfinite(r)
             if limited.any():
                 moving = np.abs(np.diff(pj)) / dt
@@ -298,7 +326,7 @@ def command_activity(
                 rfrac = float(np.mean(at_rate))  # over every interval of the window
             else:
                 rfrac = math.nan
-            lo, hi = lower[idx, j], upper[idx, j]
+            lo, hi = lower[:, j], upper[:, j]
             bounded = np.isfinite(lo) | np.isfinite(hi)
             if bounded.any():
                 width = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(lo), np.abs(hi)))
