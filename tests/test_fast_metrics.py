@@ -242,3 +242,28 @@ def test_a_chunks_rows_are_the_outcomes_of_its_runs(spec, results):
                 assert math.isnan(got), key
             else:
                 assert got == value, key
+
+
+@pytest.mark.parametrize(
+    "t",
+    [
+        np.arange(0, 120.0005, 1e-3),  # an engine's record: ~16 distinct float spacings
+        np.arange(0, 20.0, 1e-3) * 1.0 + 3.7,  # an even number of spacings
+        np.r_[np.arange(0, 10.0, 1e-3), 10.0 - 1e-3 + 4e-4],  # a closer last record
+        np.linspace(0.0, 7.0, 7001),
+        np.r_[0.0, 0.5, 0.51, 1.0],  # uneven: numpy's median and the resampling path
+    ],
+)
+def test_the_grid_spacing_is_numpys_median_bit_for_bit(t):
+    d = np.diff(t)
+    kind, dt = reduce.grid_spacing(t)
+    assert dt == float(np.median(d))
+    uniform = bool(np.all(np.abs(d - dt) <= 1e-6 * dt))
+    closer_last = bool(np.all(np.abs(d[:-1] - dt) <= 1e-6 * dt) and d[-1] < dt)
+    assert kind == (0 if uniform else 1 if closer_last else 2)
+
+
+def test_many_distinct_spacings_fall_back_to_numpy():
+    t = np.cumsum(np.random.default_rng(5).uniform(0.9e-3, 1.1e-3, 500))
+    kind, dt = reduce.grid_spacing(t)
+    assert kind == 2 and math.isnan(dt)

@@ -199,6 +199,96 @@ def _last_above(e, r0, r1, tol):
     return -1
 
 
+@_jit
+def _nondecreasing(t):
+    for i in range(1, t.size):
+        if not t[i] >= t[i - 1]:
+            return False
+    return True
+
+
+def nondecreasing(time: np.ndarray) -> bool:
+    """Whether ``time`` never decreases (and holds no ``nan``): windows are then row spans."""
+    t = np.asarray(time)
+    if t.ndim != 1 or t.dtype != np.float64:
+        return bool(t.size < 2 or np.all(t[1:] >= t[:-1]))
+    return bool(_nondecreasing(t))
+
+
+#: Most distinct spacings :func:`grid_spacing` tracks (an engine record holds about 16: the
+#: rounding of ``t0 + k dt`` differs between binades); more: numpy's median instead.
+_SPACINGS = 64
+
+
+@_jit
+def _grid_spacing(t):
+    """``(kind, dt)``: ``dt = np.median(np.diff(t))`` (bit for bit) and ``kind`` 0 when every
+    spacing is within 1e-6 of it, 1 when all but a shorter last one are, 2 otherwise (or when
+    a spacing is not positive or there are too many distinct spacings: ``dt`` is then nan)."""
+    n = t.size - 1
+    vals = np.empty(_SPACINGS)
+    counts = np.zeros(_SPACINGS, np.int64)
+    k = 0
+    hit = 0
+    for i in range(n):
+        d = t[i + 1] - t[i]
+        if not d > 0:
+            return 2, np.nan
+        if k and vals[hit] == d:
+            counts[hit] += 1
+            continue
+        lo, hi = 0, k  # binary search in the sorted distinct spacings
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if vals[mid] < d:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo < k and vals[lo] == d:
+            counts[lo] += 1
+            hit = lo
+            continue
+        if k == _SPACINGS:
+            return 2, np.nan
+        for j in range(k, lo, -1):
+            vals[j] = vals[j - 1]
+            counts[j] = counts[j - 1]
+        vals[lo] = d
+        counts[lo] = 1
+        k += 1
+        hit = lo
+    # numpy's median: the middle order statistic, or the mean of the two middle ones
+    want_a = (n - 1) // 2
+    want_b = n // 2
+    a = b = np.nan
+    seen = 0
+    for j in range(k):
+        nxt = seen + counts[j]
+        if seen <= want_a < nxt:
+            a = vals[j]
+        if seen <= want_b < nxt:
+            b = vals[j]
+            break
+        seen = nxt
+    dt = a if n % 2 else (0.0 + a + b) / 2.0
+    tol = 1e-6 * dt
+    last_ok = True
+    for i in range(n):
+        if not abs((t[i + 1] - t[i]) - dt) <= tol:
+            if i < n - 1:
+                return 2, dt
+            last_ok = False
+    if last_ok:
+        return 0, dt
+    return (1, dt) if t[n] - t[n - 1] < dt else (2, dt)
+
+
+def grid_spacing(t: np.ndarray) -> tuple[int, float]:
+    """``(kind, dt)`` of record times ``t`` (at least two): see :func:`_grid_spacing`."""
+    kind, dt = _grid_spacing(np.ascontiguousarray(t, dtype=np.float64))
+    return int(kind), float(dt)
+
+
 def row_span(time: np.ndarray, start: float, end: float) -> tuple[int, int]:
     """``(i0, i1)``: the rows with ``start - 1e-9 <= t <= end + 1e-9`` of a non-decreasing
     ``time`` (the mask of :meth:`SimResult.window`), as a half-open span."""

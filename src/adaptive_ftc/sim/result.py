@@ -728,7 +728,9 @@ class SimResult:
 
 def _monotone(time: np.ndarray) -> bool:
     """Whether the record times never decrease (windows are then spans of rows)."""
-    return bool(time.size < 2 or np.all(time[1:] >= time[:-1]))
+    from adaptive_ftc.sim.reduce import nondecreasing
+
+    return nondecreasing(time)
 
 
 def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -> dict:
