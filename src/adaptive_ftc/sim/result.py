@@ -247,13 +247,13 @@ class SimResult:
             from adaptive_ftc.sim.reduce import rms_rows, row_span
 
             for t, nxt in zip(times, ends, strict=True):
-                after = row_span(self.time, t, min(t + window, nxt))
-                settle = row_span(self.time, max(t, nxt - window), nxt)
+                after_rows = row_span(self.time, t, min(t + window, nxt))
+                settle_rows = row_span(self.time, max(t, nxt - window), nxt)
                 rows.append(
                     {
                         "time": t,
-                        "rms_after": rms_rows(self.e, *after),
-                        "rms_before_next": rms_rows(self.e, *settle),
+                        "rms_after": rms_rows(self.e, *after_rows),
+                        "rms_before_next": rms_rows(self.e, *settle_rows),
                     }
                 )
             return rows
