@@ -183,8 +183,6 @@ def test_the_compiled_sums_are_numpys_bit_for_bit(n, p):
     block = rng.standard_normal((n, 9)) * 10.0 ** rng.uniform(-6, 3, (n, 9))
     a = block[:, 2 : 2 + p]  # strided, like a column of the signal block
     lo = n // 3
-    assert reduce.sum_squares(a, 0, n) == float(np.sum(a**2))
-    assert reduce.sum_squares(a, lo, n) == float(np.sum(a[lo:] ** 2))
     stats = reduce.error_stats(a, block[:, 5:7], block[:, 7:9], lo)
     assert stats == (
         float(np.sum(a**2)),
