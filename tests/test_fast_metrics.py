@@ -265,3 +265,24 @@ def test_many_distinct_spacings_fall_back_to_numpy():
     t = np.cumsum(np.random.default_rng(5).uniform(0.9e-3, 1.1e-3, 500))
     kind, dt = reduce.grid_spacing(t)
     assert kind == 2 and math.isnan(dt)
+
+
+def test_a_record_block_is_used_again_only_when_nothing_reads_it():
+    """sim/blocks.py: a big block comes back from the pool once every view of it is gone, and
+    never while a view (a result's signal) still reads it."""
+    from adaptive_ftc.sim import blocks
+
+    shape = (blocks.MIN_BYTES // 8 // 4 + 3, 4)
+    a = blocks.empty(shape)
+    a[:] = 1.0
+    view = a[:, 2:3]  # as SimResult.e is a column of the signal block
+    address = view.__array_interface__["data"][0] - 16
+    del a
+    b = blocks.empty(shape)  # the first block is still read through `view`
+    assert b.__array_interface__["data"][0] != address
+    b[:] = 2.0
+    assert np.all(view == 1.0)
+    del view
+    c = blocks.empty(shape)
+    assert c.__array_interface__["data"][0] == address  # given back, taken again
+    assert blocks.empty((10, 3)).base is None  # small: a plain np.empty

@@ -764,9 +764,11 @@ def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -
 def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
     """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
     (``Assembled.signals`` writes every column of every row)."""
+    from adaptive_ftc.sim import blocks
     from adaptive_ftc.sim.layout import RecordLayout
 
-    return np.empty((rows, RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width))
+    width = RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width
+    return blocks.empty((rows, width))  # an earlier run's block when one is free
 
 
 def _solver_settings(solver: Any) -> str:
