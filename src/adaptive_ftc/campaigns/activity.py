@@ -69,9 +69,17 @@ class ActivityCriterion:
             peak = m_peak if peak is None else peak
         return self.max_fast_rms_relative * p2p, self.max_peak_relative * peak
 
-    def judge(self, row: dict[str, Any], spec: CampaignSpec) -> tuple[bool, str]:
-        """Whether the outcome ``row`` meets the criterion, and why not (``""`` when it does)."""
-        fast_max, peak_max = self.thresholds(spec)
+    def judge(
+        self,
+        row: dict[str, Any],
+        spec: CampaignSpec,
+        *,
+        thresholds: tuple[float, float] | None = None,
+    ) -> tuple[bool, str]:
+        """Whether the outcome ``row`` meets the criterion, and why not (``""`` when it does).
+        ``thresholds``: :meth:`thresholds` of ``spec`` when the caller has them already (they
+        are cached per campaign digest, but the digest hashes the whole spec)."""
+        fast_max, peak_max = self.thresholds(spec) if thresholds is None else thresholds
         if not row.get("activity_record_ok", False):
             return False, "record too coarse to judge the activity"
         why = []

@@ -4,6 +4,7 @@ its metrics row and dropped)."""
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import signal
@@ -21,7 +22,7 @@ from adaptive_ftc.campaigns.sampling import Member, draw_member
 from adaptive_ftc.campaigns.spec import CampaignSpec, load_campaign
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.sim.batch import iter_simulate
-from adaptive_ftc.sim.result import SimResult
+from adaptive_ftc.sim.result import SimResult, _monotone
 
 if TYPE_CHECKING:
     from adaptive_ftc.sim.system import ClosedLoop
@@ -49,8 +50,24 @@ def recovery_times(result: SimResult, tolerance: float) -> list[float]:
     times = list(result.failure_times)
     if not times or result.time.size == 0:
         return []
-    err = np.max(np.abs(result.e), axis=1)
     ends = times[1:] + [float(result.time[-1])]
+    if _monotone(result.time):  # segments are spans of rows: one compiled scan each
+        from adaptive_ftc.sim.reduce import last_above, row_span
+
+        out = []
+        for t, nxt in zip(times, ends, strict=True):
+            i0, i1 = row_span(result.time, t, nxt)
+            if i1 <= i0:
+                continue
+            last = last_above(result.e, i0, i1, tolerance)
+            if last < 0:
+                out.append(0.0)
+            elif last == i1 - i0 - 1:
+                out.append(math.inf)
+            else:
+                out.append(float(result.time[i0 + last + 1] - t))
+        return out
+    err = np.max(np.abs(result.e), axis=1)
     out = []
     for t, nxt in zip(times, ends, strict=True):
         seg = (result.time >= t - 1e-9) & (result.time <= nxt + 1e-9)
@@ -78,11 +95,15 @@ ACTIVITY_COLUMNS = (
 )
 
 
-def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
+def outcome(
+    result: SimResult, spec: CampaignSpec, *, thresholds: tuple[float, float] | None = None
+) -> dict[str, Any]:
     """The outcome columns of one run: status, divergence time/signal, metrics, success.
 
     ``success``: ``tracking_ok`` (completed, final-window RMS error within the threshold) and,
-    when the spec judges it (:mod:`adaptive_ftc.campaigns.activity`), ``activity_ok``."""
+    when the spec judges it (:mod:`adaptive_ftc.campaigns.activity`), ``activity_ok``.
+    ``thresholds``: the activity thresholds (``spec.activity.thresholds(spec)``) when the
+    caller has them (a chunk asks once, not once per run)."""
     row: dict[str, Any] = {"status": str(result.status), "message": result.message}
     m = result.metrics(final_window=spec.final_window) if result.time.size else {}
     for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
@@ -115,7 +136,9 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
     elif result.status != "completed":
         row["activity_ok"], row["activity_why"] = False, "the run did not complete"
     else:
-        row["activity_ok"], row["activity_why"] = spec.activity.judge(row, spec)
+        row["activity_ok"], row["activity_why"] = spec.activity.judge(
+            row, spec, thresholds=thresholds
+        )
     row["success"] = row["tracking_ok"] and row["activity_ok"]
     return row
 
@@ -123,22 +146,35 @@ def outcome(result: SimResult, spec: CampaignSpec) -> dict[str, Any]:
 def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict[str, Any]]:
     """Simulate one chunk (every design of members ``chunk*size ..``); rows in (index, design)
     order. Only metrics rows are kept, never the trajectories: each run's outcome is computed
-    as its result arrives (:func:`iter_simulate`), while the threads run the next ones."""
+    in the thread that simulated it (:func:`iter_simulate` with ``reduce``), while the other
+    threads run the next ones."""
     lo = chunk * spec.chunk_size
     hi = min(spec.runs, lo + spec.chunk_size)
-    members: list[Member] = [draw_member(spec, i) for i in range(lo, hi)]
-    loops: list[ClosedLoop] = []
-    slots: list[int | None] = []  # each run's place in loops (None: an invalid member)
-    for mem in members:
-        for d in spec.designs:
-            if mem.loop is not None:
-                slots.append(len(loops))
-                loops.append(mem.design_loop(d))
-            else:
-                slots.append(None)
+    members: list[Member] = []
+    slots: list[int | None] = []  # each run's place among the simulated runs (None: invalid)
+    n_loops = 0
+
+    def loops() -> Iterator[ClosedLoop]:
+        # drawn as the threads take them (iter_simulate pulls from here between results), so
+        # that drawing a member overlaps the runs already going
+        nonlocal n_loops
+        for i in range(lo, hi):
+            mem = draw_member(spec, i)
+            members.append(mem)
+            for d in spec.designs:
+                if mem.loop is not None:
+                    slots.append(n_loops)
+                    n_loops += 1
+                    yield mem.design_loop(d)
+                else:
+                    slots.append(None)
+
+    thresholds = spec.activity.thresholds(spec) if spec.activity is not None else None
+    reduce = functools.partial(outcome, spec=spec, thresholds=thresholds)
     with warnings.catch_warnings():  # a diverged run is a recorded outcome, not a warning
         warnings.simplefilter("ignore", DivergenceWarning)
-        outcomes = [outcome(r, spec) for r in iter_simulate(loops, spec.solver, jobs=jobs)]
+        # each run's row is computed by the thread that simulated it (iter_simulate's reduce)
+        outcomes = list(iter_simulate(loops(), spec.solver, jobs=jobs, reduce=reduce))
     rows = []
     k = 0
     for mem in members:

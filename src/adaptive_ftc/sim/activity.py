@@ -163,6 +163,13 @@ def _uniform(t: np.ndarray, *signals: np.ndarray) -> tuple[np.ndarray, list[np.n
     than ``dt`` is dropped), else resampled linearly onto the median spacing."""
     if t.size < 2:
         return t, list(signals), math.nan
+    from adaptive_ftc.sim.reduce import grid_spacing
+
+    kind, dt = grid_spacing(t)  # one compiled pass: the common cases (the same dt, exactly)
+    if kind == 0:
+        return t, list(signals), dt
+    if kind == 1:
+        return t[:-1], [s[:-1] for s in signals], dt  # the engine's closer last record
     d = np.diff(t)
     if not np.all(d > 0):  # drop repeated times
         keep = np.concatenate(([True], d > 0))
@@ -251,36 +258,39 @@ def command_activity(
     grid, (u, pos), dt = _uniform(t, u, pos)
     lo_t = grid[0] if grid.size and start is None else (start if start is not None else 0.0)
     hi_t = grid[-1] if grid.size and end is None else (end if end is not None else 0.0)
-    mask = (grid >= lo_t - 1e-9) & (grid <= hi_t + 1e-9)
+    # the window's records: a span of rows (the grid increases), [i0, i1)
+    i0 = int(np.searchsorted(grid, lo_t - 1e-9, side="left"))
+    i1 = max(i0, int(np.searchsorted(grid, hi_t + 1e-9, side="right")))
+    # (_uniform's grid increases: it drops repeated times and resamples an uneven record)
     span = float(hi_t - lo_t)
-    idx = np.flatnonzero(mask)
+    n_win = i1 - i0
     ok = bool(math.isfinite(dt) and dt <= max_record_dt(f_c, sample_time) * (1 + 1e-9))
     # the record around the window, MARGIN / f_c seconds on each side (or to its ends), is
     # filtered, then the window cut
     a = int(np.searchsorted(grid, lo_t - MARGIN / f_c - 1e-9)) if grid.size else 0
     b = int(np.searchsorted(grid, hi_t + MARGIN / f_c + 1e-9, side="right")) if grid.size else 0
     part = u[a:b]
-    lp = None
-    if grid.size >= 2 and idx.size and np.all(np.isfinite(part)):
+    lp = None  # the low-pass over the window's rows
+    if grid.size >= 2 and n_win and np.all(np.isfinite(part)):
         low = _lowpass(part, f_c, dt)
         if low is not None:
-            lp = np.full_like(u, np.nan)
-            lp[a:b] = low
-    rate, lower, upper = _limits_at(grid, limits, u.shape[1])
+            lp = low[i0 - a : i1 - a]
+    # the limits in effect over the window's records only
+    rate, lower, upper = _limits_at(grid[i0:i1], limits, u.shape[1])
     out: dict[str, ActuatorActivity] = {}
     for j, name in enumerate(names):
-        uj, pj = u[idx, j], pos[idx, j]
-        if idx.size < 2:
+        uj, pj = np.ascontiguousarray(u[i0:i1, j]), pos[i0:i1, j]  # uj: as u[idx, j] was
+        if n_win < 2:
             nan = math.nan
             fast = tv = prate = rfrac = tfrac = peak = p2p = nan
         else:
-            fast = float(np.sqrt(np.mean((uj - lp[idx, j]) ** 2))) if lp is not None else math.nan
+            fast = float(np.sqrt(np.mean((uj - lp[:, j]) ** 2))) if lp is not None else math.nan
             du = np.diff(uj)
             tv = float(np.sum(np.abs(du)) / span) if span > 0 else math.nan
             prate = float(np.max(np.abs(du)) / dt)
             peak = float(np.max(np.abs(uj)))
             p2p = float(np.max(uj) - np.min(uj))
-            r = rate[idx[:-1], j]
+            r = rate[:-1, j]
             limited = np.isfinite(r)
             if limited.any():
                 moving = np.abs(np.diff(pj)) / dt
@@ -288,7 +298,7 @@ def command_activity(
                 rfrac = float(np.mean(at_rate))  # over every interval of the window
             else:
                 rfrac = math.nan
-            lo, hi = lower[idx, j], upper[idx, j]
+            lo, hi = lower[:, j], upper[:, j]
             bounded = np.isfinite(lo) | np.isfinite(hi)
             if bounded.any():
                 width = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(lo), np.abs(hi)))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from collections.abc import Iterable, Iterator, Sequence, Sized
+from collections.abc import Callable, Iterable, Iterator, Sequence, Sized
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -58,7 +58,8 @@ def iter_simulate(
     jobs: int | None = None,
     window: int | None = None,
     progress: bool = False,
-) -> Iterator[SimResult]:
+    reduce: Callable[[SimResult], Any] | None = None,
+) -> Iterator[Any]:
     """Simulate closed loops in parallel and yield their results one by one, in input order.
 
     Like :func:`simulate_many`, but at most ``window`` runs (default ``4 * jobs``) are in
@@ -67,6 +68,11 @@ def iter_simulate(
     batches, as calling :func:`simulate_many` on chunks has). ``loops`` may be any iterable,
     a generator included (loops are drawn as the window frees up). Leaving the loop early
     cancels the runs not started and waits for the running ones.
+
+    ``reduce``: a function of one result, called in the thread that simulated it (right after
+    the run, while the other threads run theirs); its value is yielded instead of the result,
+    which is dropped there (a campaign reduces each run to its metrics row this way, without
+    the trajectories passing through one thread). An exception it raises is raised here.
 
     Examples
     --------
@@ -96,14 +102,14 @@ def iter_simulate(
     pool = ThreadPoolExecutor(max_workers=jobs)
     try:
         for loop in source:
-            pending.append(pool.submit(simulate, loop, solver))
+            pending.append(pool.submit(_run, loop, solver, reduce))
             if len(pending) >= window:
                 break
         while pending:
             result = pending.popleft().result()
             following = next(source, None)
             if following is not None:  # the next run starts before the caller takes this result
-                pending.append(pool.submit(simulate, following, solver))
+                pending.append(pool.submit(_run, following, solver, reduce))
             if hasattr(bar, "tick"):
                 bar.tick()
             elif bar is not None:
@@ -113,3 +119,9 @@ def iter_simulate(
         pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
             bar.close()
+
+
+def _run(loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None) -> Any:
+    """One run of a batch, reduced in the same thread when asked."""
+    result = simulate(loop, solver)
+    return result if reduce is None else reduce(result)

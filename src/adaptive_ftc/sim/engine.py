@@ -371,8 +371,11 @@ class CompiledLoop:
         asm, solver, t_rec = self.asm, self.solver, self.t_rec
         method = solver.compiled_method
         assert method is not None  # only compiled methods reach here (scipy's take the other path)
-        # rows past the last record are never read: not zeroed (4 MB a 120 s run)
-        Y = np.empty((t_rec.size, asm.y0.size))
+        # rows past the last record are never read: not zeroed (4 MB a 120 s run); a block of
+        # an earlier run's records, already mapped, when one is free (sim/blocks.py)
+        from adaptive_ftc.sim import blocks
+
+        Y = blocks.empty((t_rec.size, asm.y0.size))
         phases = np.empty(t_rec.size, dtype=np.int64)
         args = (asm.data, asm.work())
         bound = float(solver.divergence_bound)

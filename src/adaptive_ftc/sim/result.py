@@ -243,6 +243,20 @@ class SimResult:
             return rows
         t_end = min(float(self.meta.get("t_final", t_last)), t_last)
         ends = times[1:] + [t_end]
+        if _monotone(self.time):  # windows are spans of rows: compiled sums (sim/reduce.py)
+            from adaptive_ftc.sim.reduce import rms_rows, row_span
+
+            for t, nxt in zip(times, ends, strict=True):
+                after_rows = row_span(self.time, t, min(t + window, nxt))
+                settle_rows = row_span(self.time, max(t, nxt - window), nxt)
+                rows.append(
+                    {
+                        "time": t,
+                        "rms_after": rms_rows(self.e, *after_rows),
+                        "rms_before_next": rms_rows(self.e, *settle_rows),
+                    }
+                )
+            return rows
         for t, nxt in zip(times, ends, strict=True):
             after = self.window(t, min(t + window, nxt))
             settle = self.window(max(t, nxt - window), nxt)
@@ -264,6 +278,29 @@ class SimResult:
             return {"status": self.status}  # type: ignore[dict-item]
         t_end = float(self.time[-1])
         fw = final_window if final_window is not None else max(0.1 * (t_end - self.time[0]), 1e-9)
+        if _monotone(self.time) and self.e.size and self.u_cmd.size and self.u_applied.size:
+            # one compiled pass over the records (sim/reduce.py), the same numbers bit for bit
+            from adaptive_ftc.sim.reduce import error_stats, row_span
+
+            i0, i1 = row_span(self.time, t_end - fw, t_end)
+            if i1 == self.time.size and i1 > i0:
+                ss, emax, ss_f, emax_f, peak_cmd, peak_app = error_stats(
+                    self.e, self.u_cmd, self.u_applied, i0
+                )
+                p = self.e.shape[1] if self.e.ndim == 2 else 1
+                fast: dict[str, Any] = {
+                    "rms_error": math.sqrt(ss / self.e.size),
+                    "max_error": emax,
+                    "final_window_s": fw,
+                    "rms_error_final": math.sqrt(ss_f / ((i1 - i0) * p)),
+                    "max_error_final": emax_f,
+                    "peak_command": peak_cmd,
+                    "peak_applied": peak_app,
+                    "t_end": t_end,
+                    "status": self.status,
+                }
+                fast.update(self._activity_metrics(t_end - fw, t_end))
+                return fast
         out: dict[str, Any] = {
             "rms_error": float(np.sqrt(np.mean(self.e**2))),
             "max_error": float(np.max(np.abs(self.e))),
@@ -685,6 +722,13 @@ class SimResult:
         return plots.plot(self, kind, **kwargs)
 
 
+def _monotone(time: np.ndarray) -> bool:
+    """Whether the record times never decrease (windows are then spans of rows)."""
+    from adaptive_ftc.sim.reduce import nondecreasing
+
+    return nondecreasing(time)
+
+
 def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -> dict:
     """The provenance of one run (``SimResult.meta``)."""
     ctrl = loop.controller
@@ -716,9 +760,11 @@ def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -
 def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
     """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
     (``Assembled.signals`` writes every column of every row)."""
+    from adaptive_ftc.sim import blocks
     from adaptive_ftc.sim.layout import RecordLayout
 
-    return np.empty((rows, RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width))
+    width = RecordLayout(p=loop.plant.n_outputs, m=loop.plant.n_actuators).width
+    return blocks.empty((rows, width))  # an earlier run's block when one is free
 
 
 def _solver_settings(solver: Any) -> str:
