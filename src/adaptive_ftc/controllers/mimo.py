@@ -317,6 +317,60 @@ class MimoDirectAdaptive(AdaptiveController):
         etas = [e for e, _ in ctrl.output_adaptation()] or [float(self.eta)] * len(b)
         return tuple(float(etas[i] * bi / w) for i, bi in enumerate(b))
 
+    def sampled_lookahead(self, g) -> bool:
+        """Constraint-aware, digital (``g.loop.sample_time > 0``, ``s'`` from the dirty-
+        derivative filter): the command is computed from the estimates the sample's law
+        step gives (:meth:`emit_control`)."""
+        ca = self.constraint_aware
+        return (
+            ca is not None
+            and not ca.is_ideal
+            and float(g.loop.sample_time) > 0
+            and g.sdot == "filtered"
+            and bool(self.normalization(g.loop))
+        )
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        """Constraint-aware, digital (:meth:`sampled_lookahead`): ``u0_i = Pi_i^T (theta_i +
+        T theta_i')``, the estimates after the forward-Euler step that the sample computes,
+        instead of before it. The sampled law otherwise sees ``s`` one sample late (``theta``
+        at sample ``k`` integrates ``q`` up to ``k - 1``) and, through the integrated ``s'``
+        of the dirty-derivative filter, a further filter lag; with the step taken first, its
+        proportional path sees ``s`` at the sample. ``theta_i'`` here is the law of
+        :meth:`emit_adapt` without the compensated error (whose filter needs the command
+        itself); its ``s'`` is a copy of the loop's ``s'`` filter (states ``s_lookahead_i``,
+        started at ``s(t0)`` like it). Not while the adaptation is frozen."""
+        if not self.sampled_lookahead(g):
+            return []
+        g.use("normaliser", normaliser)  # robust_q: one of the loop's laws already
+        g.use("lookahead", lookahead)
+        norm = self.normalization(g.loop)
+        adaptation = self.bound(g.loop).output_adaptation()
+        c0 = len(g.consts)
+        g.consts.append(float(g.loop.sample_time))
+        g.consts.extend(norm)
+        a0 = len(g.consts)
+        for eta_i, sigma_i in adaptation:
+            g.consts.extend((eta_i, sigma_i))
+        p, nx = len(blocks), g.nx
+        g.adaptive_names += [f"s_lookahead{i + 1}" for i in range(p)]
+        g.y0_extra.extend([0.0] * p)  # assemble starts them at s(t0)
+        lines = ["    # constraint-aware, digital: u0 from the estimates after the sample's step"]
+        for r, (o, at, size) in enumerate(blocks):
+            eta, sigma = "D.gains.eta", "D.gains.sigma"
+            if adaptation:
+                eta, sigma = f"c[{a0 + 2 * r}]", f"c[{a0 + 2 * r + 1}]"
+            s = f"sig[{nx + 2 * p + r}]"
+            lines += [
+                f"    sd = ({s} - Y[{extra_at + r}]) / c[FTAU]",
+                f"    dY[{extra_at + r}] = sd",
+                "    if c[ADAPT] != 0.0:",
+                f"        u0[{r}] += c[{c0}] * lookahead(phi, Y, robust_q(sd, {s}, c[K + {r}],"
+                f" c[K0 + {r}], c[EPS0]), {eta}, {sigma}, normaliser(phi, c[{c0 + 1 + r}],"
+                f" {o}, {size}), {o}, {at}, {size})",
+            ]
+        return lines
+
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)
         norm = self.normalization(g.loop)
@@ -346,6 +400,16 @@ class MimoDirectAdaptive(AdaptiveController):
                 f"    theta_law(dY, Y, phi, q[{r}], {eta}, {sigma}, {gain}, {o}, {at}, {size})"
             )
         return lines
+
+
+def lookahead(phi, Y, q, gamma, sigma, gain, off, at, size):
+    """``Pi^T theta'`` of :func:`~adaptive_ftc.controllers.laws.theta_law` (``theta' = gamma
+    g Pi q - gamma sigma theta``): what one step of the law adds to ``u0 = Pi^T theta``
+    (:meth:`MimoDirectAdaptive.emit_control`)."""
+    acc = 0.0
+    for l in range(size):
+        acc += phi[off + l] * (gamma * gain * phi[off + l] * q - gamma * sigma * Y[at + l])
+    return acc
 
 
 def normaliser(phi, c, off, size):
