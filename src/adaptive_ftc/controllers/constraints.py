@@ -274,6 +274,10 @@ class Configuration(NamedTuple):
     #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
     #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
     slope_scale: float = 1.0
+    #: a digital law's sample time where the command filter hands on the value after the
+    #: sample's step, ``u0 = uf + T uf'`` (0 = its state ``uf``: one sample more of lag; the
+    #: constraint-aware MIMO law, :meth:`MimoDirectAdaptive.sampled_configuration`)
+    step: float = 0.0
 
     @property
     def filtered(self) -> bool:
@@ -725,8 +729,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
+        if cfg.step > 0:
+            g.consts.append(cfg.step)
         for i in range(p):
             f = at_f + i
+            if cfg.step > 0:  # the filter's value after the sample's step
+                control += [
+                    f"    uc{i} = u0[{i}]",
+                    f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
+                    f"    u0[{i}] = Y[{f}] + c[{len(g.consts) - 1}] * dY[{f}]",
+                ]
+                continue
             control += [
                 f"    uc{i} = u0[{i}]",
                 f"    u0[{i}] = Y[{f}]",

@@ -182,6 +182,12 @@ class MimoDirectAdaptive(AdaptiveController):
         out = super().bound(loop)
         if out is self or self.output_gains:
             return out
+        ca = out.constraint_aware
+        if ca.sample_time > 0 and ca.derivative_lag is None:
+            # the digital law's own s' (derivative_filter_tau: the backward difference),
+            # integrated by the sample's step it looks ahead to (emit_control), is s at the
+            # sample: no lag of the s' estimate in its loop (the shared default: 2 T)
+            out = replace(out, constraint_aware=replace(ca, derivative_lag=0.0))
         g0 = self._output_gains(loop, zero_error=False)
         g1 = self._output_gains(loop, zero_error=True)
         return replace(out, output_gains=tuple(float(v) for v in np.maximum(g0, g1)))
@@ -238,6 +244,10 @@ class MimoDirectAdaptive(AdaptiveController):
         cfg = super().configuration(b_max, input_gain)
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or ca.noise <= 0 or cfg.prefiltered:
+            return cfg
+        if ca.sample_time > 0:
+            # digital: the law looks ahead to the sample's step (emit_control) with the raw
+            # q; a prefiltered q would make the step and the look-ahead disagree
             return cfg
         raised = self.output_raise()
         if not any(m > 1.0 for m in raised):
@@ -316,6 +326,28 @@ class MimoDirectAdaptive(AdaptiveController):
             w = min(w, C_SAMPLE_NORMALISED / ca.sample_time)
         etas = [e for e, _ in ctrl.output_adaptation()] or [float(self.eta)] * len(b)
         return tuple(float(etas[i] * bi / w) for i, bi in enumerate(b))
+
+    def derivative_filter_tau(self, loop) -> float | None:
+        """Constraint-aware, digital: the ``s'`` filter at the sample time, i.e. the backward
+        difference ``(s[k] - s[k-1]) / T`` (forward Euler of the dirty derivative with
+        ``tau = T`` has its pole at 0), which the law's step integrates back to ``s[k]``: with
+        the look-ahead of :meth:`emit_control` its proportional path sees ``s`` at the
+        sample, not through the solver's default ``2 T`` filter (one more sample of lag:
+        measured on the spacecraft-hardware members at 10 Hz, e.g. member 1, 9.6e-3 rad
+        against 3.3e-3). ``None`` (the solver's default) otherwise."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not float(loop.sample_time) > 0:
+            return None
+        return float(loop.sample_time)
+
+    def sampled_configuration(self, cfg, g):
+        """Digital (:meth:`sampled_lookahead`): the command filter hands on its value after
+        the sample's step, ``u0 = uf + T uf'`` (``Configuration.step``), not ``uf``: the same
+        filter one sample earlier (at ``omega_f T = 1`` its output is the limited command of
+        the same sample)."""
+        if not self.sampled_lookahead(g) or not cfg.filtered:
+            return cfg
+        return cfg._replace(step=float(g.loop.sample_time))
 
     def sampled_lookahead(self, g) -> bool:
         """Constraint-aware, digital (``g.loop.sample_time > 0``, ``s'`` from the dirty-
