@@ -380,7 +380,9 @@ class ConstraintAware:
         Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
         ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
         solver's default for this model, ``max(0.01, 2 sample_time)`` where the controller is
-        digital or the measurements noisy, else 0 (``s'`` exact). Not a constraint alone.
+        digital or the measurements noisy, else 0 (``s'`` exact); the digital MIMO law sets 0
+        (:meth:`MimoDirectAdaptive.bound`: its backward-difference ``s'``, looked ahead
+        through, adds no lag). Not a constraint alone.
 
     Examples
     --------

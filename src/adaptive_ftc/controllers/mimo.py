@@ -28,7 +28,9 @@ __all__ = ["MimoDirectAdaptive"]
 #: dirty derivative), so its proportional loop is ``s[k+1] = s[k] - g T s[k-1]``, with poles
 #: of modulus ``sqrt(g T)``: 0.71 at 1/2 (the shared rule's ``0.75/T`` gives 0.87; measured,
 #: the manipulator at 50 Hz loses the arm after the 12 s failure with it, and tracks to
-#: 2.3e-2 rad with 1/2).
+#: 2.3e-2 rad with 1/2). Since round 5 the digital law looks ahead to the sample's step
+#: (:meth:`MimoDirectAdaptive.emit_control`: ``s[k+1] = (1 - g T) s[k]``); the cap is kept,
+#: not remeasured.
 C_SAMPLE_NORMALISED = 0.5
 
 #: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below ``C_RAISE w`` (``w``
