@@ -252,6 +252,12 @@ class AdaptiveController(ABC):
         unstable = np.abs(ev[ev.real > 1e-9])
         return float(unstable.max()) if unstable.size else 0.0
 
+    def derivative_filter_tau(self, loop) -> float | None:
+        """The time constant (s) of the ``s'`` filter this design asks for on ``loop``
+        (``SolverOptions.filter_tau_for``, where the solver leaves ``filter_tau`` unset);
+        ``None``: the solver's default. The constraint-aware MIMO law overrides it."""
+        return None
+
     def loop_gain_growth(self) -> float:
         """The factor by which the law's loop gain can grow along the run over the one at
         ``t0`` (``ConstraintAware.gain_growth``): 1; §4.4 overrides it."""
@@ -299,7 +305,13 @@ class AdaptiveController(ABC):
             cfg = cfg._replace(feedback=0.0)  # a baseline's own law (the oracle) keeps its
         if cfg == constraints.IDENTITY:
             return [], [], [], []
+        cfg = self.sampled_configuration(cfg, g)
         return constraints.emit(cfg, g, blocks, at, self.single_output, self.hedge_direction(g))
+
+    def sampled_configuration(self, cfg: constraints.Configuration, g):
+        """``cfg`` as the generated loop ``g`` implements it (a digital law may hand on its
+        command filter's value after the sample's step); the design's own: ``cfg``."""
+        return cfg
 
     def hedge_direction(self, g) -> str:
         """The sign of the input gain the compensated-error filter assumes, as generated code:

@@ -309,6 +309,10 @@ class Configuration(NamedTuple):
     #: = none): ``u0 = Pi(x)^T theta`` keeps the measured ``x``, the law of ``theta`` gets
     #: ``Pi`` of the prefiltered ``x`` (§4.3 under noise, :func:`adaptation_regressor_rule`)
     omega_r: float = math.inf
+    #: a digital law's sample time where the command filter hands on the value after the
+    #: sample's step, ``u0 = uf + T uf'`` (0 = its state ``uf``: one sample more of lag; the
+    #: constraint-aware MIMO law, :meth:`MimoDirectAdaptive.sampled_configuration`)
+    step: float = 0.0
 
     @property
     def filtered(self) -> bool:
@@ -422,7 +426,9 @@ class ConstraintAware:
         Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
         ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
         solver's default for this model, ``max(0.01, 2 sample_time)`` where the controller is
-        digital or the measurements noisy, else 0 (``s'`` exact). Not a constraint alone.
+        digital or the measurements noisy, else 0 (``s'`` exact); the digital MIMO law sets 0
+        (:meth:`MimoDirectAdaptive.bound`: its backward-difference ``s'``, looked ahead
+        through, adds no lag). Not a constraint alone.
 
     Examples
     --------
@@ -890,8 +896,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
+        if cfg.step > 0:
+            g.consts.append(cfg.step)
         for i in range(p):
             f = at_f + i
+            if cfg.step > 0:  # the filter's value after the sample's step
+                control += [
+                    f"    uc{i} = u0[{i}]",
+                    f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
+                    f"    u0[{i}] = Y[{f}] + c[{len(g.consts) - 1}] * dY[{f}]",
+                ]
+                continue
             control += [
                 f"    uc{i} = u0[{i}]",
                 f"    u0[{i}] = Y[{f}]",

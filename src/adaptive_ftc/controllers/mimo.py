@@ -28,7 +28,9 @@ __all__ = ["MimoDirectAdaptive"]
 #: dirty derivative), so its proportional loop is ``s[k+1] = s[k] - g T s[k-1]``, with poles
 #: of modulus ``sqrt(g T)``: 0.71 at 1/2 (the shared rule's ``0.75/T`` gives 0.87; measured,
 #: the manipulator at 50 Hz loses the arm after the 12 s failure with it, and tracks to
-#: 2.3e-2 rad with 1/2).
+#: 2.3e-2 rad with 1/2). Since round 5 the digital law looks ahead to the sample's step
+#: (:meth:`MimoDirectAdaptive.emit_control`: ``s[k+1] = (1 - g T) s[k]``); the cap is kept,
+#: not remeasured.
 C_SAMPLE_NORMALISED = 0.5
 
 #: an output whose proportional loop gain ``g_i = b_i eta |Pi_i|^2`` is below ``C_RAISE w`` (``w``
@@ -182,6 +184,12 @@ class MimoDirectAdaptive(AdaptiveController):
         out = super().bound(loop)
         if out is self or self.output_gains:
             return out
+        ca = out.constraint_aware
+        if ca.sample_time > 0 and ca.derivative_lag is None:
+            # the digital law's own s' (derivative_filter_tau: the backward difference),
+            # integrated by the sample's step it looks ahead to (emit_control), is s at the
+            # sample: no lag of the s' estimate in its loop (the shared default: 2 T)
+            out = replace(out, constraint_aware=replace(ca, derivative_lag=0.0))
         g0 = self._output_gains(loop, zero_error=False)
         g1 = self._output_gains(loop, zero_error=True)
         return replace(out, output_gains=tuple(float(v) for v in np.maximum(g0, g1)))
@@ -238,6 +246,10 @@ class MimoDirectAdaptive(AdaptiveController):
         cfg = super().configuration(b_max, input_gain)
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or ca.noise <= 0 or cfg.prefiltered:
+            return cfg
+        if ca.sample_time > 0:
+            # digital: the law looks ahead to the sample's step (emit_control) with the raw
+            # q; a prefiltered q would make the step and the look-ahead disagree
             return cfg
         raised = self.output_raise()
         if not any(m > 1.0 for m in raised):
@@ -317,6 +329,82 @@ class MimoDirectAdaptive(AdaptiveController):
         etas = [e for e, _ in ctrl.output_adaptation()] or [float(self.eta)] * len(b)
         return tuple(float(etas[i] * bi / w) for i, bi in enumerate(b))
 
+    def derivative_filter_tau(self, loop) -> float | None:
+        """Constraint-aware, digital: the ``s'`` filter at the sample time, i.e. the backward
+        difference ``(s[k] - s[k-1]) / T`` (forward Euler of the dirty derivative with
+        ``tau = T`` has its pole at 0), which the law's step integrates back to ``s[k]``: with
+        the look-ahead of :meth:`emit_control` its proportional path sees ``s`` at the
+        sample, not through the solver's default ``2 T`` filter (one more sample of lag:
+        measured on the spacecraft-hardware members at 10 Hz, e.g. member 1, 9.6e-3 rad
+        against 3.3e-3). ``None`` (the solver's default) otherwise."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not float(loop.sample_time) > 0:
+            return None
+        return float(loop.sample_time)
+
+    def sampled_configuration(self, cfg, g):
+        """Digital (:meth:`sampled_lookahead`): the command filter hands on its value after
+        the sample's step, ``u0 = uf + T uf'`` (``Configuration.step``), not ``uf``: the same
+        filter one sample earlier (at ``omega_f T = 1`` its output is the limited command of
+        the same sample)."""
+        if not self.sampled_lookahead(g) or not cfg.filtered:
+            return cfg
+        return cfg._replace(step=float(g.loop.sample_time))
+
+    def sampled_lookahead(self, g) -> bool:
+        """Constraint-aware, digital (``g.loop.sample_time > 0``, ``s'`` from the dirty-
+        derivative filter): the command is computed from the estimates the sample's law
+        step gives (:meth:`emit_control`)."""
+        ca = self.constraint_aware
+        return (
+            ca is not None
+            and not ca.is_ideal
+            and float(g.loop.sample_time) > 0
+            and g.sdot == "filtered"
+            and bool(self.normalization(g.loop))
+        )
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        """Constraint-aware, digital (:meth:`sampled_lookahead`): ``u0_i = Pi_i^T (theta_i +
+        T theta_i')``, the estimates after the forward-Euler step that the sample computes,
+        instead of before it. The sampled law otherwise sees ``s`` one sample late (``theta``
+        at sample ``k`` integrates ``q`` up to ``k - 1``) and, through the integrated ``s'``
+        of the dirty-derivative filter, a further filter lag; with the step taken first, its
+        proportional path sees ``s`` at the sample. ``theta_i'`` here is the law of
+        :meth:`emit_adapt` without the compensated error (whose filter needs the command
+        itself); its ``s'`` is a copy of the loop's ``s'`` filter (states ``s_lookahead_i``,
+        started at ``s(t0)`` like it). Not while the adaptation is frozen."""
+        if not self.sampled_lookahead(g):
+            return []
+        g.use("normaliser", normaliser)  # robust_q: one of the loop's laws already
+        g.use("lookahead", lookahead)
+        norm = self.normalization(g.loop)
+        adaptation = self.bound(g.loop).output_adaptation()
+        c0 = len(g.consts)
+        g.consts.append(float(g.loop.sample_time))
+        g.consts.extend(norm)
+        a0 = len(g.consts)
+        for eta_i, sigma_i in adaptation:
+            g.consts.extend((eta_i, sigma_i))
+        p, nx = len(blocks), g.nx
+        g.adaptive_names += [f"s_lookahead{i + 1}" for i in range(p)]
+        g.y0_extra.extend([0.0] * p)  # assemble starts them at s(t0)
+        lines = ["    # constraint-aware, digital: u0 from the estimates after the sample's step"]
+        for r, (o, at, size) in enumerate(blocks):
+            eta, sigma = "D.gains.eta", "D.gains.sigma"
+            if adaptation:
+                eta, sigma = f"c[{a0 + 2 * r}]", f"c[{a0 + 2 * r + 1}]"
+            s = f"sig[{nx + 2 * p + r}]"
+            lines += [
+                f"    sd = ({s} - Y[{extra_at + r}]) / c[FTAU]",
+                f"    dY[{extra_at + r}] = sd",
+                "    if c[ADAPT] != 0.0:",
+                f"        u0[{r}] += c[{c0}] * lookahead(phi, Y, robust_q(sd, {s}, c[K + {r}],"
+                f" c[K0 + {r}], c[EPS0]), {eta}, {sigma}, normaliser(phi, c[{c0 + 1 + r}],"
+                f" {o}, {size}), {o}, {at}, {size})",
+            ]
+        return lines
+
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         g.use("theta_law", theta_law)
         norm = self.normalization(g.loop)
@@ -346,6 +434,16 @@ class MimoDirectAdaptive(AdaptiveController):
                 f"    theta_law(dY, Y, phi, q[{r}], {eta}, {sigma}, {gain}, {o}, {at}, {size})"
             )
         return lines
+
+
+def lookahead(phi, Y, q, gamma, sigma, gain, off, at, size):
+    """``Pi^T theta'`` of :func:`~adaptive_ftc.controllers.laws.theta_law` (``theta' = gamma
+    g Pi q - gamma sigma theta``): what one step of the law adds to ``u0 = Pi^T theta``
+    (:meth:`MimoDirectAdaptive.emit_control`)."""
+    acc = 0.0
+    for l in range(size):
+        acc += phi[off + l] * (gamma * gain * phi[off + l] * q - gamma * sigma * Y[at + l])
+    return acc
 
 
 def normaliser(phi, c, off, size):

@@ -1098,10 +1098,14 @@ def assemble(loop: ClosedLoop, *, sdot: str = "exact", filter_tau: float = 0.01)
         lam = data.c[where.params["lam"]]
         x0 = y0[: g.nx]
         at = where.states["s_filter"].start
+        # a design's copy of the filter (the constraint-aware MIMO law, digital) starts there too
+        copy = g.adaptive_names.index("s_lookahead1") if "s_lookahead1" in g.adaptive_names else -1
         for i in range(g.p):
             e = ref[3 * i] - x0[loop.plant.position_index[i]]
             ed = ref[3 * i + 1] - x0[loop.plant.velocity_index[i]]
             y0[at + i] = ed + lam[i] * e
+            if copy >= 0:
+                y0[g.nx + copy + i] = y0[at + i]
     if asm.extra_names:  # actuators at their first command, the first sample's held values
         module.jump(float(loop.t0), y0, 0, data, asm.work())
     return asm

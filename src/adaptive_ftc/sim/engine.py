@@ -132,10 +132,16 @@ class SolverOptions:
         return "filtered" if loop.measured_with_noise else "exact"
 
     def filter_tau_for(self, loop: ClosedLoop) -> float:
-        """The ``s'`` filter's time constant on ``loop``: ``filter_tau`` when given, else
-        ``max(0.01, 2 sample_time)`` (0.01 s for a continuous controller)."""
+        """The ``s'`` filter's time constant on ``loop``: ``filter_tau`` when given, else the
+        design's own (``AdaptiveController.derivative_filter_tau``: the constraint-aware MIMO
+        law's backward difference, ``sample_time``), else ``max(0.01, 2 sample_time)`` (0.01 s
+        for a continuous controller)."""
         if self.filter_tau is not None:
             return float(self.filter_tau)
+        own = getattr(loop.controller, "derivative_filter_tau", None)
+        tau = own(loop) if own is not None else None
+        if tau is not None:
+            return float(tau)
         return max(DEFAULT_FILTER_TAU, 2.0 * float(loop.sample_time))
 
     @property
