@@ -92,10 +92,11 @@ def _close(a, b, rel=1e-12):
     return a == b or abs(a - b) <= rel * max(abs(a), abs(b))
 
 
-def test_the_headline_metrics_equal_plain_numpy(results, spec):
+@pytest.mark.parametrize("fast", [True, False])
+def test_the_headline_metrics_equal_plain_numpy(results, spec, fast):
     for result in results:
         for r in _variants(result):
-            got = r.metrics(final_window=spec.final_window)
+            got = r.metrics(final_window=spec.final_window, fast=fast)
             for key, want in _truth_metrics(r, spec.final_window).items():
                 assert _close(got[key], want), (key, got[key], want)
 
@@ -128,7 +129,8 @@ def test_the_activity_metrics_equal_a_filter_of_the_window_written_out(results):
                 assert _close(got, float(value)), (name, key, got, value)
 
 
-def test_recovery_and_recovery_times_equal_plain_numpy(results, spec):
+@pytest.mark.parametrize("fast", [True, False])
+def test_recovery_and_recovery_times_equal_plain_numpy(results, spec, fast):
     tol = spec.recovery_tolerance
     for result in results:
         for r in _variants(result)[:2]:
@@ -151,7 +153,7 @@ def test_recovery_and_recovery_times_equal_plain_numpy(results, spec):
             # recovery: the failures inside the records, 5 s after each and before the next
             inside = [t for t in times if t <= t_last]
             ends = [*inside[1:], min(float(r.meta["t_final"]), t_last)]
-            rows = r.recovery()
+            rows = r.recovery(fast=fast)
             assert [row["time"] for row in rows] == inside
             for row, t, nxt in zip(rows, inside, ends, strict=True):
                 after = (r.time >= t - 1e-9) & (r.time <= min(t + 5.0, nxt) + 1e-9)
@@ -168,7 +170,7 @@ def test_a_result_with_unsorted_times_takes_the_mask_path(results, spec):
     n = r.time.size
     order = np.r_[np.arange(n // 2, n), np.arange(0, n // 2)]
     shuffled = dataclasses.replace(r, time=r.time[order], e=r.e[order])
-    got = shuffled.metrics(final_window=spec.final_window)
+    got = shuffled.metrics(final_window=spec.final_window, fast=True)
     t, e = shuffled.time, shuffled.e
     final = t >= t.max() - spec.final_window - 1e-9
     final &= t <= t[-1] + 1e-9
@@ -287,3 +289,27 @@ def test_a_record_block_is_used_again_only_when_nothing_reads_it():
     c = blocks.empty(shape)
     assert c.__array_interface__["data"][0] == address  # given back, taken again
     assert blocks.empty((10, 3)).base is None  # small: a plain np.empty
+
+
+def test_a_single_result_does_not_compile_the_kernels_unless_asked(tmp_path):
+    """``metrics()`` and ``recovery()`` of one result (``aftc run``) reduce with numpy unless
+    the process has loaded the compiled kernels (a campaign asks for them with ``fast=True``):
+    on an empty cache they would compile for about 4 s to save milliseconds."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, warnings; warnings.simplefilter('ignore')\n"
+        "from dataclasses import replace\n"
+        "from adaptive_ftc import load_scenario, simulate\n"
+        "sc = load_scenario('hypersonic-direct-s1')\n"
+        "r = simulate(replace(sc.loop, t_final=2.0), sc.solver)\n"
+        "r.metrics(); r.recovery()\n"
+        "print('adaptive_ftc.sim.reduce' in sys.modules)\n"
+        "r.metrics(fast=True)\n"
+        "print('adaptive_ftc.sim.reduce' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, check=True
+    ).stdout.split()
+    assert out == ["False", "True"]

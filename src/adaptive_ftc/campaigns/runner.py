@@ -105,7 +105,7 @@ def outcome(
     ``thresholds``: the activity thresholds (``spec.activity.thresholds(spec)``) when the
     caller has them (a chunk asks once, not once per run)."""
     row: dict[str, Any] = {"status": str(result.status), "message": result.message}
-    m = result.metrics(final_window=spec.final_window) if result.time.size else {}
+    m = result.metrics(final_window=spec.final_window, fast=True) if result.time.size else {}
     for key in ("rms_error", "max_error", "rms_error_final", "max_error_final"):
         row[key] = float(m.get(key, math.nan))
     for key in ("peak_command", "peak_applied", "t_end"):
@@ -125,7 +125,7 @@ def outcome(
         row["divergence_signal"] = ""
     rec = recovery_times(result, spec.recovery_tolerance)
     row["worst_recovery_time"] = max(rec) if rec else 0.0
-    rms_after = [r["rms_after"] for r in result.recovery()] if result.time.size else []
+    rms_after = [r["rms_after"] for r in result.recovery(fast=True)] if result.time.size else []
     rms_after = [v for v in rms_after if not math.isnan(v)]
     row["worst_recovery_rms"] = max(rms_after) if rms_after else math.nan
     row["tracking_ok"] = bool(

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
@@ -158,18 +159,27 @@ def _check_f_c(f_c: float) -> float:
     return float(f_c)
 
 
+def reductions_loaded() -> bool:
+    """Whether this process has loaded the compiled reductions of :mod:`adaptive_ftc.sim.reduce`
+    (a campaign does; one ``aftc run`` reduces with numpy rather than compile them, about 4 s
+    on an empty cache, to save milliseconds)."""
+    reduce = sys.modules.get("adaptive_ftc.sim.reduce")
+    return reduce is not None and bool(reduce._error_stats.signatures)
+
+
 def _uniform(t: np.ndarray, *signals: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], float]:
     """``(t, signals, dt)`` on a uniform grid: as given when it is one (a last sample closer
     than ``dt`` is dropped), else resampled linearly onto the median spacing."""
     if t.size < 2:
         return t, list(signals), math.nan
-    from adaptive_ftc.sim.reduce import grid_spacing
+    if reductions_loaded():
+        from adaptive_ftc.sim.reduce import grid_spacing
 
-    kind, dt = grid_spacing(t)  # one compiled pass: the common cases (the same dt, exactly)
-    if kind == 0:
-        return t, list(signals), dt
-    if kind == 1:
-        return t[:-1], [s[:-1] for s in signals], dt  # the engine's closer last record
+        kind, dt = grid_spacing(t)  # one compiled pass: the common cases (the same dt, exactly)
+        if kind == 0:
+            return t, list(signals), dt
+        if kind == 1:
+            return t[:-1], [s[:-1] for s in signals], dt  # the engine's closer last record
     d = np.diff(t)
     if not np.all(d > 0):  # drop repeated times
         keep = np.concatenate(([True], d > 0))

@@ -231,8 +231,12 @@ class SimResult:
             raise ConfigurationError(f"No samples in the window [{start}, {end}].")
         return np.max(np.abs(self.e[mask]), axis=0)
 
-    def recovery(self, window: float = 5.0) -> list[dict[str, Any]]:
-        """Per failure time: RMS error just after it (``window`` s) and just before the next."""
+    def recovery(self, window: float = 5.0, *, fast: bool | None = None) -> list[dict[str, Any]]:
+        """Per failure time: RMS error just after it (``window`` s) and just before the next.
+
+        ``fast``: reduce with the compiled kernels of :mod:`adaptive_ftc.sim.reduce` (the same
+        numbers bit for bit; they compile once per machine, about 4 s, so a campaign asks for
+        them); ``None`` (default): only where this process has already loaded them."""
         rows: list[dict[str, Any]] = []
         if self.time.size == 0:
             return rows
@@ -243,7 +247,7 @@ class SimResult:
             return rows
         t_end = min(float(self.meta.get("t_final", t_last)), t_last)
         ends = times[1:] + [t_end]
-        if _monotone(self.time):  # windows are spans of rows: compiled sums (sim/reduce.py)
+        if _compiled(fast) and _monotone(self.time):  # spans of rows: compiled sums
             from adaptive_ftc.sim.reduce import rms_rows, row_span
 
             for t, nxt in zip(times, ends, strict=True):
@@ -272,13 +276,23 @@ class SimResult:
             rows.append(row)
         return rows
 
-    def metrics(self, final_window: float | None = None) -> dict[str, float]:
-        """Headline numbers: RMS/max error overall and in the final window, peak control."""
+    def metrics(
+        self, final_window: float | None = None, *, fast: bool | None = None
+    ) -> dict[str, float]:
+        """Headline numbers: RMS/max error overall and in the final window, peak control.
+
+        ``fast``: as in :meth:`recovery` (compiled one-pass reductions, the same numbers)."""
         if self.time.size == 0:
             return {"status": self.status}  # type: ignore[dict-item]
         t_end = float(self.time[-1])
         fw = final_window if final_window is not None else max(0.1 * (t_end - self.time[0]), 1e-9)
-        if _monotone(self.time) and self.e.size and self.u_cmd.size and self.u_applied.size:
+        if (
+            _compiled(fast)
+            and _monotone(self.time)
+            and self.e.size
+            and self.u_cmd.size
+            and self.u_applied.size
+        ):
             # one compiled pass over the records (sim/reduce.py), the same numbers bit for bit
             from adaptive_ftc.sim.reduce import error_stats, row_span
 
@@ -720,6 +734,17 @@ class SimResult:
         from adaptive_ftc import plots
 
         return plots.plot(self, kind, **kwargs)
+
+
+def _compiled(fast: bool | None) -> bool:
+    """Whether to reduce with :mod:`adaptive_ftc.sim.reduce`'s kernels: as asked, else only
+    where this process has loaded them already (a first ``aftc run`` would otherwise compile
+    them, about 4 s, to save milliseconds)."""
+    if fast is not None:
+        return bool(fast)
+    from adaptive_ftc.sim.activity import reductions_loaded
+
+    return reductions_loaded()
 
 
 def _monotone(time: np.ndarray) -> bool:
