@@ -38,6 +38,25 @@ import numpy as np
 from numba import njit
 
 
+@njit(nogil=True, error_model="numpy", inline="always")
+def start(zi, z, x0):
+    """The sections' state at rest for a constant input ``x0`` (scipy's ``zi * x[0]``)."""
+    for s in range(zi.shape[0]):
+        z[s, 0] = zi[s, 0] * x0
+        z[s, 1] = zi[s, 1] * x0
+
+
+@njit(nogil=True, error_model="numpy", inline="always")
+def sections(sos, z, x_cur):
+    """One sample through the direct-form II transposed sections (scipy's sosfilt)."""
+    for s in range(sos.shape[0]):
+        x_new = sos[s, 0] * x_cur + z[s, 0]
+        z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
+        z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+        x_cur = x_new
+    return x_cur
+
+
 @njit(cache=CACHE, nogil=True, error_model="numpy")
 def filtfilt(sos, zi, ext):
     """scipy.signal.sosfiltfilt's two passes over the padded record ``ext`` (samples, columns):
@@ -47,30 +66,12 @@ def filtfilt(sos, zi, ext):
     y = np.empty_like(ext)
     z = np.empty((ns, 2))
     for i in range(m):
-        x0 = ext[0, i]
-        for s in range(ns):
-            z[s, 0] = zi[s, 0] * x0
-            z[s, 1] = zi[s, 1] * x0
+        start(zi, z, ext[0, i])
         for k in range(n):
-            x_cur = ext[k, i]
-            for s in range(ns):
-                x_new = sos[s, 0] * x_cur + z[s, 0]
-                z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-                z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                x_cur = x_new
-            y[k, i] = x_cur
-        y0 = y[n - 1, i]
-        for s in range(ns):
-            z[s, 0] = zi[s, 0] * y0
-            z[s, 1] = zi[s, 1] * y0
+            y[k, i] = sections(sos, z, ext[k, i])
+        start(zi, z, y[n - 1, i])
         for k in range(n - 1, -1, -1):
-            x_cur = y[k, i]
-            for s in range(ns):
-                x_new = sos[s, 0] * x_cur + z[s, 0]
-                z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-                z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                x_cur = x_new
-            y[k, i] = x_cur
+            y[k, i] = sections(sos, z, y[k, i])
     return y
 '''
 
