@@ -302,7 +302,7 @@ class SimResult:
                     self.e, self.u_cmd, self.u_applied, i0
                 )
                 p = self.e.shape[1] if self.e.ndim == 2 else 1
-                fast: dict[str, Any] = {
+                one_pass: dict[str, Any] = {
                     "rms_error": math.sqrt(ss / self.e.size),
                     "max_error": emax,
                     "final_window_s": fw,
@@ -313,8 +313,8 @@ class SimResult:
                     "t_end": t_end,
                     "status": self.status,
                 }
-                fast.update(self._activity_metrics(t_end - fw, t_end))
-                return fast
+                one_pass.update(self._activity_metrics(t_end - fw, t_end))
+                return one_pass
         out: dict[str, Any] = {
             "rms_error": float(np.sqrt(np.mean(self.e**2))),
             "max_error": float(np.max(np.abs(self.e))),
