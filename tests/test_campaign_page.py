@@ -222,6 +222,27 @@ def test_the_headline_says_what_the_numbers_say(adaptive, baseline, word):
     assert f"{word} the best fair baseline, fixed-gain ({rate}, CI " in text
 
 
+def test_the_headline_speaks_of_every_design_under_test():
+    """A hardware campaign tests two laws (thesis law, constraint-aware): the headline gives
+    each its sentence, in the spec's order, each compared with the best fair baseline; the
+    baselines and the oracle get none."""
+    df = frame(
+        {
+            "thesis-law": "e" * 30,
+            "constraint-aware": "s" * 29 + "e",
+            "nominal-inverse": "s" * 10 + "e" * 20,
+            "oracle": "s" * 30,
+        }
+    )
+    text = headline(success_tables(df, THRESHOLD))
+    assert text.startswith("Over 30 random failure draws, thesis-law succeeded in 0\u00a0% ")
+    assert "thesis-law succeeded in 0\u00a0% of its runs (0/30;" in text
+    assert "constraint-aware succeeded in 96.7\u00a0% of its runs (29/30;" in text
+    assert text.index("thesis-law succeeded") < text.index("constraint-aware succeeded")
+    assert text.count("the best fair baseline, nominal-inverse (33.3\u00a0%") == 2
+    assert "oracle succeeded" not in text and "nominal-inverse succeeded" not in text
+
+
 def test_the_headline_names_divergence_and_the_hardest_failure_model():
     models = ["stuck"] * 6 + ["bias"] * 6
     df = frame({"adaptive": "sedeee" + "ssssss", "frozen": "e" * 12}, models=models)

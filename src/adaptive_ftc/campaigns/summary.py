@@ -328,17 +328,25 @@ def _hardest_model(info: dict[str, Any], design: str) -> dict[str, Any] | None:
 
 
 def headline(info: dict[str, Any]) -> str:
-    """One sentence that says what the campaign found, generated from the numbers of
-    :func:`success_tables`."""
+    """What the campaign found, generated from the numbers of :func:`success_tables`: one
+    sentence per design under test (a hardware campaign's thesis law and constraint-aware
+    law both), in the spec's order."""
     designs = info["designs"]
     tested = [d for d in designs if role(d) == "tested"] or designs[:1]
     if not tested:
         return "The campaign has no runs."
-    d = tested[0]
+    first = info["per_design"][tested[0]]
+    members = info.get("members", first["runs"])
+    sentences = [_design_sentence(info, d) for d in tested]
+    return f"Over {members} random failure draws, " + " ".join(sentences)
+
+
+def _design_sentence(info: dict[str, Any], d: str) -> str:
+    """``"<design> succeeded in ... ."``: its rate, the comparison with the best fair baseline,
+    its diverged runs and the failure model it did worst under."""
     r = info["per_design"][d]
-    members = info.get("members", r["runs"])
     text = (
-        f"Over {members} random failure draws, {d} succeeded in {pct(r['rate'])} of its runs "
+        f"{d} succeeded in {pct(r['rate'])} of its runs "
         f"({r['successes']}/{r['runs']}; 95\u00a0% CI {_ci_text(r)})"
     )
     comp = next((c for c in info.get("comparison", []) if c["design"] == d), None)
