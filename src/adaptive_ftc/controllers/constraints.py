@@ -73,8 +73,9 @@ design, not another design) it derives, by the rules below, one configuration
    u0_reachable) / |Pi|^2`` pulls the law's command back to what the filter can deliver.
 4. **Noise**: where the std bound ``C_NOISE/noise`` is the one that binds, the law sees its
    measurements (regressor inputs, errors, ``s``) through a first-order prefilter at
-   ``C_MEASURE w_max``, and its adaptation signal ``q`` through ``qf' = w_q (q - qf)`` at
-   ``C_PREFILTER w_max``. Below that noise the lower loop rate alone quiets the command:
+   ``C_MEASURE_NOISE w_max``, and its adaptation signal ``q`` through ``qf' = w_q (q - qf)``
+   at ``C_PREFILTER_NOISE w_max`` (8 w each: 7 deg of phase each at the loop rate; round 2's
+   4 w and 2 w took 41 deg and the loop resonated on the noise after the failures). Below that noise the lower loop rate alone quiets the command:
    measured on the hypersonic-hardware campaign, the two prefilters' lags (12 and 25 ms at
    ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
    5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
@@ -220,8 +221,22 @@ LAM_FACTOR_NOISE = 2.0
 C_FILTER = 4.0
 #: the prefilter of the measurements the law sees, in multiples of ``w_max``.
 C_MEASURE = 4.0
-#: the prefilter of the adaptation signal, in multiples of ``w_max``.
+#: the prefilter of the adaptation signal, in multiples of ``w_max`` (the MIMO law's raised
+#: outputs and §4.3's Nussbaum argument under noise).
 C_PREFILTER = 2.0
+#: where the noise's std bound ``C_NOISE / noise`` sets the loop rate, the law sees its
+#: measurements through a prefilter at ``C_MEASURE_NOISE w_max`` and its adaptation signal
+#: ``q`` through one at ``C_PREFILTER_NOISE w_max``: each costs ``atan(1/8)`` = 7 deg of
+#: phase at the loop rate. Both filters are in series with the whole adaptive loop (``u0``
+#: moves with ``Pi^T theta``, ``theta' ~ Pi q``); at round 2's ``4 w`` and ``2 w`` they took
+#: 14 + 27 = 41 deg there and the loop, its gain lowered by the failures, resonated at
+#: 1.5-2 Hz on the noise (hypersonic-sign-s1-rho0pos, noise 1e-3 rad / 1e-2 rad/s: fast
+#: command content 1.33e-2 rad, 1.4e-3 without the noise; at ``8 w`` and ``8 w``
+#: 7.1e-3, error 6.8e-4 -> 5.2e-4; noise seeds 1 and 2: 1.62e-2 / 1.75e-2 -> 7.0e-3 /
+#: 6.6e-3; hypersonic-direct-s1: 1.41e-2 -> 1.32e-2). The filters' noise attenuation above
+#: the loop rate is what they are there for; the band the loop tracks is the loop rate's.
+C_PREFILTER_NOISE = 8.0
+C_MEASURE_NOISE = 8.0
 #: a digital filter's bandwidth is at most ``C_EULER / T``: forward Euler of ``x' = w (u -
 #: x)`` has its pole at ``1 - w T``, stable below 2 and monotone (no ringing) up to 1. Round 2
 #: used 0.5; at 50 Hz the command filter's floor ``T / C_EULER`` (40 ms) was then the largest
@@ -670,8 +685,8 @@ class ConstraintAware:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
         omega_q = omega_m = math.inf
         if noisy:
-            omega_q = C_PREFILTER * w
-            omega_m = C_MEASURE * w
+            omega_q = C_PREFILTER_NOISE * w
+            omega_m = C_MEASURE_NOISE * w
             if self.sample_time > 0:
                 omega_q = min(omega_q, C_EULER / self.sample_time)
                 omega_m = min(omega_m, C_EULER / self.sample_time)
