@@ -75,9 +75,10 @@ design, not another design) it derives, by the rules below, one configuration
    measurements (regressor inputs, errors, ``s``) through a first-order prefilter at
    ``C_MEASURE_NOISE w_max``, and its adaptation signal ``q`` through ``qf' = w_q (q - qf)``
    at ``C_PREFILTER_NOISE w_max`` (8 w each: 7 deg of phase each at the loop rate; round 2's
-   4 w and 2 w took 41 deg and the loop resonated on the noise after the failures). Below that noise the lower loop rate alone quiets the command:
-   measured on the hypersonic-hardware campaign, the two prefilters' lags (12 and 25 ms at
-   ``w`` = 20) let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
+   4 w and 2 w took 41 deg and the loop resonated on the noise after the failures). Below
+   that noise the lower loop rate alone quiets the command: measured on the
+   hypersonic-hardware campaign, round 2's two prefilters' lags (12 and 25 ms at ``w`` = 20)
+   let the loop drift into a limit cycle (member 8, noise 2.3e-4 rad on alpha and
    5.3e-4 rad/s on q: fast content 2e-3 rad at 20 s, 7.7e-2 at 100 s; with its rate and
    travel limits the loop was lost, error 0.12 rad), while the same law without them stayed
    at 2.6-3.8e-3 rad of fast content and 2-3e-5 rad of error. §4.3 (Nussbaum) adds its own
