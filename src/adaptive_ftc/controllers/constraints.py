@@ -193,8 +193,8 @@ A_RATE = 0.04
 #: ``w_max <= rate_u0 / A_LOOP``: the loop's small-signal oscillation at its own rate, of
 #: amplitude ``A_LOOP``, stays within the rate limit (the describing function of a rate
 #: limiter: no phase loss below it). Rounds 1-4 used ``A_RATE`` here too; the command's
-#: oscillation above 1 Hz on the acceptable hypersonic cases is at most 3e-3 rad RMS (4e-3
-#: amplitude), and the large transients (failures) are the command filter's and the
+#: oscillation above 1 Hz on the noiseless acceptable hypersonic cases is at most 3e-3 rad
+#: RMS (4e-3 amplitude), and the large transients (failures) are the command filter's and the
 #: compensated error's (they respect the limit by construction). Measured (round 5) on
 #: hypersonic-sign-s1-rho0pos at 0.5 rad/s (``w`` = 5.6 at 0.04, 11.2 at 0.02, 15 at 0.015,
 #: 22.5 at 0.01): error 7.1e-3, 1.5e-3, 8.5e-4, 2.8e-4 rad (target 8.7e-4; 0.005: 3.7e-5), no
