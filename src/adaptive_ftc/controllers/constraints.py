@@ -126,7 +126,8 @@ Guarantees (which holds for which combination):
   adaptation sees only the error the delivered command is responsible for (Farrell et al.
   2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
   bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
-  loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure).
+  §2.3 loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure,
+  which a linear controller that knows the failure holds; §4.4 is acceptable at 0.5 rad/s).
 - *noise*: the lower bandwidth (and, where the std bound binds, the prefilters) bound the
   noise in the command (linear filtering), with sigma-modification keeping the estimates
   bounded; no dead-zone.
@@ -244,7 +245,7 @@ C_PREFILTER = 2.0
 #: moves with ``Pi^T theta``, ``theta' ~ Pi q``); at round 2's ``4 w`` and ``2 w`` they took
 #: 14 + 27 = 41 deg there and the loop, its gain lowered by the failures, resonated at
 #: 1.5-2 Hz on the noise (hypersonic-sign-s1-rho0pos, noise 1e-3 rad / 1e-2 rad/s: fast
-#: command content 1.33e-2 rad, 1.4e-3 without the noise; at ``8 w`` and ``8 w``
+#: command content 1.33e-2 rad, 7.8e-4 without the noise; at ``8 w`` and ``8 w``
 #: 7.1e-3, error 6.8e-4 -> 5.2e-4; noise seeds 1 and 2: 1.62e-2 / 1.75e-2 -> 7.0e-3 /
 #: 6.6e-3; hypersonic-direct-s1: 1.41e-2 -> 1.32e-2). The filters' noise attenuation above
 #: the loop rate is what they are there for; the band the loop tracks is the loop rate's.
