@@ -52,6 +52,7 @@ __all__ = [
     "LANE_WIDTH",
     "at_lane_level",
     "ineligible",
+    "ineligible_reason",
     "integrate_lanes",
     "simulate_lanes",
 ]
@@ -141,6 +142,17 @@ def ineligible(loop, solver) -> str | None:
     if loop.allocator is not None or loop.annunciations:
         return "only the fixed allocation u = R^T u0 has a lane form"
     return None
+
+
+def ineligible_reason(loop, solver) -> str | None:
+    """:func:`ineligible`, then the failures' kinds of the assembled loop (compiles or loads
+    its single-run module)."""
+    why = ineligible(loop, solver)
+    if why is not None:
+        return why
+    from adaptive_ftc.sim.engine import CompiledLoop
+
+    return _ineligible_numbers(CompiledLoop.build(loop, solver).asm)
 
 
 def _ineligible_numbers(asm) -> str | None:
@@ -811,4 +823,3 @@ def lane_groups(loops: Sequence, solver, width: int = LANE_WIDTH):
         for s in range(0, len(idx), width):
             out.append(("lanes", idx[s : s + width]))
     return out, built
-

@@ -1,0 +1,206 @@
+"""The lane engine (issue 29, stage 1; ``sim/lanes.py``): every member of a lane group gets
+its own single run's result, bit for bit (states, adaptive states, signals, status and reason,
+the integrator's counts), whatever the other lanes do.
+
+The truth is :func:`simulate` of each member alone. Runs are a few seconds long: the cost is
+compiling each lane module once (10-30 s on a loaded machine; cached on disk afterwards).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from adaptive_ftc import SolverOptions, load_scenario, simulate
+from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
+from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
+from adaptive_ftc.sim.batch import iter_simulate, simulate_many
+from adaptive_ftc.sim.lanes import (
+    LANE_WIDTH,
+    _lane_level,
+    ineligible,
+    ineligible_reason,
+    lane_source,
+    simulate_lanes,
+)
+
+RK4 = SolverOptions(method="rk4", dt=1e-3, record_dt=0.01)
+
+
+@pytest.fixture(scope="module")
+def base():
+    sc = load_scenario("hypersonic-direct-s1")
+    return replace(sc.loop, t_final=3.0, failures=())
+
+
+def _reversed(onset: float) -> tuple:
+    """Both elevators reversed: alpha leaves the plant's envelope within a second."""
+    return tuple(Affine(actuator=j, onset=onset, effectiveness=-1.0, bias=0.0) for j in (1, 2))
+
+
+def _same(a, b) -> None:
+    """``a`` (lanes) is ``b`` (its single run) bit for bit."""
+    assert a.status == b.status
+    assert a.reason == b.reason
+    assert a.message == b.message
+    np.testing.assert_array_equal(a.time, b.time)
+    np.testing.assert_array_equal(a.states, b.states)
+    np.testing.assert_array_equal(a.adaptive, b.adaptive)
+    for name in ("u_cmd", "u_f", "s", "sdot", "control_gain"):  # the signals' pass
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for key in ("steps", "rhs_evaluations", "rejected_steps"):
+        assert a.meta[key] == b.meta[key], key
+
+
+def _singles(loops, solver=RK4):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        return [simulate(loop, solver) for loop in loops]
+
+
+def _members(base) -> list:
+    """Eight members, failures at different times in different lanes, every affine kind,
+    abrupt and incipient, with a recovery; one diverging lane; one member with other gains and
+    another initial state (numbers read per lane)."""
+    fails = [
+        (),
+        (LossOfEffectiveness(actuator=1, onset=0.7, effectiveness=0.4),),
+        (Bias(actuator=2, onset=0.25, bias=0.08, recovery=1.9),),
+        (Stuck(actuator=1, onset=1.2345, value=0.05), Affine(actuator=2, onset=2.1, effectiveness=0.7, bias=-0.1)),
+        _reversed(0.3),
+        (Affine(actuator=1, onset=0.5, effectiveness=0.3, bias=0.02, ramp=0.8),),
+        (LossOfEffectiveness(actuator=2, onset=1.5005, effectiveness=0.0),),
+        (),
+    ]  # fmt: skip
+    loops = [replace(base, failures=f) for f in fails]
+    ctrl = replace(base.controller, gamma=3.0, k=4.0)
+    loops[7] = replace(base, controller=ctrl, initial_state=(0.01, 0.02))
+    return loops
+
+
+def test_every_lane_equals_its_single_run(base):
+    loops = _members(base)
+    assert len(loops) == LANE_WIDTH
+    singles = _singles(loops)
+    assert [r.status for r in singles].count("diverged") == 1  # the reversed member
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DivergenceWarning)
+        lanes = simulate_lanes(loops, RK4)
+    assert sum(issubclass(w.category, DivergenceWarning) for w in caught) == 1
+    for a, b in zip(lanes, singles, strict=True):
+        _same(a, b)
+    # the diverging lane stopped early at its own record, the others went on to the end
+    div = lanes[4]
+    assert div.time[-1] < 1.5 and div.reason.envelope
+    assert all(r.time[-1] == pytest.approx(3.0) for k, r in enumerate(lanes) if k != 4)
+
+
+def test_lanes_finishing_at_different_times_and_a_partial_group(base):
+    """Three members (five padding lanes): different t_final and record grids, one stopping
+    early by divergence."""
+    loops = [
+        replace(base, t_final=1.234),
+        replace(base, t_final=2.5, failures=(Bias(actuator=1, onset=0.4, bias=-0.05),)),
+        replace(base, failures=_reversed(0.2)),
+    ]
+    singles = _singles(loops)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        lanes = simulate_lanes(loops, RK4)
+    assert len(lanes) == 3
+    for a, b in zip(lanes, singles, strict=True):
+        _same(a, b)
+    assert lanes[0].time[-1] == pytest.approx(1.234)
+    assert lanes[2].status == "diverged"
+
+
+def test_a_lane_bad_from_its_initial_state(base):
+    """A member whose initial state is already outside the envelope stops at once, alone."""
+    loops = [replace(base, t_final=1.0), replace(base, t_final=1.0, initial_state=(2.0, 0.0))]
+    singles = _singles(loops)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        lanes = simulate_lanes(loops, RK4)
+    for a, b in zip(lanes, singles, strict=True):
+        _same(a, b)
+    assert lanes[1].status == "diverged" and lanes[0].status == "completed"
+
+
+def test_iter_simulate_with_lanes_keeps_order_and_falls_back(base):
+    """lanes='auto': eligible members in lanes, the others (a failure pattern that is not
+    affine; a regressor of another structure) one at a time; results in input order, reduced
+    per member, equal to the single runs."""
+    pattern = (Stuck(actuator=2, onset=0.5, value="0.1 + 0.05*cos(0.5*t)"),)
+    loops = _members(base)[:5]
+    loops.insert(2, replace(base, failures=pattern))  # not affine: one at a time
+    singles = _singles(loops)
+
+    def reduce(r):
+        return (r.status, r.states.copy(), r.adaptive.copy(), r.meta["steps"])
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        got = list(iter_simulate(loops, RK4, jobs=2, lanes="auto", reduce=reduce))
+    assert len(got) == len(loops)
+    for (status, states, adaptive, steps), b in zip(got, singles, strict=True):
+        assert status == b.status
+        np.testing.assert_array_equal(states, b.states)
+        np.testing.assert_array_equal(adaptive, b.adaptive)
+        assert steps == b.meta["steps"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        many = simulate_many(loops[:3], RK4, jobs=1, lanes="auto")
+    for a, b in zip(many, singles[:3], strict=True):
+        _same(a, b)
+
+
+def test_lanes_true_names_why_a_loop_cannot_run_in_lanes(base):
+    with pytest.raises(ConfigurationError, match="fixed-step RK4 only.*'dopri5'"):
+        list(iter_simulate([base], SolverOptions(method="dopri5"), jobs=1, lanes=True))
+    pattern = replace(base, failures=(Stuck(actuator=2, onset=0.5, value="0.1*cos(t)"),))
+    with pytest.raises(ConfigurationError, match="not affine in u.*lanes=False"):
+        list(iter_simulate([base, pattern], RK4, jobs=1, lanes=True))
+    with pytest.raises(ConfigurationError, match="`lanes` must be True, False or 'auto'"):
+        list(iter_simulate([base], RK4, lanes="yes"))
+    assert ineligible(base, RK4) is None
+    assert ineligible_reason(pattern, RK4) is not None
+    assert "s' only" in ineligible(base, replace(RK4, sdot="filtered"))
+    wing = load_scenario("wingrock-direct-s1").loop
+    assert "no lane form of its dynamics" in ineligible(wing, RK4)
+    with pytest.raises(ConfigurationError, match="cannot run in SIMD lanes"):
+        lane_source(wing, RK4)
+
+
+@pytest.mark.parametrize(
+    "regressor",
+    [
+        LinearRegressor(inputs=("alpha", "q", "s1")),
+        FuzzyBasis(inputs=("alpha",), centers=(-0.5, 0.0, 0.5), width=0.5, normalised=True),
+    ],
+    ids=["linear", "fuzzy-normalised"],
+)
+def test_other_regressors_equal_their_single_runs(base, regressor):
+    ctrl = replace(base.controller, regressor=regressor, theta0=0.0)
+    loops = [
+        replace(base, controller=ctrl, t_final=1.5),
+        replace(base, controller=ctrl, t_final=1.5, failures=(Bias(actuator=1, onset=0.3, bias=0.05),)),
+        replace(base, controller=ctrl, t_final=1.5, adapt=False),
+    ]  # fmt: skip
+    singles = _singles(loops)
+    for a, b in zip(simulate_lanes(loops, RK4), singles, strict=True):
+        _same(a, b)
+
+
+def test_the_slp_switch_is_on_only_while_a_lane_module_compiles():
+    """numba's SLP vectoriser is off by default (numba PR #8852); the lane modules compile
+    with it on and leave numba's setting as it was for everything else."""
+    from numba.core import config
+
+    before = config.SLP_VECTORIZE
+    with _lane_level():
+        assert config.SLP_VECTORIZE == 1
+    assert config.SLP_VECTORIZE == before
