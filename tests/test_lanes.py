@@ -66,16 +66,20 @@ def _members(base) -> list:
     """Eight members, failures at different times in different lanes, every affine kind,
     abrupt and incipient, with a recovery; one diverging lane; one member with other gains and
     another initial state (numbers read per lane)."""
+    two = (
+        Stuck(actuator=1, onset=1.2345, value=0.05),
+        Affine(actuator=2, onset=2.1, effectiveness=0.7, bias=-0.1),
+    )
     fails = [
         (),
         (LossOfEffectiveness(actuator=1, onset=0.7, effectiveness=0.4),),
         (Bias(actuator=2, onset=0.25, bias=0.08, recovery=1.9),),
-        (Stuck(actuator=1, onset=1.2345, value=0.05), Affine(actuator=2, onset=2.1, effectiveness=0.7, bias=-0.1)),
+        two,
         _reversed(0.3),
         (Affine(actuator=1, onset=0.5, effectiveness=0.3, bias=0.02, ramp=0.8),),
         (LossOfEffectiveness(actuator=2, onset=1.5005, effectiveness=0.0),),
         (),
-    ]  # fmt: skip
+    ]
     loops = [replace(base, failures=f) for f in fails]
     ctrl = replace(base.controller, gamma=3.0, k=4.0)
     loops[7] = replace(base, controller=ctrl, initial_state=(0.01, 0.02))
@@ -185,11 +189,12 @@ def test_lanes_true_names_why_a_loop_cannot_run_in_lanes(base):
 )
 def test_other_regressors_equal_their_single_runs(base, regressor):
     ctrl = replace(base.controller, regressor=regressor, theta0=0.0)
+    short = replace(base, controller=ctrl, t_final=1.5)
     loops = [
-        replace(base, controller=ctrl, t_final=1.5),
-        replace(base, controller=ctrl, t_final=1.5, failures=(Bias(actuator=1, onset=0.3, bias=0.05),)),
-        replace(base, controller=ctrl, t_final=1.5, adapt=False),
-    ]  # fmt: skip
+        short,
+        replace(short, failures=(Bias(actuator=1, onset=0.3, bias=0.05),)),
+        replace(short, adapt=False),
+    ]
     singles = _singles(loops)
     for a, b in zip(simulate_lanes(loops, RK4), singles, strict=True):
         _same(a, b)
