@@ -231,6 +231,7 @@ def _run_chunk(loops: list, solver, reduce: Callable | None, strict: bool) -> li
             if strict and k not in built:
                 from adaptive_ftc.sim.lanes import ineligible_reason
 
-                raise ConfigurationError(_refusal(loops[k], ineligible_reason(loops[k], solver)))
+                why = ineligible_reason(loops[k], solver) or "no lane group"
+                raise ConfigurationError(_refusal(loops[k], why))
             out[k] = _run(loops[k], solver, reduce)
     return out

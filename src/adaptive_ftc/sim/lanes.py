@@ -40,6 +40,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -224,7 +225,9 @@ def _plan(loop, asm, width: int) -> _Plan:
         raise ConfigurationError("The lane engine expected the states [x, theta] only.")
     pos, vel = loop.plant.position_index[0], loop.plant.velocity_index[0]
     at = {k: s.start for k, s in params.items()}
-    n_mu = sum(len(c) for c in reg.centers) if isinstance(reg, FuzzyBasis) else 0
+    # FuzzyBasis keeps one tuple of centres per input (its __post_init__)
+    centers = cast("tuple[tuple[float, ...], ...]", getattr(reg, "centers", ()))
+    n_mu = sum(len(c) for c in centers) if isinstance(reg, FuzzyBasis) else 0
     sig_index = loop.signal_names()
     rows: dict[str, int] = {}
     nxt = 0
@@ -280,7 +283,7 @@ def _plan(loop, asm, width: int) -> _Plan:
     ]
     idx = [sig_index[name] for name in reg.inputs]
     if isinstance(reg, FuzzyBasis):
-        counts = [len(c) for c in reg.centers]
+        counts = [len(c) for c in centers]
         body.append(f"    # fuzzy basis: {' x '.join(map(str, counts))} rules (2.40)")
         k0, mus = 0, []
         for i, n in enumerate(counts):
