@@ -10,6 +10,8 @@ Engines, each on ONE thread so that its wall time is its per-core time:
 * ``batch``: this project's member-per-thread batch (:func:`iter_simulate`, ``jobs=1``);
 * ``lanes``: this project's lane engine (``iter_simulate(..., lanes=True)``, ``sim/lanes.py``:
   8 members per compiled call in SIMD lanes; RK4 only, stage 1 of issue 29), same thread;
+  ``lanes-vec``: the same with ``lane_kernels="vector"`` (stage 1b: call-free exp and tanh,
+  about 1e-14 from the single runs instead of bit-identical);
 * ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
   skipped with a message when no C compiler is found;
 * ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
@@ -71,10 +73,12 @@ def max_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(np.abs(a[:, 2:] - b[:, 2:]) / scale))
 
 
-def python_batch(loops, solver, lanes: bool = False) -> tuple[float, np.ndarray]:
+def python_batch(
+    loops, solver, lanes: bool = False, kernels: str = "libm"
+) -> tuple[float, np.ndarray]:
     """Per-core seconds of the batch (or the lane engine) on one thread, and its rows."""
     t = time.process_time()
-    runs = iter_simulate(loops, solver, jobs=1, lanes=lanes)
+    runs = iter_simulate(loops, solver, jobs=1, lanes=lanes, lane_kernels=kernels)
     rows = np.array([final_row(r) for r in runs])
     return time.process_time() - t, rows
 
@@ -168,10 +172,12 @@ def main() -> int:
         t_b, b_rows = python_batch(loops, solver)
         ref = singles(loops[:k], solver)
         lines = [("batch", t_b / args.n, max_diff(b_rows[:k], ref))]
-        if label.startswith("RK4"):  # the lane engine (stage 1: RK4 only)
-            list(iter_simulate(loops[:2], solver, jobs=1, lanes=True))  # compile or load
-            t_l, l_rows = python_batch(loops, solver, lanes=True)
-            lines.append(("lanes", t_l / args.n, max_diff(l_rows[:k], ref)))
+        if label.startswith("RK4"):  # the lane engine (stage 1: RK4 only), both kernels
+            for name, kernels in (("lanes", "libm"), ("lanes-vec", "vector")):
+                warm = iter_simulate(loops[:2], solver, jobs=1, lanes=True, lane_kernels=kernels)
+                list(warm)  # compile or load the lane module
+                t_l, l_rows = python_batch(loops, solver, lanes=True, kernels=kernels)
+                lines.append((name, t_l / args.n, max_diff(l_rows[:k], ref)))
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
         peer = "JAX RK4" if label.startswith("RK4") else "diffrax"
@@ -189,7 +195,9 @@ def main() -> int:
             cost = f"{per * 1e3:9.2f} ms per member per core"
             print(f"    {name:10s} {cost}  {rel}  max diff {diff:.1e}")
         for name, _, diff in lines:
-            if name in ("batch", "lanes") and diff != 0.0:
+            if (name in ("batch", "lanes") and diff != 0.0) or (
+                name == "lanes-vec" and not diff <= 1e-10
+            ):
                 print(f"    FAILED: a {name} member differs from its single run ({diff:.1e})")
                 failed = True
     return 1 if failed else 0

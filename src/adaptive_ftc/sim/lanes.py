@@ -50,6 +50,7 @@ from adaptive_ftc.sim.layout import Header
 
 __all__ = [
     "LANE_PLANTS",
+    "KERNELS",
     "LANE_WIDTH",
     "at_lane_level",
     "ineligible",
@@ -211,7 +212,7 @@ def _reference_lines(source: str) -> list[str]:
     return [ln.strip() for ln in m.group(1).splitlines() if re.match(r"\s+r\d+ = ", ln)]
 
 
-def _plan(loop, asm, width: int) -> _Plan:
+def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
     """The lane module of ``loop``'s structure (``asm``: its assembled single-run loop)."""
     from adaptive_ftc.approximators import FuzzyBasis
 
@@ -282,6 +283,8 @@ def _plan(loop, asm, width: int) -> _Plan:
         f"        B[(SIG + {nx + 2}) * W + w] = ed + B[{cr(at['lam'])} * W + w] * e",
     ]
     idx = [sig_index[name] for name in reg.inputs]
+    # libm (bit-identical to the single run) or the call-free kernels (stage 1b, ~1e-14)
+    exp, tanh = ("math.exp", "math.tanh") if kernels == "libm" else ("vexp", "vtanh")
     if isinstance(reg, FuzzyBasis):
         counts = [len(c) for c in centers]
         body.append(f"    # fuzzy basis: {' x '.join(map(str, counts))} rules (2.40)")
@@ -293,7 +296,7 @@ def _plan(loop, asm, width: int) -> _Plan:
                 "        for w in range(W):",
                 f"            d = B[(SIG + {idx[i]}) * W + w] - B[(CR + {at['centers']} + {k0} + l)"
                 " * W + w]",
-                f"            B[(MU + {k0} + l) * W + w] = math.exp("
+                f"            B[(MU + {k0} + l) * W + w] = {exp}("
                 f"-B[(CR + {at['spread']} + {k0} + l) * W + w] * d * d)",
             ]
             k0 += n
@@ -360,7 +363,7 @@ def _plan(loop, asm, width: int) -> _Plan:
         f" * B[(SIG + {nx + 1}) * W + w]",
         f"        s = B[(SIG + {nx + 2}) * W + w]",
         f"        B[QQ * W + w] = sd + B[{cr(at['k'])} * W + w] * s + B[{cr(at['k0'])} * W + w]"
-        f" * math.tanh(s / B[{cr(at['eps0'])} * W + w])",
+        f" * {tanh}(s / B[{cr(at['eps0'])} * W + w])",
         f"    for l in range({n_phi}):",
         "        for w in range(W):",
         f"            gamma = B[{cr(at['gains'])} * W + w]",
@@ -379,9 +382,10 @@ def _plan(loop, asm, width: int) -> _Plan:
         f"NENV = {env.stop - env.start}",
         *[f"{name} = {row}" for name, row in rows.items()],
     ]
-    text = _HEAD.format(title=f"{loop.plant.name!r} + 'direct', W = {width}") + "\n".join(
-        [*consts, "", "", "\n".join(body), "", "", _KERNEL]
-    )
+    head = _HEAD.format(title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels")
+    if kernels == "vector":
+        head += _VECTOR_IMPORTS
+    text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", _KERNEL])
     return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
 
 
@@ -402,6 +406,11 @@ hot = at_lane_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=Fals
 inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
 
 '''
+
+_VECTOR_IMPORTS = """# the call-free exp and tanh (stage 1b): they vectorise; ~1 ulp from libm
+from adaptive_ftc.sim.lane_kernels import vexp, vtanh
+
+"""
 
 _KERNEL = '''@hot
 def rhs_rows(B):
@@ -641,22 +650,23 @@ _modules_lock = threading.Lock()
 _LANE_IMPORTS = ["adaptive_ftc.sim.lanes"]
 
 
-def lane_module(loop, asm, width: int = LANE_WIDTH):
+def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm"):
     """The compiled lane module of ``loop``'s structure and its plan (generated once per
     structure and width, cached on disk like the loop modules)."""
-    key = f"{width}\n{asm.source}"
+    key = f"{width} {kernels}\n{asm.source}"
     with _modules_lock:
         found = _modules.get(key)
     if found is not None:
         return found
-    plan = _plan(loop, asm, width)
-    module = codegen.load_module(plan.text, imports=_LANE_IMPORTS, kind="lanes")
+    plan = _plan(loop, asm, width, _kernels(kernels))
+    imports = _LANE_IMPORTS + (["adaptive_ftc.sim.lane_kernels"] if kernels == "vector" else [])
+    module = codegen.load_module(plan.text, imports=imports, kind="lanes")
     with _modules_lock:
         _modules[key] = (module, plan)
     return module, plan
 
 
-def lane_source(loop, solver=None, width: int = LANE_WIDTH) -> str:
+def lane_source(loop, solver=None, width: int = LANE_WIDTH, kernels: str = "libm") -> str:
     """The generated lane module text of ``loop`` (to read), or a ConfigurationError naming
     why the loop has none."""
     from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions
@@ -666,7 +676,21 @@ def lane_source(loop, solver=None, width: int = LANE_WIDTH) -> str:
     if why is not None:
         raise ConfigurationError(_refusal(loop, why))
     cl = CompiledLoop.build(loop, solver)
-    return _plan(loop, cl.asm, width).text
+    return _plan(loop, cl.asm, width, _kernels(kernels)).text
+
+
+#: the lane kernels: libm's exp and tanh (bit-identical to the single run) or the call-free
+#: ones of :mod:`adaptive_ftc.sim.lane_kernels` (stage 1b: faster, about 1e-14 from it)
+KERNELS = ("libm", "vector")
+
+
+def _kernels(kernels: str) -> str:
+    if kernels not in KERNELS:
+        raise ConfigurationError(
+            f"`kernels` must be 'libm' (bit-identical to single runs) or 'vector' (call-free "
+            f"exp and tanh, about 1e-14 from them); got {kernels!r}."
+        )
+    return kernels
 
 
 def _refusal(loop, why: str) -> str:
@@ -697,7 +721,7 @@ def _failure_tables(asm, m: int):
     return kind, con
 
 
-def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH) -> list:
+def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm") -> list:
     """Integrate ``compiled`` (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure,
     at most ``width``, every one eligible) in one lane group; returns one
     :class:`~adaptive_ftc.sim.engine.Integration` per member, each equal to its own
@@ -709,7 +733,7 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH) -> list:
     if not 1 <= n <= width:
         raise ValueError(f"a lane group holds 1 to {width} members; got {n}")
     first = compiled[0]
-    module, plan = lane_module(first.loop, first.asm, width)
+    module, plan = lane_module(first.loop, first.asm, width, kernels)
     m = first.loop.plant.n_actuators
     pick = [*range(n), *([0] * (width - n))]  # padding lanes: copies of the first member
     members = [compiled[k] for k in pick]
@@ -774,7 +798,9 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH) -> list:
     return out
 
 
-def simulate_lanes(loops: Sequence, solver=None, *, width: int = LANE_WIDTH) -> list:
+def simulate_lanes(
+    loops: Sequence, solver=None, *, width: int = LANE_WIDTH, kernels: str = "libm"
+) -> list:
     """:func:`~adaptive_ftc.sim.engine.simulate` of up to ``width`` loops of one structure in
     one lane group: the same :class:`~adaptive_ftc.sim.result.SimResult` per loop (states,
     signals, status and reason, meta counts; a :class:`DivergenceWarning` per diverged run).
@@ -798,7 +824,7 @@ def simulate_lanes(loops: Sequence, solver=None, *, width: int = LANE_WIDTH) -> 
             "simulate_lanes() runs loops of one structure (the same plant, design, regressor "
             "and reference shapes); group the loops by structure, or use simulate_many()."
         )
-    runs = integrate_lanes(compiled, width)
+    runs = integrate_lanes(compiled, width, _kernels(kernels))
     return [finish_run(cl, run) for cl, run in zip(compiled, runs, strict=True)]
 
 
