@@ -122,6 +122,16 @@ def test_lanes_finishing_at_different_times_and_a_partial_group(base):
     assert lanes[2].status == "diverged"
 
 
+def test_more_members_than_lanes_run_in_groups_in_order(base):
+    """simulate_lanes splits 10 members into groups of 8 and 2, results in input order."""
+    loops = [
+        replace(base, t_final=0.5, failures=(Bias(actuator=1, onset=0.05 * k, bias=0.01 * k),))
+        for k in range(1, 11)
+    ]
+    for a, b in zip(simulate_lanes(loops, RK4), _singles(loops), strict=True):
+        _same(a, b)
+
+
 def test_a_lane_bad_from_its_initial_state(base):
     """A member whose initial state is already outside the envelope stops at once, alone."""
     loops = [replace(base, t_final=1.0), replace(base, t_final=1.0, initial_state=(2.0, 0.0))]

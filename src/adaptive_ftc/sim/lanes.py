@@ -29,6 +29,10 @@ the places of the numbers in ``D.c``) and cached on disk like the loop modules. 
 read from each member's :class:`~adaptive_ftc.sim.compose.LoopData` into the lane's rows, so
 members may differ in any number of the loop. The kernel compiles with LLVM's SLP vectoriser
 switched on for its own compilation only (:func:`at_lane_level`; numba leaves it off by default).
+
+``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
+of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
+(about 1e-14 of the signal scale from the single run).
 """
 
 from __future__ import annotations
@@ -385,7 +389,8 @@ def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
     head = _HEAD.format(title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels")
     if kernels == "vector":
         head += _VECTOR_IMPORTS
-    text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", _KERNEL])
+    kernel = codegen.template("lanes_rk4")
+    text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", kernel])
     return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
 
 
@@ -411,237 +416,6 @@ _VECTOR_IMPORTS = """# the call-free exp and tanh (stage 1b): they vectorise; ~1
 from adaptive_ftc.sim.lane_kernels import vexp, vtanh
 
 """
-
-_KERNEL = '''@hot
-def rhs_rows(B):
-    """The rhs on rows TIN, YT -> DY (compiled once, called by every stage)."""
-    rhs(B, TIN, YT, DY)
-
-
-@inl
-def stage(B, tt, y, dy):
-    """The rhs at the times of row tt and the state in rows y.. into rows dy.. (copies)."""
-    for w in range(W):
-        B[TIN * W + w] = B[tt * W + w]
-    if y != YT:
-        for i in range(NY * W):
-            B[YT * W + i] = B[y * W + i]
-    rhs_rows(B)
-    for i in range(NY * W):
-        B[dy * W + i] = B[DY * W + i]
-
-
-@inl
-def first_bad(B, row, w, bound):
-    """The single run's first_bad of lane w's state in rows row..: the first state not below
-    bound (nan included), else the first plant state outside the envelope; -1: none."""
-    for i in range(NY):
-        if not (abs(B[(row + i) * W + w]) < bound):
-            return i
-    for i in range(NENV):
-        if not (abs(B[(row + i) * W + w]) <= B[(CR + ENV + i) * W + w]):
-            return i
-    return -1
-
-
-@inl
-def enter(B, w, ph, brk, fkind, fcon, dt, a, b, tol, nst, h):
-    """Lane w enters interval ph: its ends, tolerance, steps, step and failure rows."""
-    a[w] = brk[w, ph]
-    b[w] = brk[w, ph + 1]
-    tol[w] = 1e-9 * max(1.0, abs(b[w]))
-    nst[w] = max(1, int(math.ceil((b[w] - a[w]) / dt - 1e-9)))
-    h[w] = (b[w] - a[w]) / nst[w]
-    for j in range(fkind.shape[2]):
-        B[(FK + j) * W + w] = fkind[w, ph, j]
-        for k in range(5):
-            B[(FC + 5 * j + k) * W + w] = fcon[w, ph, j, k]
-
-
-@hot
-def run_group(B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status,
-              nrec_out, t_stop, bad_out, stats, ph, st, nst, a, b, h, tol, r, active):
-    """RK4 of the W lanes in lockstep of step count, each on its own break times and steps.
-
-    B: the lane buffer (its constant rows CR.. filled by the caller); y0[W, NY]; brk[W, :],
-    nph[W]: break times and intervals; fkind[W, nph, M] (-1 healthy, 0 affine, 1 incipient)
-    and fcon[W, nph, M, 5]: the failure of each actuator per interval; t_rec[W, :], n_rec[W]:
-    record times; out_Y[W, rows, NY], out_ph[W, rows]: records (and the state where a lane
-    stopped in the row after its last record); status[W] (0 finished, 1 diverged), nrec_out,
-    t_stop, bad_out[W]; stats[W, 5] as the single run's. The rest: per-lane scratch."""
-    for w in range(W):
-        B[REFT * W + w] = np.nan  # no reference time yet (strict IEEE: nan != t)
-        B[ACT * W + w] = 1.0
-        for i in range(NY):
-            B[(Y + i) * W + w] = y0[w, i]
-        status[w] = 0
-        ph[w] = 0
-        st[w] = 0
-        r[w] = 0
-        active[w] = True
-        for k in range(5):
-            stats[w, k] = 0
-        bad = first_bad(B, Y, w, bound)
-        if bad >= 0:  # the initial state itself is bad
-            status[w] = 1
-            t_stop[w] = brk[w, 0]
-            bad_out[w] = bad
-            active[w] = False
-            B[ACT * W + w] = 0.0
-            if out_Y.shape[1] > 0:
-                for i in range(NY):
-                    out_Y[w, 0, i] = B[(Y + i) * W + w]
-            continue
-        enter(B, w, 0, brk, fkind, fcon, dt, a, b, tol, nst, h)
-        while r[w] < n_rec[w] and t_rec[w, r[w]] <= a[w] + tol[w]:
-            for i in range(NY):
-                out_Y[w, r[w], i] = B[(Y + i) * W + w]
-            out_ph[w, r[w]] = 0
-            r[w] += 1
-    while True:
-        n_active = 0
-        for w in range(W):
-            if active[w]:
-                n_active += 1
-                t = a[w] + st[w] * h[w]
-                t1 = b[w] if st[w] == nst[w] - 1 else a[w] + (st[w] + 1) * h[w]
-            else:  # finished or diverged: idles with a zero step
-                t = b[w]
-                t1 = b[w]
-            hh = t1 - t
-            B[T * W + w] = t
-            B[T1 * W + w] = t1
-            B[HH * W + w] = hh
-            B[H2 * W + w] = 0.5 * hh
-            B[H6 * W + w] = hh / 6.0
-            B[TM * W + w] = t + 0.5 * hh
-        if n_active == 0:
-            break
-        stage(B, T, Y, K1)
-        for i in range(NY):
-            for w in range(W):
-                B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[H2 * W + w] * B[(K1 + i) * W + w]
-        stage(B, TM, YT, K2)
-        for i in range(NY):
-            for w in range(W):
-                B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[H2 * W + w] * B[(K2 + i) * W + w]
-        stage(B, TM, YT, K3)
-        for i in range(NY):
-            for w in range(W):
-                B[(YT + i) * W + w] = B[(Y + i) * W + w] + B[HH * W + w] * B[(K3 + i) * W + w]
-        stage(B, T1, YT, K4)
-        for i in range(NY):
-            for w in range(W):
-                B[(YN + i) * W + w] = B[(Y + i) * W + w] + B[H6 * W + w] * (
-                    B[(K1 + i) * W + w]
-                    + 2.0 * B[(K2 + i) * W + w]
-                    + 2.0 * B[(K3 + i) * W + w]
-                    + B[(K4 + i) * W + w]
-                )
-        # divergence of every lane at once (a select per state), then per lane
-        for w in range(W):
-            B[BAD * W + w] = 0.0
-        for i in range(NY):
-            for w in range(W):
-                ok = abs(B[(YN + i) * W + w]) < bound  # False for nan too
-                B[BAD * W + w] = B[BAD * W + w] if ok else 1.0
-        for i in range(NENV):
-            for w in range(W):
-                ok = abs(B[(YN + i) * W + w]) <= B[(CR + ENV + i) * W + w]
-                B[BAD * W + w] = B[BAD * W + w] if ok else 1.0
-        need_fe = False
-        for w in range(W):
-            if not active[w]:
-                continue
-            stats[w, 0] += 1
-            stats[w, 2] += 4
-            if B[BAD * W + w] != 0.0:  # this lane stops here, the others go on
-                status[w] = 1
-                t_stop[w] = B[T1 * W + w]
-                bad_out[w] = first_bad(B, YN, w, bound)
-                active[w] = False
-                B[ACT * W + w] = 0.0
-                if r[w] < out_Y.shape[1]:
-                    for i in range(NY):
-                        out_Y[w, r[w], i] = B[(YN + i) * W + w]
-                continue
-            t1 = B[T1 * W + w]
-            last = ph[w] == nph[w] - 1 and st[w] == nst[w] - 1
-            limit = t1 + tol[w] if last else t1 - tol[w]
-            rr = r[w]
-            while rr < n_rec[w] and t_rec[w, rr] < limit:
-                if abs(t_rec[w, rr] - t1) > tol[w]:
-                    need_fe = True
-                rr += 1
-        if need_fe:
-            stage(B, T1, YN, FE)
-        for w in range(W):
-            if not active[w]:
-                continue
-            t = B[T * W + w]
-            t1 = B[T1 * W + w]
-            hh = B[HH * W + w]
-            last = ph[w] == nph[w] - 1 and st[w] == nst[w] - 1
-            limit = t1 + tol[w] if last else t1 - tol[w]
-            have_end = False
-            while r[w] < n_rec[w] and t_rec[w, r[w]] < limit:
-                tr = t_rec[w, r[w]]
-                if abs(tr - t1) <= tol[w]:
-                    for i in range(NY):
-                        out_Y[w, r[w], i] = B[(YN + i) * W + w]
-                else:  # cubic Hermite between (t, Y, k1) and (t1, yn, fe), as the single run
-                    if not have_end:
-                        stats[w, 2] += 1
-                        have_end = True
-                    s = (tr - t) / hh
-                    s2 = s * s
-                    s3 = s * s2
-                    h00 = 2 * s3 - 3 * s2 + 1
-                    h10 = s3 - 2 * s2 + s
-                    h01 = -2 * s3 + 3 * s2
-                    h11 = s3 - s2
-                    for i in range(NY):
-                        out_Y[w, r[w], i] = (
-                            h00 * B[(Y + i) * W + w]
-                            + h10 * hh * B[(K1 + i) * W + w]
-                            + h01 * B[(YN + i) * W + w]
-                            + h11 * hh * B[(FE + i) * W + w]
-                        )
-                out_ph[w, r[w]] = ph[w]
-                r[w] += 1
-        for i in range(NY):
-            for w in range(W):
-                if B[ACT * W + w] != 0.0:
-                    B[(Y + i) * W + w] = B[(YN + i) * W + w]
-        # per lane: next step, next interval, or done
-        for w in range(W):
-            if not active[w]:
-                continue
-            st[w] += 1
-            if st[w] < nst[w]:
-                continue
-            ph[w] += 1
-            st[w] = 0
-            if ph[w] == nph[w]:
-                t_end = b[w]
-                while r[w] < n_rec[w] and t_rec[w, r[w]] <= t_end + 1e-9 * max(1.0, abs(t_end)):
-                    for i in range(NY):
-                        out_Y[w, r[w], i] = B[(Y + i) * W + w]
-                    out_ph[w, r[w]] = nph[w] - 1
-                    r[w] += 1
-                t_stop[w] = t_end
-                active[w] = False
-                B[ACT * W + w] = 0.0
-                continue
-            enter(B, w, ph[w], brk, fkind, fcon, dt, a, b, tol, nst, h)
-            while r[w] < n_rec[w] and t_rec[w, r[w]] <= a[w] + tol[w]:
-                for i in range(NY):
-                    out_Y[w, r[w], i] = B[(Y + i) * W + w]
-                out_ph[w, r[w]] = ph[w]
-                r[w] += 1
-    for w in range(W):
-        nrec_out[w] = r[w]
-'''
 
 
 # ----------------------------------------------------------------------------- modules
@@ -731,7 +505,10 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
 
     n = len(compiled)
     if not 1 <= n <= width:
-        raise ValueError(f"a lane group holds 1 to {width} members; got {n}")
+        raise ConfigurationError(
+            f"A lane group holds 1 to {width} members; got {n}. Split the members into groups "
+            f"of at most {width} (simulate_lanes and iter_simulate do)."
+        )
     first = compiled[0]
     module, plan = lane_module(first.loop, first.asm, width, kernels)
     m = first.loop.plant.n_actuators
@@ -769,15 +546,16 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
     t_stop = np.zeros(width)
     bad = -np.ones(width, dtype=np.int64)
     stats = np.zeros((width, 5), dtype=np.int64)
-    ints = [np.zeros(width, dtype=np.int64) for _ in range(4)]  # ph, st, nst, (unused: r)
-    flts = [np.zeros(width) for _ in range(4)]  # a, b, h, tol
+    # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
+    ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
+    a, b, h, tol = (np.zeros(width) for _ in range(4))
     active = np.zeros(width, dtype=np.bool_)
     dt = float(first.solver.dt)
     bound = float(first.solver.divergence_bound)
     start = time.perf_counter()
     module.run_group(  # type: ignore[attr-defined]
         B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
-        t_stop, bad, stats, *ints[:3], *flts, ints[3], active,
+        t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
     )  # fmt: skip
     wall = (time.perf_counter() - start) / width
     out = []
@@ -801,9 +579,11 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
 def simulate_lanes(
     loops: Sequence, solver=None, *, width: int = LANE_WIDTH, kernels: str = "libm"
 ) -> list:
-    """:func:`~adaptive_ftc.sim.engine.simulate` of up to ``width`` loops of one structure in
-    one lane group: the same :class:`~adaptive_ftc.sim.result.SimResult` per loop (states,
-    signals, status and reason, meta counts; a :class:`DivergenceWarning` per diverged run).
+    """:func:`~adaptive_ftc.sim.engine.simulate` of loops of one structure in lane groups of
+    ``width`` (in order, on this thread): the same :class:`~adaptive_ftc.sim.result.SimResult`
+    per loop (states, signals, status and reason, meta counts; a :class:`DivergenceWarning`
+    per diverged run). ``kernels``: ``"libm"`` (bit-identical to :func:`simulate`) or
+    ``"vector"`` (stage 1b, :mod:`adaptive_ftc.sim.lane_kernels`: about 1e-14 from it).
 
     Raises :class:`ConfigurationError` naming why when a loop is not eligible or the loops do
     not share one structure."""
@@ -824,8 +604,13 @@ def simulate_lanes(
             "simulate_lanes() runs loops of one structure (the same plant, design, regressor "
             "and reference shapes); group the loops by structure, or use simulate_many()."
         )
-    runs = integrate_lanes(compiled, width, _kernels(kernels))
-    return [finish_run(cl, run) for cl, run in zip(compiled, runs, strict=True)]
+    kernels = _kernels(kernels)
+    out = []
+    for s in range(0, len(compiled), width):
+        group = compiled[s : s + width]
+        runs = integrate_lanes(group, width, kernels)
+        out += [finish_run(cl, run) for cl, run in zip(group, runs, strict=True)]
+    return out
 
 
 def lane_groups(loops: Sequence, solver, width: int = LANE_WIDTH):
