@@ -282,3 +282,25 @@ def test_the_call_free_kernels_against_libm():
     both(np.array([math.nan, -800.0, 0.0]), out)
     assert math.isnan(out[0, 0]) and math.isnan(out[1, 0])
     assert out[0, 1] == 0.0 and out[0, 2] == 1.0 and out[1, 2] == 0.0
+
+
+def test_a_lane_form_that_drifts_from_its_part_is_refused(base):
+    """Once per structure the lane rhs is checked against the single run's rhs; a lane form
+    that disagrees (here: one that leaves the derivative rows untouched) is refused with an
+    error that says what to do, not run."""
+    from types import SimpleNamespace
+
+    from adaptive_ftc.sim import lanes
+    from adaptive_ftc.sim.engine import CompiledLoop
+
+    cl = CompiledLoop.build(replace(base, failures=_reversed(1.0)), RK4)
+    module, plan = lanes.lane_module(cl.loop, cl.asm)
+    lanes._self_check(module, plan, cl, LANE_WIDTH, "libm")  # the real one agrees
+    broken = SimpleNamespace(rhs_rows=lambda B: None)
+    key = f"{LANE_WIDTH} libm\n{cl.asm.source}"
+    lanes._checked.discard(key)
+    try:
+        with pytest.raises(ConfigurationError, match="disagrees with its single run.*lanes=False"):
+            lanes._self_check(broken, plan, cl, LANE_WIDTH, "libm")
+    finally:
+        lanes._checked.add(key)

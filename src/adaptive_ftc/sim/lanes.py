@@ -495,6 +495,51 @@ def _failure_tables(asm, m: int):
     return kind, con
 
 
+_checked: set[str] = set()
+
+
+def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
+    """The lane ``rhs`` of a structure against its single run's ``rhs``, once per process:
+    each lane at another state, time and failure interval of ``cl`` (exactly equal with libm's
+    kernels, within 1e-12 with the call-free ones). The lane form of a plant or law written
+    twice (here and in its part) cannot drift apart silently."""
+    key = f"{width} {kernels}\n{cl.asm.source}"
+    if key in _checked:
+        return
+    rows, asm = plan.rows, cl.asm
+    m = cl.loop.plant.n_actuators
+    kind, con = _failure_tables(asm, m)
+    bps = asm.breakpoints
+    B = np.zeros(plan.nb * width)
+    wanted = []
+    for w in range(width):
+        ph = w % (len(bps) - 1)
+        t = bps[ph] + 0.37 * (bps[ph + 1] - bps[ph])
+        y = asm.y0 * (1.0 + 0.1 * w) + 1e-3 * (w + 1) * np.cos(np.arange(plan.ny) + w)
+        B[(rows["CR"]) * width + w : (rows["CR"] + plan.nc) * width : width] = asm.data.c[: plan.nc]
+        B[rows["REFT"] * width + w] = np.nan
+        B[rows["TIN"] * width + w] = t
+        B[rows["YT"] * width + w : (rows["YT"] + plan.ny) * width : width] = y
+        B[rows["FK"] * width + w : (rows["FK"] + m) * width : width] = kind[ph]
+        B[rows["FC"] * width + w : (rows["FC"] + 5 * m) * width : width] = con[ph].ravel()
+        wanted.append(asm.derivative(t, y, ph))
+    module.rhs_rows(B)
+    got = B[rows["DY"] * width : (rows["DY"] + plan.ny) * width].reshape(plan.ny, width).T
+    want = np.array(wanted)
+    same = (
+        np.array_equal(got, want)
+        if kernels == "libm"
+        else np.allclose(got, want, rtol=1e-12, atol=1e-12 * float(np.max(np.abs(want))))
+    )
+    if not same:
+        raise ConfigurationError(
+            f"The lane form of plant {cl.loop.plant.name!r} with design 'direct' disagrees "
+            "with its single run's right-hand side (a part changed without its lane form in "
+            "sim/lanes.py). Run with lanes=False, and report this."
+        )
+    _checked.add(key)
+
+
 def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm") -> list:
     """Integrate ``compiled`` (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure,
     at most ``width``, every one eligible) in one lane group; returns one
@@ -511,6 +556,7 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
         )
     first = compiled[0]
     module, plan = lane_module(first.loop, first.asm, width, kernels)
+    _self_check(module, plan, first, width, kernels)
     m = first.loop.plant.n_actuators
     pick = [*range(n), *([0] * (width - n))]  # padding lanes: copies of the first member
     members = [compiled[k] for k in pick]
