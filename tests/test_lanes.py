@@ -304,3 +304,21 @@ def test_a_lane_form_that_drifts_from_its_part_is_refused(base):
             lanes._self_check(broken, plan, cl, LANE_WIDTH, "libm")
     finally:
         lanes._checked.add(key)
+
+
+def test_a_plant_written_as_equations_runs_in_lanes():
+    """examples/own_plant.toml (a quadrotor written as equations, four rotors, linear
+    regressor): its generated equations in lane form, every lane equal to its single run."""
+    from pathlib import Path
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "own_plant.toml")
+    loop = replace(sc.loop, t_final=2.0)
+    loops = [
+        loop,
+        replace(loop, failures=(LossOfEffectiveness(actuator=2, onset=0.5, effectiveness=0.5),)),
+        replace(loop, failures=(Stuck(actuator=4, onset=1.1, value=0.0),)),
+        replace(loop, initial_state=(0.3, -0.1)),
+    ]
+    assert ineligible(loop, RK4) is None
+    for a, b in zip(simulate_lanes(loops, RK4), _singles(loops), strict=True):
+        _same(a, b)

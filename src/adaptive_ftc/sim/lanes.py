@@ -16,13 +16,13 @@ arithmetic), its own records, divergence check and status (a diverging lane stop
 record; the others go on).
 
 Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 with the exact
-``s'``; the built-in hypersonic plant (2.50) (the plants with a lane form of their dynamics,
-:data:`LANE_PLANTS`); the direct design (2.22), (2.29) without the constraint-aware option; one
-fuzzy basis (raw or normalised, any grid) or linear regressor; ideal actuators (no actuator
-table), no sensors, a continuous controller, the fixed allocation ``u = R^T u0``; and failures
-that are affine in ``u`` (loss of effectiveness, bias, stuck at a number, affine, reversal;
-abrupt or incipient), each member with its own onsets and recoveries. Everything else runs as
-today, one member at a time.
+``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
+a lane form of their dynamics, :data:`LANE_PLANTS`); the direct design (2.22), (2.29) without
+the constraint-aware option; one fuzzy basis (raw or normalised, any grid) or linear
+regressor; ideal actuators (no actuator table), no sensors, a continuous controller, the fixed
+allocation ``u = R^T u0``; and failures that are affine in ``u`` (loss of effectiveness,
+bias, stuck at a number, affine, reversal; abrupt or incipient), each member with its own
+onsets and recoveries. Everything else runs as today, one member at a time.
 
 One module per (structure, ``W``), generated from the loop's own module (the reference's text,
 the places of the numbers in ``D.c``) and cached on disk like the loop modules. Every number is
@@ -174,7 +174,7 @@ def _ineligible_numbers(asm) -> str | None:
 
 
 # ----------------------------------------------------------------------------- generation
-def _hypersonic_lines(y: str, consts: Callable[[int], str], m: int) -> list[str]:
+def _hypersonic_lines(plant, y: str, consts: Callable[[int], str], m: int) -> list[str]:
     """Lane form of :func:`adaptive_ftc.plants.hypersonic.dynamics` (2.50), the same operations
     in the same order (``consts(k)``: the row of the plant's k-th parameter)."""
     names = ("scale", "k_alpha", "a2", "a1", "a0", "k_q", "q2", "q1", "q0", "k_e")
@@ -194,7 +194,24 @@ def _hypersonic_lines(y: str, consts: Callable[[int], str], m: int) -> list[str]
     ]
 
 
+def _expression_lines(plant, y: str, consts: Callable[[int], str], m: int) -> list[str]:
+    """Lane form of a plant written as equations (:class:`~adaptive_ftc.plants.custom.
+    ExpressionPlant`): its generated assignments ``xdot[i] = ...`` with the states, applied
+    outputs and numbers read from the lane's rows (the same text, so the same operations)."""
+    lines, _ = plant._layout()
+    out = ["    for w in range(W):", "        t = B[tt * W + w]"]
+    for ln in lines:
+        ln = ln.strip()
+        ln = re.sub(r"\bx\[(\d+)\]", lambda mt: f"B[({y} + {mt.group(1)}) * W + w]", ln)
+        ln = re.sub(r"\buf\[(\d+)\]", lambda mt: f"B[(UF + {mt.group(1)}) * W + w]", ln)
+        ln = re.sub(r"\bc\[(\d+)\]", lambda mt: f"B[{consts(int(mt.group(1)))} * W + w]", ln)
+        ln = re.sub(r"^xdot\[(\d+)\] = ", lambda mt: f"B[(XD + {mt.group(1)}) * W + w] = ", ln)
+        out.append(f"        {ln}")
+    return out
+
+
 LANE_PLANTS["HypersonicAngleOfAttack"] = _hypersonic_lines
+LANE_PLANTS["ExpressionPlant"] = _expression_lines
 
 
 @dataclass(frozen=True)
@@ -359,7 +376,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
         "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
         "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)",
         "    # the plant",
-        *LANE_PLANTS[type(loop.plant).__name__]("y", lambda k: cr(at["plant"] + k), m),
+        *LANE_PLANTS[type(loop.plant).__name__](loop.plant, "y", lambda k: cr(at["plant"] + k), m),
         "    # q = s' + k s + k0 tanh(s/eps0) (2.20), the adaptive law (2.29)",
         "    for w in range(W):",
         *[f"        B[(dy + {i}) * W + w] = B[(XD + {i}) * W + w]" for i in range(nx)],
@@ -386,7 +403,13 @@ def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
         f"NENV = {env.stop - env.start}",
         *[f"{name} = {row}" for name, row in rows.items()],
     ]
-    head = _HEAD.format(title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels")
+    from adaptive_ftc.sim.mathlib import GUARDED  # the expression language's guarded math
+
+    head = _HEAD.format(
+        title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels",
+        guarded=", ".join(GUARDED),
+        jits="\n".join(f"{name} = inl({name})" for name in GUARDED),
+    )
     if kernels == "vector":
         head += _VECTOR_IMPORTS
     kernel = codegen.template("lanes_rk4")
@@ -405,10 +428,12 @@ import numpy as np
 from numba import njit
 
 from adaptive_ftc.sim.lanes import at_lane_level
+from adaptive_ftc.sim.mathlib import {guarded}
 
 # strict IEEE (no fastmath): every lane reproduces its single run bit for bit
 hot = at_lane_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
 inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+{jits}
 
 '''
 
@@ -421,7 +446,7 @@ from adaptive_ftc.sim.lane_kernels import vexp, vtanh
 # ----------------------------------------------------------------------------- modules
 _modules: dict[str, tuple[object, _Plan]] = {}
 _modules_lock = threading.Lock()
-_LANE_IMPORTS = ["adaptive_ftc.sim.lanes"]
+_LANE_IMPORTS = ["adaptive_ftc.sim.lanes", "adaptive_ftc.sim.mathlib"]
 
 
 def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm"):
