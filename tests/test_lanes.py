@@ -181,6 +181,7 @@ def test_lanes_true_names_why_a_loop_cannot_run_in_lanes(base):
     with pytest.raises(ConfigurationError, match="`lanes` must be True, False or 'auto'"):
         list(iter_simulate([base], RK4, lanes="yes"))
     assert ineligible(base, RK4) is None
+    assert ineligible(base, None) is None  # simulate's default solver is RK4
     assert ineligible_reason(pattern, RK4) is not None
     assert "s' only" in ineligible(base, replace(RK4, sdot="filtered"))
     wing = load_scenario("wingrock-direct-s1").loop

@@ -122,9 +122,12 @@ def ineligible(loop, solver) -> str | None:
     from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
     from adaptive_ftc.controllers.direct import DirectAdaptive
 
-    if solver is None or solver.method != "rk4":
-        method = "rk4 (default)" if solver is None else solver.method
-        return f"the lane engine runs fixed-step RK4 only (method {method!r} asked for)"
+    if solver is None:  # simulate's default: RK4, dt 1e-3
+        from adaptive_ftc.sim.engine import SolverOptions
+
+        solver = SolverOptions()
+    if solver.method != "rk4":
+        return f"the lane engine runs fixed-step RK4 only (method {solver.method!r} asked for)"
     if solver.sdot_for(loop) != "exact":
         return "the lane engine computes the exact s' only (sdot 'filtered' asked for)"
     plant = type(loop.plant).__name__
