@@ -8,6 +8,10 @@ agrees).
 Engines, each on ONE thread so that its wall time is its per-core time:
 
 * ``batch``: this project's member-per-thread batch (:func:`iter_simulate`, ``jobs=1``);
+* ``lanes``: this project's lane engine (``iter_simulate(..., lanes=True)``, ``sim/lanes.py``:
+  8 members per compiled call in SIMD lanes; RK4 only, stage 1 of issue 29), same thread;
+  ``lanes-vec``: the same with ``lane_kernels="vector"`` (stage 1b: call-free exp and tanh,
+  about 1e-14 from the single runs instead of bit-identical);
 * ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
   skipped with a message when no C compiler is found;
 * ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
@@ -26,10 +30,10 @@ times.
 Methods: RK4 with dt = 1e-3 and Dopri5 with rtol = 1e-6, atol = 1e-9 (record_dt 0.01).
 Printed per engine and method: per-core seconds per member, that time relative to the C loop
 (RK4), and the max difference of each member's final state (relative above 1) from the single
-run of the same member: for ``batch`` its own :func:`simulate` (must be 0: the batch runs the
-single-run code), for the other engines this project's single run of the same method (the
-agreement between engines). ``--check K`` compares the first K members (single runs cost as
-much as the batch).
+run of the same member: for ``batch`` and ``lanes`` its own :func:`simulate` (must be 0: the
+batch runs the single-run code, the lanes reproduce it bit for bit), for the other engines
+this project's single run of the same method (the agreement between engines). ``--check K``
+compares the first K members (single runs cost as much as the batch).
 """
 
 from __future__ import annotations
@@ -69,10 +73,13 @@ def max_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(np.abs(a[:, 2:] - b[:, 2:]) / scale))
 
 
-def python_batch(loops, solver) -> tuple[float, np.ndarray]:
-    """Per-core seconds of the batch on one thread, and its rows."""
+def python_batch(
+    loops, solver, lanes: bool = False, kernels: str = "libm"
+) -> tuple[float, np.ndarray]:
+    """Per-core seconds of the batch (or the lane engine) on one thread, and its rows."""
     t = time.process_time()
-    rows = np.array([final_row(r) for r in iter_simulate(loops, solver, jobs=1)])
+    runs = iter_simulate(loops, solver, jobs=1, lanes=lanes, lane_kernels=kernels)
+    rows = np.array([final_row(r) for r in runs])
     return time.process_time() - t, rows
 
 
@@ -165,6 +172,12 @@ def main() -> int:
         t_b, b_rows = python_batch(loops, solver)
         ref = singles(loops[:k], solver)
         lines = [("batch", t_b / args.n, max_diff(b_rows[:k], ref))]
+        if label.startswith("RK4"):  # the lane engine (stage 1: RK4 only), both kernels
+            for name, kernels in (("lanes", "libm"), ("lanes-vec", "vector")):
+                warm = iter_simulate(loops[:2], solver, jobs=1, lanes=True, lane_kernels=kernels)
+                list(warm)  # compile or load the lane module
+                t_l, l_rows = python_batch(loops, solver, lanes=True, kernels=kernels)
+                lines.append((name, t_l / args.n, max_diff(l_rows[:k], ref)))
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
         peer = "JAX RK4" if label.startswith("RK4") else "diffrax"
@@ -181,9 +194,12 @@ def main() -> int:
             rel += f"  {per / jax_per:6.2f}x {peer}" if jax_per else ""
             cost = f"{per * 1e3:9.2f} ms per member per core"
             print(f"    {name:10s} {cost}  {rel}  max diff {diff:.1e}")
-        if lines[0][2] != 0.0:
-            print(f"    FAILED: a batch member differs from its single run ({lines[0][2]:.1e})")
-            failed = True
+        for name, _, diff in lines:
+            if (name in ("batch", "lanes") and diff != 0.0) or (
+                name == "lanes-vec" and not diff <= 1e-10
+            ):
+                print(f"    FAILED: a {name} member differs from its single run ({diff:.1e})")
+                failed = True
     return 1 if failed else 0
 
 

@@ -42,6 +42,13 @@ def test_every_batch_member_equals_its_single_run(output):
     assert diffs == [0.0, 0.0]
 
 
+def test_every_lane_member_equals_its_single_run(output):
+    """The lane engine (sim/lanes.py, RK4 only) reproduces each member's single run."""
+    assert _diffs(output, "lanes") == [0.0]
+    (vec,) = _diffs(output, "lanes-vec")  # stage 1b: call-free exp and tanh
+    assert vec <= 1e-10
+
+
 def test_c_and_scipy_agree_with_the_single_runs(output):
     c = _diffs(output, "C")
     if not c:

@@ -22,7 +22,14 @@ from adaptive_ftc.sim.result import SimResult, signal_block
 from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
 from adaptive_ftc.sim.system import ClosedLoop
 
-__all__ = ["CompiledLoop", "Integration", "SolverOptions", "integrate_only", "simulate"]
+__all__ = [
+    "CompiledLoop",
+    "Integration",
+    "SolverOptions",
+    "finish_run",
+    "integrate_only",
+    "simulate",
+]
 
 # the names of the registry (sim/solvers.py), by kind
 _SCIPY_METHODS = solvers.names("scipy")
@@ -245,7 +252,14 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
     'completed'
     """
     compiled = CompiledLoop.build(loop, solver or SolverOptions(), t_eval=t_eval)
-    run = compiled.integrate()
+    return finish_run(compiled, compiled.integrate(), stacklevel=3)
+
+
+def finish_run(compiled: CompiledLoop, run: Integration, *, stacklevel: int = 2) -> SimResult:
+    """The :class:`SimResult` of ``run`` (an integration of ``compiled``, by
+    :meth:`CompiledLoop.integrate` or the lane engine, ``sim/lanes.py``): signals, envelope
+    cut, status, meta counts; warns or raises as :func:`simulate` does."""
+    loop = compiled.loop
     T, Y, phases, signals, status, reason = compiled.recorded(run)
     message = describe(status, reason, _run_label(loop))
     result = SimResult.from_run(
@@ -265,7 +279,7 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
     if status is RunStatus.INTERRUPTED:
         raise SimulationInterrupted(result, message)
     if message:
-        warnings.warn(message, DivergenceWarning, stacklevel=2)
+        warnings.warn(message, DivergenceWarning, stacklevel=stacklevel)
     return result
 
 

@@ -1,0 +1,713 @@
+"""The lane engine (issue 29, stage 1): ``W`` members of one loop structure per compiled call.
+
+A campaign runs many members of one closed loop that differ only in numbers (failures and their
+times, gains, initial states). Here ``W = 8`` of them advance together in one generated, compiled
+kernel written in struct-of-arrays form: every quantity is a *row* of ``W`` lanes and every
+statement a loop over the lanes, all rows in ONE buffer ``B[row * W + w]`` at constant offsets,
+so that LLVM's SLP vectoriser turns the right-hand side into vector instructions across members
+(``benchmarks/lanes_prototype.py`` measured the form; docs/performance.md, "Lane engine").
+
+What a lane computes is its member's own single run, bit for bit: the same fixed-step RK4
+(:func:`~adaptive_ftc.sim.engine.simulate` with ``method="rk4"``), on the member's own break
+times and step sizes (lanes advance in lockstep of *step count*, each on its own step; a lane
+that has finished idles with a zero step until its group is done), the same operations in the
+same order, libm's ``exp``, ``tanh``, ``sin``, ``cos`` (scalar calls per lane, under strict IEEE
+arithmetic), its own records, divergence check and status (a diverging lane stops at its own
+record; the others go on).
+
+Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 with the exact
+``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
+a lane form of their dynamics, :data:`LANE_PLANTS`); the direct design (2.22), (2.29) without
+the constraint-aware option; one fuzzy basis (raw or normalised, any grid) or linear
+regressor; ideal actuators (no actuator table), no sensors, a continuous controller, the fixed
+allocation ``u = R^T u0``; and failures that are affine in ``u`` (loss of effectiveness,
+bias, stuck at a number, affine, reversal; abrupt or incipient), each member with its own
+onsets and recoveries. Everything else runs as today, one member at a time.
+
+One module per (structure, ``W``), generated from the loop's own module (the reference's text,
+the places of the numbers in ``D.c``) and cached on disk like the loop modules. Every number is
+read from each member's :class:`~adaptive_ftc.sim.compose.LoopData` into the lane's rows, so
+members may differ in any number of the loop. The kernel compiles with LLVM's SLP vectoriser
+switched on for its own compilation only (:func:`at_lane_level`; numba leaves it off by default).
+
+``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
+of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
+(about 1e-14 of the signal scale from the single run).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import cast
+
+import numpy as np
+
+from adaptive_ftc.errors import ConfigurationError
+from adaptive_ftc.sim import codegen
+from adaptive_ftc.sim.layout import Header
+
+__all__ = [
+    "LANE_PLANTS",
+    "KERNELS",
+    "LANE_WIDTH",
+    "at_lane_level",
+    "ineligible",
+    "ineligible_reason",
+    "integrate_lanes",
+    "simulate_lanes",
+]
+
+#: members per call: one 512-bit register of doubles per row (W = 4 was slower everywhere in
+#: the prototype, W = 16 no faster; docs/performance.md)
+LANE_WIDTH = 8
+
+#: the plants with a lane form of their dynamics: class name -> emitter of the lane lines
+LANE_PLANTS: dict[str, Callable[..., list[str]]] = {}
+
+_LANE_OPT = 3  # numba's default level: the prototype's measurements
+_PLANT_ROWS = 10
+
+
+# ----------------------------------------------------------------------------- SLP switch
+@contextlib.contextmanager
+def _lane_level() -> Iterator[None]:
+    """numba's SLP vectoriser on (and ``-O3``) while the caller compiles, under numba's
+    global compiler lock, so that numba code compiled before, after or in other threads keeps
+    numba's settings (numba reads both whenever it builds an LLVM pass pipeline)."""
+    from numba.core import config
+    from numba.core.compiler_lock import global_compiler_lock
+
+    with global_compiler_lock:  # re-entrant: callees compile inside their caller's compile
+        before = (config.SLP_VECTORIZE, config.OPT)  # type: ignore[attr-defined]
+        config.SLP_VECTORIZE = 1  # type: ignore[attr-defined]
+        if "NUMBA_OPT" not in os.environ:  # the user's explicit level wins
+            config.OPT = type(before[1])(_LANE_OPT)  # type: ignore[attr-defined]
+        try:
+            yield
+        finally:
+            config.SLP_VECTORIZE, config.OPT = before  # type: ignore[attr-defined]
+
+
+def at_lane_level(decorator: Callable) -> Callable:
+    """Wrap a numba decorator so that its dispatchers compile (or load from the cache) with
+    the SLP vectoriser on (:func:`_lane_level`); the lane modules define ``hot`` this way."""
+
+    def wrap(func):
+        dispatcher = decorator(func)
+        if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: the plain function
+            return dispatcher
+        compile_ = dispatcher.compile
+
+        def compile(sig):
+            with _lane_level():
+                return compile_(sig)
+
+        dispatcher.compile = compile
+        return dispatcher
+
+    return wrap
+
+
+# ----------------------------------------------------------------------------- eligibility
+def ineligible(loop, solver) -> str | None:
+    """Why ``loop`` with ``solver`` cannot run in lanes (``None``: it can, as far as its parts
+    tell; the failures' kinds are checked once the loop is assembled, see
+    :func:`_ineligible_numbers`)."""
+    from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
+    from adaptive_ftc.controllers.direct import DirectAdaptive
+
+    if solver is None:  # simulate's default: RK4, dt 1e-3
+        from adaptive_ftc.sim.engine import SolverOptions
+
+        solver = SolverOptions()
+    if solver.method != "rk4":
+        return f"the lane engine runs fixed-step RK4 only (method {solver.method!r} asked for)"
+    if solver.sdot_for(loop) != "exact":
+        return "the lane engine computes the exact s' only (sdot 'filtered' asked for)"
+    plant = type(loop.plant).__name__
+    if plant not in LANE_PLANTS:
+        return f"plant {loop.plant.name!r} has no lane form of its dynamics"
+    ctrl = loop.controller
+    if type(ctrl) is not DirectAdaptive:
+        return f"design {ctrl.design!r} has no lane form (the direct design (2.22) has)"
+    if ctrl.constraint_aware is not None:
+        return "the constraint-aware option has no lane form"
+    if type(ctrl.regressor) not in (FuzzyBasis, LinearRegressor):
+        return f"regressor {type(ctrl.regressor).__name__} has no lane form"
+    if loop.plant.n_outputs != 1:
+        return "the lane engine takes one output"
+    if loop.has_actuator_dynamics or loop.actuators is not None:
+        return "actuators with dynamics, limits or delays have no lane form"
+    if loop.sensors is not None:
+        return "sensors (bias, noise) have no lane form"
+    if loop.sample_time:
+        return "a digital (sampled) controller has no lane form"
+    if loop.allocator is not None or loop.annunciations:
+        return "only the fixed allocation u = R^T u0 has a lane form"
+    return None
+
+
+def ineligible_reason(loop, solver) -> str | None:
+    """:func:`ineligible`, then the failures' kinds of the assembled loop (compiles or loads
+    its single-run module)."""
+    why = ineligible(loop, solver)
+    if why is not None:
+        return why
+    from adaptive_ftc.sim.engine import CompiledLoop
+
+    return _ineligible_numbers(CompiledLoop.build(loop, solver).asm)
+
+
+def _ineligible_numbers(asm) -> str | None:
+    """Why an assembled loop cannot run in lanes: a failure that is not affine in ``u``."""
+    d = asm.data
+    used = {int(k) for k in np.ravel(d.fphase) if k >= 0}
+    for k in sorted(used):
+        if int(d.inst[k, 0]) > 1:
+            return "a failure pattern that is not affine in u (a pattern of t, x or u)"
+    if int(d.i[Header.PH0]) != 0:
+        return "a run that starts in a later interval"
+    return None
+
+
+# ----------------------------------------------------------------------------- generation
+def _hypersonic_lines(plant, y: str, consts: Callable[[int], str], m: int) -> list[str]:
+    """Lane form of :func:`adaptive_ftc.plants.hypersonic.dynamics` (2.50), the same operations
+    in the same order (``consts(k)``: the row of the plant's k-th parameter)."""
+    names = ("scale", "k_alpha", "a2", "a1", "a0", "k_q", "q2", "q1", "q0", "k_e")
+    return [
+        "    for w in range(W):",
+        "        usum = 0.0",
+        *[f"        usum += B[(UF + {j}) * W + w]" for j in range(m)],
+        f"        a = B[{y} * W + w]",
+        f"        q = B[({y} + 1) * W + w]",
+        *[f"        {n} = B[{consts(k)} * W + w]" for k, n in enumerate(names)],
+        "        B[XD * W + w] = q",
+        "        B[(XD + 1) * W + w] = scale * (",
+        "            k_alpha * (a2 * a * a + a1 * a + a0)",
+        "            + k_q * q * (q2 * a * a + q1 * a + q0)",
+        "            + k_e * (usum - a)",
+        "        )",
+    ]
+
+
+def _expression_lines(plant, y: str, consts: Callable[[int], str], m: int) -> list[str]:
+    """Lane form of a plant written as equations (:class:`~adaptive_ftc.plants.custom.
+    ExpressionPlant`): its generated assignments ``xdot[i] = ...`` with the states, applied
+    outputs and numbers read from the lane's rows (the same text, so the same operations)."""
+    lines, _ = plant._layout()
+    out = ["    for w in range(W):", "        t = B[tt * W + w]"]
+    for ln in lines:
+        ln = ln.strip()
+        ln = re.sub(r"\bx\[(\d+)\]", lambda mt: f"B[({y} + {mt.group(1)}) * W + w]", ln)
+        ln = re.sub(r"\buf\[(\d+)\]", lambda mt: f"B[(UF + {mt.group(1)}) * W + w]", ln)
+        ln = re.sub(r"\bc\[(\d+)\]", lambda mt: f"B[{consts(int(mt.group(1)))} * W + w]", ln)
+        ln = re.sub(r"^xdot\[(\d+)\] = ", lambda mt: f"B[(XD + {mt.group(1)}) * W + w] = ", ln)
+        out.append(f"        {ln}")
+    return out
+
+
+LANE_PLANTS["HypersonicAngleOfAttack"] = _hypersonic_lines
+LANE_PLANTS["ExpressionPlant"] = _expression_lines
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """A lane module's text and the sizes its caller needs."""
+
+    text: str
+    ny: int
+    nc: int  # lane rows of constants: D.c[:nc]
+    nb: int  # rows of the lane buffer
+    rows: dict  # names of rows -> first row (Y, FK, FC, REFT, CR...)
+
+
+def _reference_lines(source: str) -> list[str]:
+    """The body of the loop module's ``reference(t, c, out)`` (the ``rK = ...`` lines)."""
+    m = re.search(r"\ndef reference\(t, c, out\):\n(.*?)\n\n", source, re.S)
+    if m is None:  # pragma: no cover - the reference part always writes it
+        raise ConfigurationError("The loop module has no reference(); report this as a bug.")
+    return [ln.strip() for ln in m.group(1).splitlines() if re.match(r"\s+r\d+ = ", ln)]
+
+
+def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
+    """The lane module of ``loop``'s structure (``asm``: its assembled single-run loop)."""
+    from adaptive_ftc.approximators import FuzzyBasis
+
+    params = asm.layout.params
+    nc = max(s.stop for s in params.values())
+    nx, m = asm.n_x, loop.plant.n_actuators
+    ny = int(asm.y0.size)
+    reg = loop.controller.regressor
+    n_phi = int(reg.size)
+    if ny != nx + n_phi:  # pragma: no cover - guarded by ineligible()
+        raise ConfigurationError("The lane engine expected the states [x, theta] only.")
+    pos, vel = loop.plant.position_index[0], loop.plant.velocity_index[0]
+    at = {k: s.start for k, s in params.items()}
+    # FuzzyBasis keeps one tuple of centres per input (its __post_init__)
+    centers = cast("tuple[tuple[float, ...], ...]", getattr(reg, "centers", ()))
+    n_mu = sum(len(c) for c in centers) if isinstance(reg, FuzzyBasis) else 0
+    sig_index = loop.signal_names()
+    rows: dict[str, int] = {}
+    nxt = 0
+
+    def claim(name: str, n: int) -> None:
+        nonlocal nxt
+        rows[name] = nxt
+        nxt += max(n, 1)
+
+    claim("CR", nc)
+    for name in ("Y", "K1", "K2", "K3", "K4", "YT", "YN", "FE", "DY"):
+        claim(name, ny)
+    for name in ("T", "TM", "T1", "HH", "H2", "H6", "TIN", "ACT", "BAD", "REFT", "U0", "TOT", "QQ"):
+        claim(name, 1)
+    claim("FK", m)
+    claim("FC", 5 * m)
+    claim("REF", 3)
+    claim("SIG", nx + 3)
+    claim("MU", n_mu)
+    claim("PHI", n_phi)
+    claim("XD", nx)
+    claim("UF", m)
+    nb = nxt
+
+    def cr(k: int) -> str:
+        return f"(CR + {k})"
+
+    body = [
+        "@inl",
+        "def rhs(B, tt, y, dy):",
+        '    """Closed-loop derivative of the W lanes in rows y.. at their times (row tt) into',
+        '    rows dy.. (the single run\'s rhs, statement for statement, per lane)."""',
+        "    for w in range(W):  # the reference, per lane whose time moved (as the single run)",
+        "        t = B[tt * W + w]",
+        "        if B[REFT * W + w] != t:",
+    ]
+    for ln in _reference_lines(asm.source):
+        ln = re.sub(r"\bc\[([^\]]+)\]", lambda mt: f"B[(CR + {mt.group(1)}) * W + w]", ln)
+        body.append(f"            {ln}")
+    body += [
+        "            B[REF * W + w] = r0",
+        "            B[(REF + 1) * W + w] = r1",
+        "            B[(REF + 2) * W + w] = r2",
+        "            B[REFT * W + w] = t",
+        "    # tracking errors e = y_d - y and filtered error s (2.18)",
+        "    for w in range(W):",
+        *[f"        B[(SIG + {i}) * W + w] = B[(y + {i}) * W + w]" for i in range(nx)],
+        f"        e = B[REF * W + w] - B[(y + {pos}) * W + w]",
+        f"        ed = B[(REF + 1) * W + w] - B[(y + {vel}) * W + w]",
+        f"        B[(SIG + {nx}) * W + w] = e",
+        f"        B[(SIG + {nx + 1}) * W + w] = ed",
+        f"        B[(SIG + {nx + 2}) * W + w] = ed + B[{cr(at['lam'])} * W + w] * e",
+    ]
+    idx = [sig_index[name] for name in reg.inputs]
+    # libm (bit-identical to the single run) or the call-free kernels (stage 1b, ~1e-14)
+    exp, tanh = ("math.exp", "math.tanh") if kernels == "libm" else ("vexp", "vtanh")
+    if isinstance(reg, FuzzyBasis):
+        counts = [len(c) for c in centers]
+        body.append(f"    # fuzzy basis: {' x '.join(map(str, counts))} rules (2.40)")
+        k0, mus = 0, []
+        for i, n in enumerate(counts):
+            mus.append(k0)
+            body += [
+                f"    for l in range({n}):",
+                "        for w in range(W):",
+                f"            d = B[(SIG + {idx[i]}) * W + w] - B[(CR + {at['centers']} + {k0} + l)"
+                " * W + w]",
+                f"            B[(MU + {k0} + l) * W + w] = {exp}("
+                f"-B[(CR + {at['spread']} + {k0} + l) * W + w] * d * d)",
+            ]
+            k0 += n
+        # phi[i] = ((mu_0 * mu_1) * mu_2)..., the last input fastest (as the single run)
+        strides = [int(np.prod(counts[i + 1 :])) for i in range(len(counts))]
+        ind = "    "
+        for i, n in enumerate(counts):
+            body.append(f"{ind}for l{i} in range({n}):")
+            ind += "    "
+        row = " + ".join(f"{s} * l{i}" for i, s in enumerate(strides))
+        prod = " * ".join(f"B[(MU + {mus[i]} + l{i}) * W + w]" for i in range(len(counts)))
+        body += [f"{ind}for w in range(W):", f"{ind}    B[(PHI + {row}) * W + w] = {prod}"]
+        if reg.normalised:
+            body += [
+                "    for w in range(W):",
+                "        B[TOT * W + w] = 0.0",
+                f"    for l in range({n_phi}):",
+                "        for w in range(W):",
+                "            B[TOT * W + w] += B[(PHI + l) * W + w]",
+                f"    for l in range({n_phi}):",
+                "        for w in range(W):",
+                "            tot = B[TOT * W + w]",
+                "            B[(PHI + l) * W + w] = (",
+                f"                B[(PHI + l) * W + w] / tot if tot > 1e-300 else {1.0 / n_phi!r}",
+                "            )",
+            ]
+    else:  # linear regressor [1, z_1, ..., z_k]
+        body.append("    # linear regressor")
+        j = 0
+        body.append("    for w in range(W):")
+        if reg.bias:
+            body.append("        B[PHI * W + w] = 1.0")
+            j = 1
+        for i in idx:
+            body.append(f"        B[(PHI + {j}) * W + w] = B[(SIG + {i}) * W + w]")
+            j += 1
+    body += [
+        "    # u0 = Pi^T theta (2.22)",
+        "    for w in range(W):",
+        "        B[U0 * W + w] = 0.0",
+        f"    for l in range({n_phi}):",
+        "        for w in range(W):",
+        f"            B[U0 * W + w] += B[(PHI + l) * W + w] * B[(y + {nx} + l) * W + w]",
+        "    # allocation u = R^T u0 (3.14) and the lanes' affine failures (each lane its own)",
+        f"    for j in range({m}):",
+        "        for w in range(W):",
+        f"            acc = 0.0 + B[(CR + {at['R']} + j) * W + w] * B[U0 * W + w]",
+        "            t = B[tt * W + w]",
+        "            c0 = B[(FC + 5 * j) * W + w]",
+        "            c1 = B[(FC + 5 * j + 1) * W + w]",
+        "            c2 = B[(FC + 5 * j + 2) * W + w]",
+        "            c3 = B[(FC + 5 * j + 3) * W + w]",
+        "            c4 = B[(FC + 5 * j + 4) * W + w]",
+        "            kind = B[(FK + j) * W + w]",
+        "            aff = c0 * acc + c1",
+        "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
+        "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)",
+        "    # the plant",
+        *LANE_PLANTS[type(loop.plant).__name__](loop.plant, "y", lambda k: cr(at["plant"] + k), m),
+        "    # q = s' + k s + k0 tanh(s/eps0) (2.20), the adaptive law (2.29)",
+        "    for w in range(W):",
+        *[f"        B[(dy + {i}) * W + w] = B[(XD + {i}) * W + w]" for i in range(nx)],
+        f"        sd = B[(REF + 2) * W + w] - B[(XD + {vel}) * W + w] + B[{cr(at['lam'])} * W + w]"
+        f" * B[(SIG + {nx + 1}) * W + w]",
+        f"        s = B[(SIG + {nx + 2}) * W + w]",
+        f"        B[QQ * W + w] = sd + B[{cr(at['k'])} * W + w] * s + B[{cr(at['k0'])} * W + w]"
+        f" * {tanh}(s / B[{cr(at['eps0'])} * W + w])",
+        f"    for l in range({n_phi}):",
+        "        for w in range(W):",
+        f"            gamma = B[{cr(at['gains'])} * W + w]",
+        f"            sigma = B[{cr(at['gains'] + 1)} * W + w]",
+        f"            v = gamma * 1.0 * B[(PHI + l) * W + w] * B[QQ * W + w] - gamma * sigma * B["
+        f"(y + {nx} + l) * W + w]",
+        f"            adapt = B[{cr(at['adapt'])} * W + w]",
+        f"            B[(dy + {nx} + l) * W + w] = v if adapt != 0.0 else 0.0",
+    ]
+    env = params["envelope"]
+    consts = [
+        f"W = {width}",
+        f"NY = {ny}",
+        f"NB = {nb}",
+        f"ENV = {env.start}",
+        f"NENV = {env.stop - env.start}",
+        *[f"{name} = {row}" for name, row in rows.items()],
+    ]
+    from adaptive_ftc.sim.mathlib import GUARDED  # the expression language's guarded math
+
+    head = _HEAD.format(
+        title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels",
+        guarded=", ".join(GUARDED),
+        jits="\n".join(f"{name} = inl({name})" for name in GUARDED),
+    )
+    if kernels == "vector":
+        head += _VECTOR_IMPORTS
+    kernel = codegen.template("lanes_rk4")
+    text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", kernel])
+    return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
+
+
+_HEAD = '''"""Generated lane module (issue 29): {title}.
+
+Written by adaptive_ftc.sim.lanes; numbers live in each lane's rows of B, not here.
+"""
+# ruff: noqa
+import math
+
+import numpy as np
+from numba import njit
+
+from adaptive_ftc.sim.lanes import at_lane_level
+from adaptive_ftc.sim.mathlib import {guarded}
+
+# strict IEEE (no fastmath): every lane reproduces its single run bit for bit
+hot = at_lane_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
+inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+{jits}
+
+'''
+
+_VECTOR_IMPORTS = """# the call-free exp and tanh (stage 1b): they vectorise; ~1 ulp from libm
+from adaptive_ftc.sim.lane_kernels import vexp, vtanh
+
+"""
+
+
+# ----------------------------------------------------------------------------- modules
+_modules: dict[str, tuple[object, _Plan]] = {}
+_modules_lock = threading.Lock()
+_LANE_IMPORTS = ["adaptive_ftc.sim.lanes", "adaptive_ftc.sim.mathlib"]
+
+
+def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm"):
+    """The compiled lane module of ``loop``'s structure and its plan (generated once per
+    structure and width, cached on disk like the loop modules)."""
+    key = f"{width} {kernels}\n{asm.source}"
+    with _modules_lock:
+        found = _modules.get(key)
+    if found is not None:
+        return found
+    plan = _plan(loop, asm, width, _kernels(kernels))
+    imports = _LANE_IMPORTS + (["adaptive_ftc.sim.lane_kernels"] if kernels == "vector" else [])
+    module = codegen.load_module(plan.text, imports=imports, kind="lanes")
+    with _modules_lock:
+        _modules[key] = (module, plan)
+    return module, plan
+
+
+def lane_source(loop, solver=None, width: int = LANE_WIDTH, kernels: str = "libm") -> str:
+    """The generated lane module text of ``loop`` (to read), or a ConfigurationError naming
+    why the loop has none."""
+    from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions
+
+    solver = solver or SolverOptions()
+    why = ineligible(loop, solver)
+    if why is not None:
+        raise ConfigurationError(_refusal(loop, why))
+    cl = CompiledLoop.build(loop, solver)
+    return _plan(loop, cl.asm, width, _kernels(kernels)).text
+
+
+#: the lane kernels: libm's exp and tanh (bit-identical to the single run) or the call-free
+#: ones of :mod:`adaptive_ftc.sim.lane_kernels` (stage 1b: faster, about 1e-14 from it)
+KERNELS = ("libm", "vector")
+
+
+def _kernels(kernels: str) -> str:
+    if kernels not in KERNELS:
+        raise ConfigurationError(
+            f"`kernels` must be 'libm' (bit-identical to single runs) or 'vector' (call-free "
+            f"exp and tanh, about 1e-14 from them); got {kernels!r}."
+        )
+    return kernels
+
+
+def _refusal(loop, why: str) -> str:
+    label = f"'{loop.name}'" if getattr(loop, "name", "") else "(unnamed loop)"
+    return (
+        f"Loop {label} cannot run in SIMD lanes: {why}. Run it with lanes=False (or 'auto', "
+        "which runs such loops one at a time)."
+    )
+
+
+# ----------------------------------------------------------------------------- running
+def _failure_tables(asm, m: int):
+    """Per interval and actuator: the failure's kind (-1 healthy, 0 affine, 1 incipient) and
+    its up to 5 numbers (healthy: zeros; affine: ``c0 u + c1``)."""
+    d = asm.data
+    fphase = d.fphase
+    nph = fphase.shape[0]
+    kind = -np.ones((nph, m))
+    con = np.zeros((nph, m, 5))
+    con[:, :, 1] = 1.0  # a safe divisor where the incipient formula is computed and dropped
+    inst, c = d.inst, d.c
+    for p, j in zip(*np.nonzero(fphase >= 0), strict=True):
+        k = int(fphase[p, j])
+        kd, o = int(inst[k, 0]), int(inst[k, 1])
+        kind[p, j] = kd
+        n = 2 if kd == 0 else 5
+        con[p, j, :n] = c[o : o + n]
+    return kind, con
+
+
+_checked: set[str] = set()
+
+
+def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
+    """The lane ``rhs`` of a structure against its single run's ``rhs``, once per process:
+    each lane at another state, time and failure interval of ``cl`` (exactly equal with libm's
+    kernels, within 1e-12 with the call-free ones). The lane form of a plant or law written
+    twice (here and in its part) cannot drift apart silently."""
+    key = f"{width} {kernels}\n{cl.asm.source}"
+    if key in _checked:
+        return
+    rows, asm = plan.rows, cl.asm
+    m = cl.loop.plant.n_actuators
+    kind, con = _failure_tables(asm, m)
+    bps = asm.breakpoints
+    B = np.zeros(plan.nb * width)
+    wanted = []
+    for w in range(width):
+        ph = w % (len(bps) - 1)
+        t = bps[ph] + 0.37 * (bps[ph + 1] - bps[ph])
+        y = asm.y0 * (1.0 + 0.1 * w) + 1e-3 * (w + 1) * np.cos(np.arange(plan.ny) + w)
+        B[(rows["CR"]) * width + w : (rows["CR"] + plan.nc) * width : width] = asm.data.c[: plan.nc]
+        B[rows["REFT"] * width + w] = np.nan
+        B[rows["TIN"] * width + w] = t
+        B[rows["YT"] * width + w : (rows["YT"] + plan.ny) * width : width] = y
+        B[rows["FK"] * width + w : (rows["FK"] + m) * width : width] = kind[ph]
+        B[rows["FC"] * width + w : (rows["FC"] + 5 * m) * width : width] = con[ph].ravel()
+        wanted.append(asm.derivative(t, y, ph))
+    module.rhs_rows(B)
+    got = B[rows["DY"] * width : (rows["DY"] + plan.ny) * width].reshape(plan.ny, width).T
+    want = np.array(wanted)
+    same = (
+        np.array_equal(got, want)
+        if kernels == "libm"
+        else np.allclose(got, want, rtol=1e-12, atol=1e-12 * float(np.max(np.abs(want))))
+    )
+    if not same:
+        raise ConfigurationError(
+            f"The lane form of plant {cl.loop.plant.name!r} with design 'direct' disagrees "
+            "with its single run's right-hand side (a part changed without its lane form in "
+            "sim/lanes.py). Run with lanes=False, and report this."
+        )
+    _checked.add(key)
+
+
+def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm") -> list:
+    """Integrate ``compiled`` (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure,
+    at most ``width``, every one eligible) in one lane group; returns one
+    :class:`~adaptive_ftc.sim.engine.Integration` per member, each equal to its own
+    ``integrate()``."""
+    from adaptive_ftc.sim.engine import Integration, _stop
+    from adaptive_ftc.sim.status import RunStatus
+
+    n = len(compiled)
+    if not 1 <= n <= width:
+        raise ConfigurationError(
+            f"A lane group holds 1 to {width} members; got {n}. Split the members into groups "
+            f"of at most {width} (simulate_lanes and iter_simulate do)."
+        )
+    first = compiled[0]
+    module, plan = lane_module(first.loop, first.asm, width, kernels)
+    _self_check(module, plan, first, width, kernels)
+    m = first.loop.plant.n_actuators
+    pick = [*range(n), *([0] * (width - n))]  # padding lanes: copies of the first member
+    members = [compiled[k] for k in pick]
+    rows = plan.rows
+    B = np.zeros(plan.nb * width)
+    for w, cl in enumerate(members):
+        B[rows["CR"] * width + w : (rows["CR"] + plan.nc) * width : width] = cl.asm.data.c[
+            : plan.nc
+        ]
+    tables = [_failure_tables(cl.asm, m) for cl in members]
+    maxph = max(len(cl.asm.breakpoints) - 1 for cl in members)
+    brk = np.zeros((width, maxph + 1))
+    nph = np.zeros(width, dtype=np.int64)
+    fkind = -np.ones((width, maxph, m))
+    fcon = np.zeros((width, maxph, m, 5))
+    maxrec = max(cl.t_rec.size for cl in members)
+    t_rec = np.zeros((width, maxrec))
+    n_rec = np.zeros(width, dtype=np.int64)
+    y0 = np.zeros((width, plan.ny))
+    for w, (cl, (kind, con)) in enumerate(zip(members, tables, strict=True)):
+        bps = cl.asm.breakpoints
+        brk[w, : len(bps)] = bps
+        nph[w] = len(bps) - 1
+        fkind[w, : kind.shape[0]] = kind
+        fcon[w, : con.shape[0]] = con
+        t_rec[w, : cl.t_rec.size] = cl.t_rec
+        n_rec[w] = cl.t_rec.size
+        y0[w] = cl.asm.y0
+    out_Y = np.empty((width, maxrec, plan.ny))
+    out_ph = np.zeros((width, maxrec), dtype=np.int64)
+    status = np.zeros(width, dtype=np.int64)
+    nrec = np.zeros(width, dtype=np.int64)
+    t_stop = np.zeros(width)
+    bad = -np.ones(width, dtype=np.int64)
+    stats = np.zeros((width, 5), dtype=np.int64)
+    # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
+    ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
+    a, b, h, tol = (np.zeros(width) for _ in range(4))
+    active = np.zeros(width, dtype=np.bool_)
+    dt = float(first.solver.dt)
+    bound = float(first.solver.divergence_bound)
+    start = time.perf_counter()
+    module.run_group(  # type: ignore[attr-defined]
+        B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
+        t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
+    )  # fmt: skip
+    wall = (time.perf_counter() - start) / width
+    out = []
+    for w in range(n):
+        cl = compiled[w]
+        size = cl.t_rec.size
+        Y = out_Y[w, :size].copy()
+        phases = out_ph[w, :size].copy()
+        k = int(nrec[w])
+        if status[w] == 0:
+            outcome = (RunStatus.COMPLETED, None)
+        else:
+            outcome = _stop(
+                cl.loop, cl.asm, cl.solver, cl.t_rec, Y, k, 1, float(t_stop[w]), int(bad[w]),
+                Y[k].copy() if k < size else None,
+            )  # fmt: skip
+        out.append(Integration(Y, phases, k, outcome[0], outcome[1], wall, stats[w].copy()))
+    return out
+
+
+def simulate_lanes(
+    loops: Sequence, solver=None, *, width: int = LANE_WIDTH, kernels: str = "libm"
+) -> list:
+    """:func:`~adaptive_ftc.sim.engine.simulate` of loops of one structure in lane groups of
+    ``width`` (in order, on this thread): the same :class:`~adaptive_ftc.sim.result.SimResult`
+    per loop (states, signals, status and reason, meta counts; a :class:`DivergenceWarning`
+    per diverged run). ``kernels``: ``"libm"`` (bit-identical to :func:`simulate`) or
+    ``"vector"`` (stage 1b, :mod:`adaptive_ftc.sim.lane_kernels`: about 1e-14 from it).
+
+    Raises :class:`ConfigurationError` naming why when a loop is not eligible or the loops do
+    not share one structure."""
+    from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions, finish_run
+
+    solver = solver or SolverOptions()
+    for loop in loops:
+        why = ineligible(loop, solver)
+        if why is not None:
+            raise ConfigurationError(_refusal(loop, why))
+    compiled = [CompiledLoop.build(loop, solver) for loop in loops]
+    for cl in compiled:
+        why = _ineligible_numbers(cl.asm)
+        if why is not None:
+            raise ConfigurationError(_refusal(cl.loop, why))
+    if len({cl.asm.source for cl in compiled}) > 1:
+        raise ConfigurationError(
+            "simulate_lanes() runs loops of one structure (the same plant, design, regressor "
+            "and reference shapes); group the loops by structure, or use simulate_many()."
+        )
+    kernels = _kernels(kernels)
+    out = []
+    for s in range(0, len(compiled), width):
+        group = compiled[s : s + width]
+        runs = integrate_lanes(group, width, kernels)
+        out += [finish_run(cl, run) for cl, run in zip(group, runs, strict=True)]
+    return out
+
+
+def lane_groups(loops: Sequence, solver, width: int = LANE_WIDTH):
+    """Split ``loops`` (in order) into runs: ``("lanes", [indices])`` for up to ``width``
+    eligible loops of one structure, ``("single", [index])`` for the others; with the
+    :class:`~adaptive_ftc.sim.engine.CompiledLoop` of each eligible loop."""
+    from adaptive_ftc.sim.engine import CompiledLoop
+
+    groups: dict[str, list[int]] = {}
+    built: dict[int, object] = {}
+    singles: list[int] = []
+    for k, loop in enumerate(loops):
+        if ineligible(loop, solver) is not None:
+            singles.append(k)
+            continue
+        cl = CompiledLoop.build(loop, solver)
+        if _ineligible_numbers(cl.asm) is not None:
+            singles.append(k)
+            continue
+        built[k] = cl
+        groups.setdefault(cl.asm.source, []).append(k)
+    out = [("single", [k]) for k in singles]
+    for idx in groups.values():
+        for s in range(0, len(idx), width):
+            out.append(("lanes", idx[s : s + width]))
+    return out, built
