@@ -13,6 +13,15 @@ Each case also runs the oracle (:func:`adaptive_ftc.baselines.oracle`: feedback 
 that knows the failure) on the same hardware, with the constraint-aware law's command filter,
 smoothing and measurement filters; issue 25's error target is
 ``max(thesis threshold, 2 x the oracle's error)`` (``--no-oracle``: the thesis threshold).
+The oracle's error counts only where the oracle is a **yardstick**
+(:func:`oracle_yardstick`): its own run completes, its command is acceptable (the same fast
+content, peak and rate-limit targets as the laws') and its error is at most
+``ORACLE_LOST_FACTOR`` (10) thesis thresholds. Otherwise the case is reported
+``INFEASIBLE-BY-ORACLE`` (with why: diverged, lost, or a command that is not acceptable) and
+the laws are judged by the thesis threshold alone: an oracle that loses the task, or tracks
+only by chattering, says nothing about what an acceptable controller can achieve there, and
+2x its error would pass a law that does nothing (wingrock-direct-s1 behind a 50 ms lag: the
+thesis law's 0.44 rad, the open-loop limit cycle, against an oracle lost at 0.46 rad).
 
     PYTHONPATH=src python scripts/hardware_cases.py hypersonic-direct-s1 [--duration 120]
 """
@@ -36,6 +45,13 @@ from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.engine import DEFAULT_FILTER_TAU, simulate
 
 REC_DT = 1e-3  # record fast enough not to alias the chatter being judged
+
+#: an oracle whose final-window error exceeds this many thesis thresholds has lost the task
+#: too (an order of magnitude off the thesis's accuracy): it is no yardstick
+ORACLE_LOST_FACTOR = 10.0
+
+#: the oracle row's verdict when the oracle is no yardstick for the case
+INFEASIBLE = "INFEASIBLE-BY-ORACLE"
 
 
 @dataclass(frozen=True)
@@ -208,6 +224,30 @@ def verdict(m, thr, fast_max, travel, peak_max):
     return "ok" if not bad else "FAIL " + ",".join(bad)
 
 
+def oracle_yardstick(m, thr, fast_max, travel, peak_max) -> tuple[float, str]:
+    """The case's error target from the oracle's metrics ``m`` and the oracle row's verdict.
+
+    ``max(thr, 2 x the oracle's error)`` with the verdict ``"yardstick"`` only where the
+    oracle's run is acceptable by the laws' own targets (completed; fast content, peak and
+    time at a rate limit within them), its error at most ``ORACLE_LOST_FACTOR`` x ``thr``.
+    Otherwise ``thr`` alone, and ``"INFEASIBLE-BY-ORACLE (why)"``: the oracle diverged, lost
+    the task (error more than 10 thresholds) or tracks only with an unacceptable command."""
+    v = verdict(m, ORACLE_LOST_FACTOR * thr, fast_max, travel, peak_max)
+    if v == "ok":
+        return max(thr, 2.0 * m["err"]), "yardstick"
+    if v.startswith("DIVERGED"):
+        why = v.lower()
+    else:
+        words = {
+            "error": f"lost: error {m['err'] / thr:.3g}x the threshold",
+            "fast": "its command chatters",
+            "peak": "its command leaves the peak bound",
+            "rate": "at a rate limit",
+        }
+        why = ", ".join(words[p] for p in v.removeprefix("FAIL ").split(","))
+    return thr, f"{INFEASIBLE} ({why})"
+
+
 def run_cases(
     scenario: str,
     cases=HYPERSONIC_CASES,
@@ -251,9 +291,8 @@ def run_cases(
                 r = simulate(loop, baseline_solver("oracle", solver))
             m = metrics(r, loop, window)
             m["cpu"] = time.perf_counter() - t
-            if math.isfinite(m["err"]):
-                case_thr = max(thr, 2.0 * m["err"])
-            rows.append({"case": case.name, "law": "oracle", **m, "verdict": "-"})
+            case_thr, note = oracle_yardstick(m, thr, fast_max, case.travel, peak_max)
+            rows.append({"case": case.name, "law": "oracle", **m, "verdict": note})
             print(_line(rows[-1]), flush=True)
         for law in laws:
             loop, solver = case_loop(sc, case, duration)
@@ -266,7 +305,7 @@ def run_cases(
             m = metrics(r, loop, window)
             m["cpu"] = time.perf_counter() - t
             v = verdict(m, case_thr, fast_max, case.travel, peak_max)
-            rows.append({"case": case.name, "law": law, **m, "verdict": v})
+            rows.append({"case": case.name, "law": law, **m, "target": case_thr, "verdict": v})
             print(_line(rows[-1]), flush=True)
     return rows, {"threshold": thr, "fast_max": fast_max, "peak_max": peak_max, **ideal}
 
@@ -307,7 +346,9 @@ def main(argv=None) -> int:
     print(
         f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, "
         f"peak {ideal['peak_u']:.3g}; "
-        f"targets: error <= max({ideal['threshold']:.2e}, 2x oracle), "
+        f"targets: error <= max({ideal['threshold']:.2e}, 2x oracle; the oracle counts only "
+        f"where it is acceptable with an error <= {ORACLE_LOST_FACTOR:g}x the threshold, "
+        f"else {INFEASIBLE} and the threshold alone), "
         f"fast <= {ideal['fast_max']:.2e}, "
         f"peak <= travel or {ideal['peak_max']:.3g}, at rate <= 5 %"
     )
