@@ -111,3 +111,32 @@ def test_the_designers_model_is_declared_apart_from_the_true_hardware():
     assert bound[0].configuration() == bound[2].configuration()
     derived = [ConstraintAware.from_loop(replace(loop, actuators=a)) for a in truths[1:]]
     assert derived[0].lag == 0.1 and derived[1].rate == 2.0 and derived[1].travel == 0.5
+
+
+def test_a_hardware_loop_whose_claims_leave_the_activity_unjudged_is_told_so():
+    from adaptive_ftc.claims import unjudged_activity
+
+    for name in HARDWARE:  # the catalogue judges it everywhere
+        sc = load_scenario(name)
+        assert unjudged_activity(sc.loop, sc.claims) == ""
+    ideal = load_scenario("hypersonic-direct-s1")
+    assert unjudged_activity(ideal.loop, ideal.claims) == ""  # no hardware: nothing to say
+    sc = load_scenario("hypersonic-direct-s1-digital")
+    tracking = [c for c in sc.claims if c["kind"] == "tracking"]
+    note = unjudged_activity(sc.loop, tracking)
+    assert "a digital controller" in note and "max_fast_rms" in note
+    assert unjudged_activity(sc.loop, []) == ""  # no claims: no PASS to qualify
+
+
+def test_aftc_run_says_when_no_claim_judges_the_commands_activity(tmp_path, capsys):
+    from tests.test_activity import CHATTER_CLAIM, _user_file
+
+    tracking = '\n[[claims]]\nkind = "tracking"\ntext = "tracks"\nwindow = 4.0\nthreshold = 0.1\n'
+    src = _user_file(tmp_path, tracking)  # the thesis law at 200 Hz: it chatters at 16 Hz
+    assert main(["run", src, "--out", str(tmp_path / "a"), "--quiet", "--no-baselines"]) == 0
+    out = capsys.readouterr().out
+    assert "PASS" in out and "no claim judges its command's fast content" in out
+    assert "RMS above 1 Hz (worst actuator)" in out
+    src = _user_file(tmp_path, tracking + CHATTER_CLAIM, name="judged")
+    assert main(["run", src, "--out", str(tmp_path / "b"), "--quiet", "--no-baselines"]) == 4
+    assert "no claim judges" not in capsys.readouterr().out
