@@ -317,6 +317,94 @@ def _line(row) -> str:
     )
 
 
+def plot_cases(rows, ideal, title: str = ""):
+    """The success region of each law: per case, the final-window error over the error target
+    the law was held to (``target``) against the fast content over its target, log axes; the
+    acceptable box (both <= 1) shaded. Filled: acceptable ("ok"); hollow: a target missed
+    (peak and rate included); a diverged run sits on the top edge (marked with its time).
+    Points are numbered by case (the list on the right)."""
+    import matplotlib.patches as mpatches
+
+    from adaptive_ftc.plots import figure_style, new_figure, wrap_title
+
+    laws = [law for law in dict.fromkeys(r["law"] for r in rows) if law not in ("oracle",)]
+    laws = [law for law in laws if any(r["law"] == law and r["case"] != "ideal" for r in rows)]
+    cases = list(dict.fromkeys(r["case"] for r in rows if r["case"] != "ideal"))
+    style = {
+        "thesis": ("#c0392b", "s", "thesis law"),
+        "aware": ("#1f6fb4", "o", "constraint-aware"),
+    }
+    fast_max = ideal["fast_max"]
+    with figure_style():
+        fig = new_figure(9.0, 5.2)
+        ax = fig.add_subplot(1, 1, 1)
+        top = 1e3
+        ax.add_patch(
+            mpatches.Rectangle((1e-4, 1e-4), 1 - 1e-4, 1 - 1e-4, color="#2e8b57", alpha=0.12, lw=0)
+        )
+        for law in laws:
+            color, marker, label = style.get(law, ("#555555", "^", law))
+            first = True
+            for r in rows:
+                if r["law"] != law or r["case"] == "ideal":
+                    continue
+                k = cases.index(r["case"]) + 1
+                ok = r["verdict"] == "ok"
+                if math.isfinite(r["err"]):
+                    x = max(r["fast"] / fast_max, 1e-4)
+                    y = max(r["err"] / r.get("target", ideal["threshold"]), 1e-4)
+                else:
+                    x, y = 1.0, top
+                    ax.annotate(
+                        f"diverged {r['t_end']:.3g} s",
+                        (x, y),
+                        fontsize=6,
+                        xytext=(3, -9),
+                        textcoords="offset points",
+                        color=color,
+                    )
+                ax.scatter(
+                    [min(x, top)],
+                    [min(y, top)],
+                    s=36,
+                    marker=marker,
+                    facecolors=color if ok else "none",
+                    edgecolors=color,
+                    label=label if first else None,
+                    zorder=3,
+                )
+                first = False
+                ax.annotate(
+                    str(k),
+                    (min(x, top), min(y, top)),
+                    fontsize=7,
+                    xytext=(4, 3),
+                    textcoords="offset points",
+                    color=color,
+                )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(1e-4, 2 * top)
+        ax.set_ylim(1e-4, 2 * top)
+        ax.axhline(1.0, color="#2e8b57", lw=0.8)
+        ax.axvline(1.0, color="#2e8b57", lw=0.8)
+        ax.set_xlabel(f"fast command content / target ({fast_max:.2g}, 3 % of the ideal p-p)")
+        ax.set_ylabel("final-window RMS error / error target")
+        ax.legend(loc="upper left", fontsize=8, title="filled: acceptable", title_fontsize=8)
+        ax.text(
+            1.02,
+            1.0,
+            "\n".join(f"{i + 1}  {c}" for i, c in enumerate(cases)),
+            transform=ax.transAxes,
+            va="top",
+            ha="left",
+            fontsize=7,
+        )
+        if title:
+            fig.suptitle(wrap_title(title, 9.0))
+    return fig
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenario", nargs="?", default="hypersonic-direct-s1")
@@ -329,13 +417,18 @@ def main(argv=None) -> int:
         action="store_true",
         help="the cases of issue 25 (c), sized from the ideal run, instead of the hypersonic set",
     )
+    ap.add_argument(
+        "--figure",
+        default=None,
+        help="also draw the success region of each law to this file (.png or .pdf)",
+    )
     args = ap.parse_args(argv)
     cases = [c for c in HYPERSONIC_CASES if args.only is None or args.only in c.name]
     if args.ideal_cases:
         cases = None
     print("| case | law | error (rad) | fast (rad) | peak |u| | at rate | verdict |")
     print("|---|---|---|---|---|---|---|")
-    _, ideal = run_cases(
+    rows, ideal = run_cases(
         args.scenario,
         cases,
         args.duration,
@@ -352,6 +445,13 @@ def main(argv=None) -> int:
         f"fast <= {ideal['fast_max']:.2e}, "
         f"peak <= travel or {ideal['peak_max']:.3g}, at rate <= 5 %"
     )
+    if args.figure:
+        from adaptive_ftc.plots import figure_style
+
+        fig = plot_cases(rows, ideal, f"{args.scenario}: thesis law and constraint-aware law")
+        with figure_style():
+            fig.savefig(args.figure)
+        print(f"wrote {args.figure}")
     return 0
 
 

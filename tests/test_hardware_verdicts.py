@@ -113,3 +113,35 @@ def test_the_table_reports_the_oracle_and_the_target_each_law_was_held_to(capsys
     assert oracle_row["law"] == "oracle" and oracle_row["verdict"].startswith(hc.INFEASIBLE)
     assert law_row["target"] == ideal["threshold"] and law_row["verdict"] != "ok"
     assert "INFEASIBLE-BY-ORACLE" in capsys.readouterr().out
+
+
+def test_the_success_region_figure_marks_each_law_and_case():
+    ideal = {"fast_max": FAST, "threshold": THR}
+    rows = [{"case": "ideal", "law": "thesis", **run_metrics(1e-6), "verdict": "-"}]
+    for case, aware in (("lag", run_metrics(0.5 * THR)), ("rate", run_metrics(3 * THR))):
+        rows.append({"case": case, "law": "oracle", **run_metrics(THR), "verdict": "yardstick"})
+        rows.append(
+            {"case": case, "law": "thesis", **run_metrics(math.nan, status="diverged"),
+             "target": THR, "verdict": "DIVERGED at 12.30 s"}
+        )  # fmt: skip
+        v = hc.verdict(aware, THR, FAST, math.inf, PEAK)
+        rows.append({"case": case, "law": "aware", **aware, "target": THR, "verdict": v})
+    fig = hc.plot_cases(rows, ideal, "two cases")
+    (ax,) = fig.axes
+    points = [c for c in ax.collections if c.get_offsets().shape[0] == 1]
+    assert len(points) == 4  # 2 laws x 2 cases, no oracle
+    filled = [p for p in points if p.get_facecolor().size and p.get_facecolor()[0][3] > 0]
+    assert len(filled) == 1  # only the acceptable run (aware, lag)
+    texts = [t.get_text() for t in ax.texts]
+    assert "1  lag\n2  rate" in texts and texts.count("diverged 12.3 s") == 2
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["thesis law", "constraint-aware"]
+
+
+def test_the_script_writes_its_table_and_figure(tmp_path, capsys):
+    fig = tmp_path / "cases.png"
+    argv = ["wingrock-direct-s1", "--ideal-cases", "--only", "rate", "--laws", "aware"]
+    assert hc.main([*argv, "--figure", str(fig)]) == 0
+    out = capsys.readouterr().out
+    assert "| rate" in out and "INFEASIBLE-BY-ORACLE (lost" in out and "10x the threshold" in out
+    assert fig.is_file() and fig.stat().st_size > 10_000
