@@ -321,87 +321,74 @@ def plot_cases(rows, ideal, title: str = ""):
     """The success region of each law: per case, the final-window error over the error target
     the law was held to (``target``) against the fast content over its target, log axes; the
     acceptable box (both <= 1) shaded. Filled: acceptable ("ok"); hollow: a target missed
-    (peak and rate included); a diverged run sits on the top edge (marked with its time).
-    Points are numbered by case (the list on the right)."""
+    (peak and rate included). Points are numbered by case; the list on the right names the
+    cases and the laws that diverged there (no point: no final window)."""
     import matplotlib.patches as mpatches
 
     from adaptive_ftc.plots import figure_style, new_figure, wrap_title
 
-    laws = [law for law in dict.fromkeys(r["law"] for r in rows) if law not in ("oracle",)]
-    laws = [law for law in laws if any(r["law"] == law and r["case"] != "ideal" for r in rows)]
-    cases = list(dict.fromkeys(r["case"] for r in rows if r["case"] != "ideal"))
     style = {
         "thesis": ("#c0392b", "s", "thesis law"),
         "aware": ("#1f6fb4", "o", "constraint-aware"),
     }
+    judged = [r for r in rows if r["case"] != "ideal" and r["law"] != "oracle"]
+    cases = list(dict.fromkeys(r["case"] for r in judged))
     fast_max = ideal["fast_max"]
+    points, diverged = [], {c: [] for c in cases}
+    for r in judged:
+        if not math.isfinite(r["err"]):
+            name = style.get(r["law"], ("", "", r["law"]))[2]
+            diverged[r["case"]].append(f"{name} diverges at {r['t_end']:.3g} s")
+            continue
+        x = max(r["fast"] / fast_max, 1e-6)
+        y = max(r["err"] / r.get("target", ideal["threshold"]), 1e-6)
+        points.append((r["law"], cases.index(r["case"]) + 1, x, y, r["verdict"] == "ok"))
+    xs = [p[2] for p in points] or [1.0]
+    ys = [p[3] for p in points] or [1.0]
+    lo_x, hi_x = min(min(xs) / 3, 0.1), max(max(xs) * 3, 10.0)
+    lo_y, hi_y = min(min(ys) / 3, 0.1), max(max(ys) * 3, 10.0)
     with figure_style():
-        fig = new_figure(9.0, 5.2)
+        fig = new_figure(9.5, 5.2)
         ax = fig.add_subplot(1, 1, 1)
-        top = 1e3
         ax.add_patch(
-            mpatches.Rectangle((1e-4, 1e-4), 1 - 1e-4, 1 - 1e-4, color="#2e8b57", alpha=0.12, lw=0)
+            mpatches.Rectangle((lo_x, lo_y), 1 - lo_x, 1 - lo_y, color="#2e8b57", alpha=0.12, lw=0)
         )
-        for law in laws:
+        labelled = set()
+        for law, k, x, y, ok in points:
             color, marker, label = style.get(law, ("#555555", "^", law))
-            first = True
-            for r in rows:
-                if r["law"] != law or r["case"] == "ideal":
-                    continue
-                k = cases.index(r["case"]) + 1
-                ok = r["verdict"] == "ok"
-                if math.isfinite(r["err"]):
-                    x = max(r["fast"] / fast_max, 1e-4)
-                    y = max(r["err"] / r.get("target", ideal["threshold"]), 1e-4)
-                else:
-                    x, y = 1.0, top
-                    ax.annotate(
-                        f"diverged {r['t_end']:.3g} s",
-                        (x, y),
-                        fontsize=6,
-                        xytext=(3, -9),
-                        textcoords="offset points",
-                        color=color,
-                    )
-                ax.scatter(
-                    [min(x, top)],
-                    [min(y, top)],
-                    s=36,
-                    marker=marker,
-                    facecolors=color if ok else "none",
-                    edgecolors=color,
-                    label=label if first else None,
-                    zorder=3,
-                )
-                first = False
-                ax.annotate(
-                    str(k),
-                    (min(x, top), min(y, top)),
-                    fontsize=7,
-                    xytext=(4, 3),
-                    textcoords="offset points",
-                    color=color,
-                )
+            ax.scatter(
+                [x],
+                [y],
+                s=36,
+                marker=marker,
+                facecolors=color if ok else "none",
+                edgecolors=color,
+                label=None if law in labelled else label,
+                zorder=3,
+            )
+            labelled.add(law)
+            ax.annotate(
+                str(k), (x, y), fontsize=7, xytext=(4, 3), textcoords="offset points", color=color
+            )
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlim(1e-4, 2 * top)
-        ax.set_ylim(1e-4, 2 * top)
+        ax.set_xlim(lo_x, hi_x)
+        ax.set_ylim(lo_y, hi_y)
         ax.axhline(1.0, color="#2e8b57", lw=0.8)
         ax.axvline(1.0, color="#2e8b57", lw=0.8)
         ax.set_xlabel(f"fast command content / target ({fast_max:.2g}, 3 % of the ideal p-p)")
         ax.set_ylabel("final-window RMS error / error target")
-        ax.legend(loc="upper left", fontsize=8, title="filled: acceptable", title_fontsize=8)
+        if labelled:
+            ax.legend(loc="upper left", fontsize=8, title="filled: acceptable", title_fontsize=8)
+        lines = []
+        for i, c in enumerate(cases):
+            lines.append(f"{i + 1}  {c}")
+            lines += [f"     {d}" for d in diverged[c]]
         ax.text(
-            1.02,
-            1.0,
-            "\n".join(f"{i + 1}  {c}" for i, c in enumerate(cases)),
-            transform=ax.transAxes,
-            va="top",
-            ha="left",
-            fontsize=7,
+            1.02, 1.0, "\n".join(lines), transform=ax.transAxes, va="top", ha="left", fontsize=7
         )
         if title:
-            fig.suptitle(wrap_title(title, 9.0))
+            fig.suptitle(wrap_title(title, 9.5))
     return fig
 
 

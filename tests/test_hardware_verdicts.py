@@ -118,22 +118,24 @@ def test_the_table_reports_the_oracle_and_the_target_each_law_was_held_to(capsys
 def test_the_success_region_figure_marks_each_law_and_case():
     ideal = {"fast_max": FAST, "threshold": THR}
     rows = [{"case": "ideal", "law": "thesis", **run_metrics(1e-6), "verdict": "-"}]
-    for case, aware in (("lag", run_metrics(0.5 * THR)), ("rate", run_metrics(3 * THR))):
+    gone = run_metrics(math.nan, status="diverged")
+    for case, thesis, aware in (
+        ("lag", run_metrics(0.5 * THR, fast=50 * FAST), run_metrics(0.5 * THR)),
+        ("rate", gone, run_metrics(3 * THR)),
+    ):
         rows.append({"case": case, "law": "oracle", **run_metrics(THR), "verdict": "yardstick"})
-        rows.append(
-            {"case": case, "law": "thesis", **run_metrics(math.nan, status="diverged"),
-             "target": THR, "verdict": "DIVERGED at 12.30 s"}
-        )  # fmt: skip
-        v = hc.verdict(aware, THR, FAST, math.inf, PEAK)
-        rows.append({"case": case, "law": "aware", **aware, "target": THR, "verdict": v})
+        for law, m in (("thesis", thesis), ("aware", aware)):
+            v = hc.verdict(m, THR, FAST, math.inf, PEAK)
+            rows.append({"case": case, "law": law, **m, "target": THR, "verdict": v})
     fig = hc.plot_cases(rows, ideal, "two cases")
     (ax,) = fig.axes
     points = [c for c in ax.collections if c.get_offsets().shape[0] == 1]
-    assert len(points) == 4  # 2 laws x 2 cases, no oracle
+    assert len(points) == 3  # no oracle, no point for the diverged run
     filled = [p for p in points if p.get_facecolor().size and p.get_facecolor()[0][3] > 0]
     assert len(filled) == 1  # only the acceptable run (aware, lag)
+    assert filled[0].get_offsets()[0].tolist() == pytest.approx([0.1, 0.5])
     texts = [t.get_text() for t in ax.texts]
-    assert "1  lag\n2  rate" in texts and texts.count("diverged 12.3 s") == 2
+    assert "1  lag\n2  rate\n     thesis law diverges at 12.3 s" in texts
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert legend == ["thesis law", "constraint-aware"]
 
