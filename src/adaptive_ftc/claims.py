@@ -92,6 +92,7 @@ __all__ = [
     "evaluate_claims",
     "evaluate_thesis_law_claims",
     "thesis_law_claim",
+    "unjudged_activity",
 ]
 
 PASS = "PASS"
@@ -1173,3 +1174,31 @@ def evaluate_thesis_law_claims(
         else v
         for v in out
     ]
+
+
+def unjudged_activity(loop: Any, claims: Sequence[Mapping[str, Any]]) -> str:
+    """Where ``loop`` declares hardware (actuators, sensors or a digital controller) and has
+    claims, none of which judges its command's fast content (an ``activity`` claim with
+    ``max_fast_rms`` or ``max_fast_rms_relative``), a note saying so: a tracking PASS there
+    says nothing of a chattering command (issue 25). Empty otherwise."""
+    hardware = [
+        what
+        for what, declared in (
+            ("actuators", getattr(loop, "actuators", None) is not None),
+            ("sensors", getattr(loop, "sensors", None) is not None),
+            ("a digital controller", float(getattr(loop, "sample_time", 0.0) or 0.0) > 0),
+        )
+        if declared
+    ]
+    judged = any(
+        c.get("kind") == "activity" and ("max_fast_rms" in c or "max_fast_rms_relative" in c)
+        for c in claims
+    )
+    if not claims or not hardware or judged:
+        return ""
+    return (
+        f"note: this loop has {', '.join(hardware)} but no claim judges its command's fast "
+        "content, so a PASS above says nothing of chatter: add a [[claims]] table with kind = "
+        '"activity" and max_fast_rms (or max_fast_rms_relative with reference_peak_to_peak, '
+        "e.g. 3 % of the ideal run's command peak to peak; docs/claims.md)"
+    )

@@ -675,6 +675,12 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
             )
     if verdicts:
         _print_claims(verdicts)
+        from adaptive_ftc.claims import unjudged_activity
+
+        note = unjudged_activity(sc.loop, sc.claims)
+        if note:
+            fast = m.get("fast_rms_max", math.nan)
+            print(f"{note}; measured: {fast:.3g} {u_unit} RMS above 1 Hz (worst actuator)")
     if thesis_verdicts:
         print("the thesis law beside it (constraint-aware option off; what it fails is a finding):")
         _print_claims(thesis_verdicts)

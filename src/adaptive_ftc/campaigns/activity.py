@@ -90,7 +90,10 @@ class ActivityCriterion:
         if not math.isnan(rate) and rate > self.max_rate_limited_fraction:
             why.append(f"at a rate limit {rate:.3g} > {self.max_rate_limited_fraction:g}")
         travel = row.get("peak_command_travel_ratio_max", math.nan)
-        if not math.isnan(travel):
+        # the ratio is 0 where no travel is declared (sim/activity.py), not nan: a member
+        # without a travel is held to the peak bound (a 0 ratio with a travel: a zero
+        # command, which meets the bound too)
+        if travel > 0.0:
             if travel > 1.0:
                 why.append(f"peak command {travel:.3g} x the travel")
         else:
