@@ -59,6 +59,7 @@ def iter_simulate(
     window: int | None = None,
     progress: bool = False,
     reduce: Callable[[SimResult], Any] | None = None,
+    lean_signals: bool = False,
 ) -> Iterator[Any]:
     """Simulate closed loops in parallel and yield their results one by one, in input order.
 
@@ -73,6 +74,8 @@ def iter_simulate(
     the run, while the other threads run theirs); its value is yielded instead of the result,
     which is dropped there (a campaign reduces each run to its metrics row this way, without
     the trajectories passing through one thread). An exception it raises is raised here.
+    ``lean_signals``: as in :func:`simulate` (only the signals the metrics read; a campaign's
+    ``reduce`` reads nothing else).
 
     Examples
     --------
@@ -102,14 +105,14 @@ def iter_simulate(
     pool = ThreadPoolExecutor(max_workers=jobs)
     try:
         for loop in source:
-            pending.append(pool.submit(_run, loop, solver, reduce))
+            pending.append(pool.submit(_run, loop, solver, reduce, lean_signals))
             if len(pending) >= window:
                 break
         while pending:
             result = pending.popleft().result()
             following = next(source, None)
             if following is not None:  # the next run starts before the caller takes this result
-                pending.append(pool.submit(_run, following, solver, reduce))
+                pending.append(pool.submit(_run, following, solver, reduce, lean_signals))
             if hasattr(bar, "tick"):
                 bar.tick()
             elif bar is not None:
@@ -121,7 +124,9 @@ def iter_simulate(
             bar.close()
 
 
-def _run(loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None) -> Any:
+def _run(
+    loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None, lean: bool = False
+) -> Any:
     """One run of a batch, reduced in the same thread when asked."""
-    result = simulate(loop, solver)
+    result = simulate(loop, solver, lean_signals=lean)
     return result if reduce is None else reduce(result)

@@ -201,7 +201,13 @@ def _user_times(loop: ClosedLoop, t_eval) -> np.ndarray:
     return np.clip(t, t0, t1)
 
 
-def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=None) -> SimResult:
+def simulate(
+    loop: ClosedLoop,
+    solver: SolverOptions | None = None,
+    *,
+    t_eval=None,
+    lean_signals: bool = False,
+) -> SimResult:
     """Simulate a closed loop.
 
     Integration restarts exactly at every failure onset/recovery (each interval of fixed
@@ -218,6 +224,13 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
         scipy's ``t_eval`` and python-control's ``T``); default: every ``solver.record_dt``.
         The integration itself (its steps) does not depend on it: between steps the state is
         interpolated (cubic Hermite for RK4, the method's dense output for the adaptive ones).
+    lean_signals
+        Compute only the signals that :meth:`SimResult.metrics`, :meth:`SimResult.recovery`
+        and :meth:`SimResult.activity` read (tracking errors ``e``, commands ``u_cmd``,
+        applied commands ``u_applied``; states and times as always): every other signal
+        (``y``, ``yd``, ``s``, ``u0``, ``gain``, ``control_gain``, ...) is ``nan``. Those
+        numbers are the same as without it; a campaign asks for it (its row reads nothing
+        else), a result for users should not.
 
     Returns
     -------
@@ -246,7 +259,7 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
     """
     compiled = CompiledLoop.build(loop, solver or SolverOptions(), t_eval=t_eval)
     run = compiled.integrate()
-    T, Y, phases, signals, status, reason = compiled.recorded(run)
+    T, Y, phases, signals, status, reason = compiled.recorded(run, lean=lean_signals)
     message = describe(status, reason, _run_label(loop))
     result = SimResult.from_run(
         loop,
@@ -356,16 +369,17 @@ class CompiledLoop:
         wall = time.perf_counter() - start
         return Integration(Y, phases, nrec, outcome[0], outcome[1], wall, stats)
 
-    def recorded(self, run: Integration):
+    def recorded(self, run: Integration, *, lean: bool = False):
         """The records of ``run`` with their signals, cut at the first one outside the plant's
-        envelope: ``(T, Y, phases, signals, status, reason)``."""
+        envelope: ``(T, Y, phases, signals, status, reason)``; ``lean``: only the signals the
+        metrics read (``simulate``'s ``lean_signals``)."""
         nrec = run.nrec
         T, Y, phases = self.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
         signals = signal_block(self.loop, nrec)
         status, reason = run.status, run.reason
         if nrec:
             # the signals' pass over the records also finds the first one outside the envelope
-            first = self.asm.signals(T, Y, phases, signals)
+            first = self.asm.signals(T, Y, phases, signals, lean=lean)
             cut, env_reason = _envelope_cut(self.loop, Y, T, nrec, first=first)
             if env_reason is not None:
                 status, reason = RunStatus.DIVERGED, env_reason

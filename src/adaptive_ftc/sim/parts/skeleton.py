@@ -77,7 +77,18 @@ def rhs_lines(b: Build, parts: Sequence[Part]) -> list[str]:
         "    c = D.c",
         *[view(name) for name in WORK],
     ]
-    return head + _hooks(filled, RHS_HOOKS)
+    at = RHS_HOOKS.index("plant")
+    # the commands are known before the plant's hook: a caller that wants only them (the lean
+    # signals of a campaign's records, templates/record.py) passes an empty dY
+    commands_only = [
+        "    if dY.size == 0:  # the commands only (lean signals): no derivatives",
+        "        return",
+    ]
+    body = _hooks(filled, RHS_HOOKS)  # (checks the hooks' names)
+    before = len(
+        _hooks([{k: v for k, v in f.items() if k in RHS_HOOKS[:at]} for f in filled], RHS_HOOKS)
+    )
+    return head + body[:before] + commands_only + body[before:]
 
 
 def jump_source(b: Build, parts: Sequence[Part]) -> str:

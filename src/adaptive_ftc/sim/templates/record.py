@@ -11,6 +11,8 @@ imports and lints on its own.
 """
 
 # ruff: noqa: F811
+import math
+
 from numba import njit as hot
 
 
@@ -40,11 +42,16 @@ MISC_UF_COMP = MISC_GAIN = MISC_SDOT_USED = MISC_REF_VALID = 0
 
 # --- template: begin ---
 @hot
-def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
+def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot, lean):
     """One row of ``out`` per recorded time. Columns: y(p), yd(p), yd_dot(p), e(p), edot(p),
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
+
+    ``lean`` (1): only e(p), u(m) and uf(m), the columns a run's metrics, recovery and
+    activity read, are computed; every other column is ``nan``. The plant's control gain is
+    not computed, and ``rhs`` stops once the commands are known: the caller passes an empty
+    ``dY`` (the generated ``rhs`` returns before the plant's equations, ``parts/skeleton.py``).
 
     Returns the first row whose plant states leave the plant's envelope (-1: none), so that
     the engine needs no pass of its own over the records to cut a run there.
@@ -70,6 +77,17 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
         ph = phases[n]
         W[MISC + MISC_REF_VALID] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
+        if lean:
+            for k in range(out.shape[1]):
+                out[n, k] = math.nan
+            for i in range(P):
+                out[n, 3 * P + i] = W[REF + 3 * i] - Y[D.i[pos + i]]
+            for j in range(M):
+                out[n, 9 * P + j] = W[U + j]
+                out[n, 9 * P + M + j] = W[UF + j]
+            if outside < 0 and leaves_envelope(Y, D) >= 0:
+                outside = n
+            continue
         for i in range(P):
             pi = D.i[pos + i]
             vi = D.i[vel + i]
