@@ -261,8 +261,9 @@ class Assembled:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
         ``templates/record.py``, which calls this loop's ``rhs`` and its plant's
         ``control_gain``); returns the first row outside the plant's envelope (-1: none).
-        ``lean``: only the tracking errors, commands and applied commands (the other columns
-        ``nan``; see ``simulate``'s ``signals``)."""
+        ``lean``: only the tracking errors, commands and applied commands, into the narrow
+        block of :func:`~adaptive_ftc.sim.result.lean_signal_block` (``simulate``'s
+        ``lean_signals``)."""
         m = int(self.data.i[Header.M])
         # lean: an empty dY, so that rhs stops once the commands are known (parts/skeleton.py)
         dY = np.zeros(0 if lean else self.y0.size)

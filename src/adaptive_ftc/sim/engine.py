@@ -18,7 +18,7 @@ from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.sim import solvers
 from adaptive_ftc.sim.compile_errors import clear_compile_errors
 from adaptive_ftc.sim.compose import Assembled, assemble
-from adaptive_ftc.sim.result import SimResult, signal_block
+from adaptive_ftc.sim.result import SimResult, lean_signal_block, signal_block
 from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -228,9 +228,9 @@ def simulate(
         Compute only the signals that :meth:`SimResult.metrics`, :meth:`SimResult.recovery`
         and :meth:`SimResult.activity` read (tracking errors ``e``, commands ``u_cmd``,
         applied commands ``u_applied``; states and times as always): every other signal
-        (``y``, ``yd``, ``s``, ``u0``, ``gain``, ``control_gain``, ...) is ``nan``. Those
-        numbers are the same as without it; a campaign asks for it (its row reads nothing
-        else), a result for users should not.
+        (``y``, ``yd``, ``s``, ``u0``, ``gain``, ``control_gain``, ...) is a read-only ``nan``
+        array that takes no memory. Those numbers are the same as without it; a campaign asks
+        for it (its row reads nothing else), a result for users should not.
 
     Returns
     -------
@@ -273,6 +273,7 @@ def simulate(
         wall_time=run.wall,
         status=status,
         reason=reason,
+        lean=lean_signals,
     )
     result.meta.update(_counts(run.stats))
     if status is RunStatus.INTERRUPTED:
@@ -375,7 +376,7 @@ class CompiledLoop:
         metrics read (``simulate``'s ``lean_signals``)."""
         nrec = run.nrec
         T, Y, phases = self.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
-        signals = signal_block(self.loop, nrec)
+        signals = (lean_signal_block if lean else signal_block)(self.loop, nrec)
         status, reason = run.status, run.reason
         if nrec:
             # the signals' pass over the records also finds the first one outside the envelope

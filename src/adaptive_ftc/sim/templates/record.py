@@ -11,8 +11,6 @@ imports and lints on its own.
 """
 
 # ruff: noqa: F811
-import math
-
 from numba import njit as hot
 
 
@@ -48,10 +46,11 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot, lean):
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
 
-    ``lean`` (1): only e(p), u(m) and uf(m), the columns a run's metrics, recovery and
-    activity read, are computed; every other column is ``nan``. The plant's control gain is
-    not computed, and ``rhs`` stops once the commands are known: the caller passes an empty
-    ``dY`` (the generated ``rhs`` returns before the plant's equations, ``parts/skeleton.py``).
+    ``lean`` (1): ``out`` is the narrow block of the signals a run's metrics, recovery and
+    activity read, e(p), u(m), uf(m) (``result.lean_signal_block``), and nothing else is
+    computed: not the plant's control gain, and ``rhs`` stops once the commands are known (the
+    caller passes an empty ``dY``; the generated ``rhs`` returns before the plant's equations,
+    ``parts/skeleton.py``).
 
     Returns the first row whose plant states leave the plant's envelope (-1: none), so that
     the engine needs no pass of its own over the records to cut a run there.
@@ -77,14 +76,12 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot, lean):
         ph = phases[n]
         W[MISC + MISC_REF_VALID] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
-        if lean:
-            for k in range(out.shape[1]):
-                out[n, k] = math.nan
+        if lean:  # the narrow block: e(p), u(m), uf(m)
             for i in range(P):
-                out[n, 3 * P + i] = W[REF + 3 * i] - Y[D.i[pos + i]]
+                out[n, i] = W[REF + 3 * i] - Y[D.i[pos + i]]
             for j in range(M):
-                out[n, 9 * P + j] = W[U + j]
-                out[n, 9 * P + M + j] = W[UF + j]
+                out[n, P + j] = W[U + j]
+                out[n, P + M + j] = W[UF + j]
             if outside < 0 and leaves_envelope(Y, D) >= 0:
                 outside = n
             continue
