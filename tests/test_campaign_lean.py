@@ -149,3 +149,27 @@ def test_the_commands_only_rhs_gives_the_commands_of_the_full_one(name):
     for field in ("e", "u_cmd", "u_applied"):
         assert np.array_equal(getattr(lean, field), getattr(full, field), equal_nan=True), field
     assert np.all(np.isnan(lean.control_gain))
+
+
+def _rhs_text(source: str) -> str:
+    start = source.index("def rhs(t, Y, ph, D, W, dY):")
+    end = source.index("\ndef ", start + 1)
+    return source[start:end]
+
+
+@pytest.mark.parametrize("sdot", ["exact", "filtered"])
+def test_every_rhs_returns_after_its_commands_when_asked_for_them_only(sdot):
+    """The lean pass gives ``rhs`` a ``dY`` one longer than ``Y`` (a derivative a part writes
+    before the plant, the constraint-aware command filter's, stays in bounds): every catalogue
+    loop's generated ``rhs`` returns there, after its commands (``u``, ``uf``) are set and
+    before the plant's equations."""
+    from adaptive_ftc.scenarios import list_scenarios
+    from adaptive_ftc.sim.compose import generate
+
+    guard = "if dY.size != Y.size:"
+    for name in list_scenarios():
+        sc = load_scenario(name)
+        text = _rhs_text(generate(sc.loop, sdot=sdot)[0])
+        head, tail = text.split(guard)
+        assert "uf[" in head and "u[" in head, name
+        assert "plant_dynamics(" in tail and "plant_dynamics(" not in head, name

@@ -265,8 +265,9 @@ class Assembled:
         block of :func:`~adaptive_ftc.sim.result.lean_signal_block` (``simulate``'s
         ``lean_signals``)."""
         m = int(self.data.i[Header.M])
-        # lean: an empty dY, so that rhs stops once the commands are known (parts/skeleton.py)
-        dY = np.zeros(0 if lean else self.y0.size)
+        # lean: a dY one longer than the state, so that rhs stops once the commands are known
+        # (parts/skeleton.py)
+        dY = np.zeros(self.y0.size + 1 if lean else self.y0.size)
         scratch = (dY, np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
         shared = self._shared()
         return int(shared.signals(T, Y, phases, self.data, self.work(), out, *scratch, int(lean)))

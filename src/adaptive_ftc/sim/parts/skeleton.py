@@ -79,9 +79,10 @@ def rhs_lines(b: Build, parts: Sequence[Part]) -> list[str]:
     ]
     at = RHS_HOOKS.index("plant")
     # the commands are known before the plant's hook: a caller that wants only them (the lean
-    # signals of a campaign's records, templates/record.py) passes an empty dY
+    # signals of a campaign's records, templates/record.py) passes a dY one longer than Y (a
+    # part may write a derivative before this point: the constraint-aware command filter)
     commands_only = [
-        "    if dY.size == 0:  # the commands only (lean signals): no derivatives",
+        "    if dY.size != Y.size:  # the commands only (lean signals): no more derivatives",
         "        return",
     ]
     body = _hooks(filled, RHS_HOOKS)  # (checks the hooks' names)

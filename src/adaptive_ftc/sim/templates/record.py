@@ -49,16 +49,16 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot, lean):
     ``lean`` (1): ``out`` is the narrow block of the signals a run's metrics, recovery and
     activity read, e(p), u(m), uf(m) (``result.lean_signal_block``), and nothing else is
     computed: not the plant's control gain, and ``rhs`` stops once the commands are known (the
-    caller passes an empty ``dY``; the generated ``rhs`` returns before the plant's equations,
-    ``parts/skeleton.py``).
+    caller passes a ``dY`` one longer than ``Y``; the generated ``rhs`` then returns before the
+    plant's equations, ``parts/skeleton.py``).
 
     Returns the first row whose plant states leave the plant's envelope (-1: none), so that
     the engine needs no pass of its own over the records to cut a run there.
 
-    ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
-    the caller. The rows allocate nothing, so they run without reference counting. The table
-    at ``D.i[I_SIGT]``: ``layout.SignalTable`` (written by ``LoopLayout.signal_table``); the
-    columns: ``layout.RecordLayout``."""
+    ``dY`` (``Ys.shape[1]``, one more when ``lean``), ``unit`` (``M``), ``x0dot``, ``x1dot``
+    (``NX``): zeros given by the caller. The rows allocate nothing, so they run without
+    reference counting. The table at ``D.i[I_SIGT]``: ``layout.SignalTable`` (written by
+    ``LoopLayout.signal_table``); the columns: ``layout.RecordLayout``."""
     c = D.c
     s = D.i[I_SIGT]
     P = D.i[s + SIGT_P]
