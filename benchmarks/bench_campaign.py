@@ -37,6 +37,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -166,9 +167,9 @@ def _compare_checkouts(args) -> int:
     b_rate, b_cpu = best(here)
     for tree in trees:
         rate, cpu = best(tree)
-        rates = sorted(args.runs / g["wall"] for g in got[tree])
+        median = statistics.median(args.runs / g["wall"] for g in got[tree])
         print(
-            f"  {tree}: best {rate:.2f} runs/s (median {rates[len(rates) // 2]:.2f}), "
+            f"  {tree}: best {rate:.2f} runs/s (median {median:.2f}), "
             f"best {cpu:.1f} ms CPU a run"
         )
     for tree in trees[1:]:
