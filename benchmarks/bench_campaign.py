@@ -169,8 +169,7 @@ def _compare_checkouts(args) -> int:
         rate, cpu = best(tree)
         median = statistics.median(args.runs / g["wall"] for g in got[tree])
         print(
-            f"  {tree}: best {rate:.2f} runs/s (median {median:.2f}), "
-            f"best {cpu:.1f} ms CPU a run"
+            f"  {tree}: best {rate:.2f} runs/s (median {median:.2f}), best {cpu:.1f} ms CPU a run"
         )
     for tree in trees[1:]:
         rate, cpu = best(tree)
