@@ -13,7 +13,6 @@ import ast
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
-from adaptive_ftc.sim.parts.skeleton import COMMANDS_ONLY_TEST
 
 __all__ = ["controller_side"]
 
@@ -49,8 +48,6 @@ def controller_side(stmts: list, ny: int, tainted: set | None = None) -> list:
         st = _Fold().visit(st)
         if st is None:
             continue
-        if isinstance(st, ast.If) and ast.unparse(st.test) == COMMANDS_ONLY_TEST:
-            continue  # the simulator's commands-only return (lean signals): not the controller's
         if isinstance(st, ast.If):
             if isinstance(st.test, ast.Constant):  # folded: misc[Misc.SAMPLING] (at a sample) is 1
                 out += controller_side(st.body if st.test.value else st.orelse, ny, tainted)
