@@ -1,6 +1,8 @@
 """Campaign throughput (issue 13): a seeded campaign of hypersonic-direct-s1 (120 s runs).
 
-Run: ``python benchmarks/bench_campaign.py [--runs 1000] [--jobs 2] [--no-dask] [--no-c]``.
+Run: ``python benchmarks/bench_campaign.py [--runs 1000] [--jobs 2] [--no-dask] [--no-c]``,
+or ``python benchmarks/bench_campaign.py --runs 200 --against OLD/src [--against ...]
+[--rounds 2]``.
 
 Times, in the same process:
 
@@ -21,11 +23,22 @@ the bare simulate_many of this run (the machine is shared: absolute times move w
 
 Failures are drawn from the models the C reference implements (loss of effectiveness, bias,
 stuck, affine; numeric, abrupt).
+
+``--against SRC`` (repeatable): only the campaign line, for this checkout and each other
+checkout's ``src`` (e.g. a ``git worktree`` of the session-9 code), each in a fresh process,
+interleaved over ``--rounds`` rounds (the machine is shared: its load moves between rounds);
+prints each one's best and median runs/s and CPU time per run (every thread of the process:
+the work done, less sensitive to the load than the wall time) and this checkout's ratio to
+each, best against best.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -76,7 +89,15 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--no-c", action="store_true")
+    ap.add_argument("--against", action="append", default=[], metavar="SRC")
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.child:
+        sys.stdout.write(json.dumps(_campaign_only(args.runs, args.jobs)) + "\n")
+        return 0
+    if args.against:
+        return _compare_checkouts(args)
     spec = load_campaign(spec_data(args.runs))
     small = load_campaign({**spec_data(2), "chunk_size": 2})
     run_chunk(small, 0, jobs=1)  # compile or load the cached kernel
@@ -96,6 +117,66 @@ def main() -> int:
             _compare_c(spec, args, rate)
         if not args.no_dask:
             _compare_dask(spec, args, Path(tmp), t_local)
+    return 0
+
+
+def _campaign_only(runs: int, jobs: int) -> dict:
+    """The campaign line alone in this process (whichever ``adaptive_ftc`` it imports): wall
+    and CPU seconds (all threads) of ``run_campaign``, compiled code loaded first."""
+    import adaptive_ftc
+
+    spec = load_campaign(spec_data(runs))
+    run_chunk(load_campaign({**spec_data(2), "chunk_size": 2}), 0, jobs=1)
+    with tempfile.TemporaryDirectory(prefix="aftc-bench-campaign-") as tmp:
+        t, c = time.perf_counter(), time.process_time()
+        run_campaign(spec, Path(tmp) / "c", jobs=jobs, progress=False, summary=False)
+        wall, cpu = time.perf_counter() - t, time.process_time() - c
+    return {"wall": wall, "cpu": cpu, "load": os.getloadavg()[0], "at": adaptive_ftc.__file__}
+
+
+def _compare_checkouts(args) -> int:
+    """This checkout against each ``--against`` checkout, interleaved, fresh processes."""
+    here = str(Path(__file__).resolve().parents[1] / "src")
+    trees = [here, *(str(Path(a).resolve()) for a in args.against)]
+    got: dict[str, list[dict]] = {t: [] for t in trees}
+    print(
+        f"campaign of hypersonic-direct-s1, {args.runs} runs x 120 s, {args.jobs} threads; "
+        f"{len(trees)} checkouts interleaved over {args.rounds} rounds"
+    )
+    for r in range(args.rounds):
+        for tree in trees:
+            env = {**os.environ, "PYTHONPATH": tree}
+            cmd = [sys.executable, __file__, "--child", "--runs", str(args.runs)]
+            cmd += ["--jobs", str(args.jobs)]
+            proc = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+            if proc.returncode != 0:
+                print(proc.stderr, file=sys.stderr)
+                return 1
+            res = json.loads(proc.stdout.strip().splitlines()[-1])
+            got[tree].append(res)
+            print(
+                f"  round {r + 1}: {tree}: {args.runs / res['wall']:7.2f} runs/s, "
+                f"{1000 * res['cpu'] / args.runs:6.1f} ms CPU a run (load {res['load']:.1f})"
+            )
+
+    def best(tree: str) -> tuple[float, float]:
+        rates = sorted(args.runs / g["wall"] for g in got[tree])
+        cpus = sorted(1000 * g["cpu"] / args.runs for g in got[tree])
+        return rates[-1], cpus[0]
+
+    b_rate, b_cpu = best(here)
+    for tree in trees:
+        rate, cpu = best(tree)
+        median = statistics.median(args.runs / g["wall"] for g in got[tree])
+        print(
+            f"  {tree}: best {rate:.2f} runs/s (median {median:.2f}), best {cpu:.1f} ms CPU a run"
+        )
+    for tree in trees[1:]:
+        rate, cpu = best(tree)
+        print(
+            f"  this checkout / {tree}: throughput {b_rate / rate:.2f}x (best wall), "
+            f"{cpu / b_cpu:.2f}x (best CPU per run; issue 29's target >= {TARGET_29:g}x)"
+        )
     return 0
 
 

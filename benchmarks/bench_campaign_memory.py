@@ -1,7 +1,7 @@
 """Campaign memory against the number of members (issue 29, "streaming campaigns").
 
 Run: ``python benchmarks/bench_campaign_memory.py [--runs 500] [--factor 4] [--duration 2]
-[--jobs 2] [--no-summary]``.
+[--jobs 2] [--no-summary] [--single]``.
 
 Runs the same seeded campaign of hypersonic-direct-s1 (the bench_campaign.py spec with runs
 shortened to ``--duration`` seconds and failure times inside it) with N = ``--runs`` and
@@ -10,8 +10,12 @@ shortened to ``--duration`` seconds and failure times inside it) with N = ``--ru
 * peak RSS after the chunks (the streaming part: simulate, reduce each run to its metrics
   row, write one Parquet part per chunk) and after ``results.parquet`` and the summary page;
 * throughput (runs/s) of the first and last quarter of the chunks: flat when nothing grows;
+* throughput (runs/s) per tenth of the chunks (deciles): flat when nothing slows down;
 * the RSS ratio factor-N / N (target: flat, <= 1.10 for the chunks) and the peak RSS of a
   100,000-member campaign extrapolated linearly from the two.
+
+``--single``: one campaign of N members only (e.g. ``--runs 100000 --single``: the issue's
+100,000 members measured, not extrapolated); its peak RSS against the target of 1 GB.
 
 Absolute numbers depend on the machine and its load; the ratios are the point.
 """
@@ -28,6 +32,7 @@ import time
 from pathlib import Path
 
 TARGET_RATIO = 1.10
+TARGET_RSS_MIB = 1024.0  # issue 29: 100,000 members with peak RSS <= 1 GB
 MB = 1024.0  # ru_maxrss is in KiB on Linux
 
 
@@ -90,6 +95,34 @@ def _quarter_rates(stamps: list[float], chunk: int) -> tuple[float, float]:
     return q * chunk / first, q * chunk / last
 
 
+def _decile_rates(stamps: list[float], chunk: int, runs: int) -> list[float]:
+    """Runs/s over each tenth of the chunks (by chunk count; the last chunk may be short)."""
+    n = len(stamps)
+    if n < 10:
+        return []
+    rates = []
+    edges = [round(k * n / 10) for k in range(11)]
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        t_a = stamps[a - 1] if a > 0 else 0.0
+        done = min(b * chunk, runs) - a * chunk
+        rates.append(done / max(stamps[b - 1] - t_a, 1e-9))
+    return rates
+
+
+def _print_run(r: dict) -> None:
+    first, last = _quarter_rates(r["stamps"], r["chunk_size"])
+    print(
+        f"  N={r['runs']:6d}: peak RSS {r['rss_ready']:6.0f} MiB compiled, "
+        f"{r['rss_chunks']:6.0f} MiB after the chunks, {r['rss_all']:6.0f} MiB with the "
+        f"summary; {r['runs'] / r['t_chunks']:7.1f} runs/s (first quarter {first:.1f}, "
+        f"last quarter {last:.1f}); chunks {r['t_chunks']:.0f} s, with the summary "
+        f"{r['t_all']:.0f} s"
+    )
+    deciles = _decile_rates(r["stamps"], r["chunk_size"], r["runs"])
+    if deciles:
+        print("    runs/s per tenth of the chunks: " + " ".join(f"{v:.1f}" for v in deciles))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -99,6 +132,7 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=2.0, help="seconds per run (default 2)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-summary", action="store_true", help="chunks and results only")
+    ap.add_argument("--single", action="store_true", help="one campaign of N members only")
     ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:
@@ -106,11 +140,11 @@ def main() -> int:
             json.dumps(child(args.child, args.duration, args.jobs, not args.no_summary)) + "\n"
         )
         return 0
-    if args.runs < 8 or args.factor < 2:
+    if args.runs < 8 or (args.factor < 2 and not args.single):
         print("error: use --runs >= 8 and --factor >= 2, e.g. --runs 500 --factor 4")
         return 2
     out = []
-    for n in (args.runs, args.factor * args.runs):
+    for n in (args.runs,) if args.single else (args.runs, args.factor * args.runs):
         cmd = [sys.executable, __file__, "--child", str(n), "--duration", str(args.duration)]
         cmd += ["--jobs", str(args.jobs)] + (["--no-summary"] if args.no_summary else [])
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
@@ -123,13 +157,12 @@ def main() -> int:
         f"chunks of {out[0]['chunk_size']}; fresh process per N"
     )
     for r in out:
-        first, last = _quarter_rates(r["stamps"], r["chunk_size"])
-        print(
-            f"  N={r['runs']:6d}: peak RSS {r['rss_ready']:6.0f} MiB compiled, "
-            f"{r['rss_chunks']:6.0f} MiB after the chunks, {r['rss_all']:6.0f} MiB with the "
-            f"summary; {r['runs'] / r['t_chunks']:7.1f} runs/s (first quarter {first:.1f}, "
-            f"last quarter {last:.1f})"
-        )
+        _print_run(r)
+    if args.single:
+        peak = max(out[0]["rss_chunks"], out[0]["rss_all"])
+        verdict = "MET" if peak <= TARGET_RSS_MIB else "NOT MET"
+        print(f"  peak RSS {peak:.0f} MiB (target <= {TARGET_RSS_MIB:.0f} MiB: {verdict})")
+        return 0
     a, b = out
     ratio = b["rss_chunks"] / a["rss_chunks"]
     ratio_all = b["rss_all"] / a["rss_all"]

@@ -172,6 +172,21 @@ def test_iter_simulate_with_lanes_keeps_order_and_falls_back(base):
         _same(a, b)
 
 
+def test_lanes_with_lean_signals_equal_lean_single_runs(base):
+    """A campaign asks for lean signals (errors and commands only): the lane path hands the
+    flag on, so each member's lean result equals its lean single run and lacks the rest."""
+    loops = _members(base)[:3]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        singles = [simulate(loop, RK4, lean_signals=True) for loop in loops]
+        got = list(iter_simulate(loops, RK4, jobs=1, lanes=True, lean_signals=True))
+    for a, b in zip(got, singles, strict=True):
+        np.testing.assert_array_equal(a.states, b.states)
+        np.testing.assert_array_equal(a.u_cmd, b.u_cmd)
+        np.testing.assert_array_equal(a.u_f, b.u_f)
+        assert np.isnan(a.control_gain).all()  # not computed in a lean run
+
+
 def test_lanes_true_names_why_a_loop_cannot_run_in_lanes(base):
     with pytest.raises(ConfigurationError, match="fixed-step RK4 only.*'dopri5'"):
         list(iter_simulate([base], SolverOptions(method="dopri5"), jobs=1, lanes=True))

@@ -174,7 +174,11 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
     with warnings.catch_warnings():  # a diverged run is a recorded outcome, not a warning
         warnings.simplefilter("ignore", DivergenceWarning)
         # each run's row is computed by the thread that simulated it (iter_simulate's reduce)
-        outcomes = list(iter_simulate(loops(), spec.solver, jobs=jobs, reduce=reduce))
+        # the row reads the errors, commands and applied commands only (lean_signals: the
+        # other signals, the plant's control gain among them, are not computed)
+        outcomes = list(
+            iter_simulate(loops(), spec.solver, jobs=jobs, reduce=reduce, lean_signals=True)
+        )
     rows = []
     k = 0
     for mem in members:

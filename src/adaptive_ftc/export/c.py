@@ -32,6 +32,7 @@ import numpy as np
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export.controller_side import controller_side
 from adaptive_ftc.export.pyc import DOUBLE, PARAMS, PTR, Field, Source, Translator, c_float
+from adaptive_ftc.sim.parts.skeleton import COMMANDS_ONLY_TEST
 
 if TYPE_CHECKING:
     from adaptive_ftc.sim.system import ClosedLoop
@@ -178,6 +179,13 @@ class _Library:
         self.tree = ast.parse(text)
         self.constants = _module_constants(self.tree)
         self.defs = {n.name: n for n in self.tree.body if isinstance(n, ast.FunctionDef)}
+        if "rhs" in self.defs:  # the simulator's commands-only return (lean signals): not C's
+            rhs = self.defs["rhs"]
+            rhs.body = [
+                st
+                for st in rhs.body
+                if not (isinstance(st, ast.If) and ast.unparse(st.test) == COMMANDS_ONLY_TEST)
+            ]
         self.imported = _imported_names(self.tree)
         self.sources: dict[str, Source] = {}
         ctrl = loop.controller.bound(loop)

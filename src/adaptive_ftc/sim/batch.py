@@ -74,6 +74,7 @@ def iter_simulate(
     reduce: Callable[[SimResult], Any] | None = None,
     lanes: bool | str = False,
     lane_kernels: str = "libm",
+    lean_signals: bool = False,
 ) -> Iterator[Any]:
     """Simulate closed loops in parallel and yield their results one by one, in input order.
 
@@ -88,6 +89,8 @@ def iter_simulate(
     the run, while the other threads run theirs); its value is yielded instead of the result,
     which is dropped there (a campaign reduces each run to its metrics row this way, without
     the trajectories passing through one thread). An exception it raises is raised here.
+    ``lean_signals``: as in :func:`simulate` (only the signals the metrics read; a campaign's
+    ``reduce`` reads nothing else).
 
     ``lanes``: run members in SIMD lanes (:mod:`adaptive_ftc.sim.lanes`: ``LANE_WIDTH`` = 8
     members of one structure per compiled call, each member's result equal to its own
@@ -123,7 +126,15 @@ def iter_simulate(
 
         kernels = _kernels(lane_kernels)
         yield from _iter_lanes(
-            loops, solver, jobs, window, progress, reduce, strict=lanes is True, kernels=kernels
+            loops,
+            solver,
+            jobs,
+            window,
+            progress,
+            reduce,
+            strict=lanes is True,
+            kernels=kernels,
+            lean=lean_signals,
         )
         return
     window = 4 * jobs if window is None else window
@@ -142,14 +153,14 @@ def iter_simulate(
     pool = ThreadPoolExecutor(max_workers=jobs)
     try:
         for loop in source:
-            pending.append(pool.submit(_run, loop, solver, reduce))
+            pending.append(pool.submit(_run, loop, solver, reduce, lean_signals))
             if len(pending) >= window:
                 break
         while pending:
             result = pending.popleft().result()
             following = next(source, None)
             if following is not None:  # the next run starts before the caller takes this result
-                pending.append(pool.submit(_run, following, solver, reduce))
+                pending.append(pool.submit(_run, following, solver, reduce, lean_signals))
             if hasattr(bar, "tick"):
                 bar.tick()
             elif bar is not None:
@@ -161,13 +172,15 @@ def iter_simulate(
             bar.close()
 
 
-def _run(loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None) -> Any:
+def _run(
+    loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None, lean: bool = False
+) -> Any:
     """One run of a batch, reduced in the same thread when asked."""
-    result = simulate(loop, solver)
+    result = simulate(loop, solver, lean_signals=lean)
     return result if reduce is None else reduce(result)
 
 
-def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels):
+def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean=False):
     """:func:`iter_simulate` with lanes: chunks of up to ``LANE_WIDTH`` consecutive members per
     thread job (:func:`_run_chunk`), results yielded per member in input order."""
     from adaptive_ftc.sim.lanes import LANE_WIDTH, _refusal, ineligible
@@ -206,7 +219,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             part = chunk()
             if not part:
                 break
-            pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels))
+            pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
             members += len(part)
         while pending:
             results = pending.popleft().result()
@@ -215,7 +228,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
                 part = chunk()
                 if not part:
                     break
-                pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels))
+                pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
                 members += len(part)
             for result in results:
                 if hasattr(bar, "tick"):
@@ -229,7 +242,9 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             bar.close()
 
 
-def _run_chunk(loops: list, solver, reduce: Callable | None, strict: bool, kernels: str) -> list:
+def _run_chunk(
+    loops: list, solver, reduce: Callable | None, strict: bool, kernels: str, lean: bool = False
+) -> list:
     """Consecutive members: those of one eligible structure in a lane group (two or more, or
     any with ``strict``), the others one at a time; results (reduced) in input order."""
     from adaptive_ftc.sim.engine import SolverOptions, finish_run
@@ -242,7 +257,7 @@ def _run_chunk(loops: list, solver, reduce: Callable | None, strict: bool, kerne
         if kind == "lanes" and (len(idx) > 1 or strict):
             runs = integrate_lanes([built[k] for k in idx], kernels=kernels)
             for k, run in zip(idx, runs, strict=True):
-                result = finish_run(built[k], run)  # type: ignore[arg-type]
+                result = finish_run(built[k], run, lean=lean)  # type: ignore[arg-type]
                 out[k] = result if reduce is None else reduce(result)
             continue
         for k in idx:
@@ -251,5 +266,5 @@ def _run_chunk(loops: list, solver, reduce: Callable | None, strict: bool, kerne
 
                 why = ineligible_reason(loops[k], solver) or "no lane group"
                 raise ConfigurationError(_refusal(loops[k], why))
-            out[k] = _run(loops[k], solver, reduce)
+            out[k] = _run(loops[k], solver, reduce, lean)
     return out

@@ -249,13 +249,28 @@ class Assembled:
         self.module.rhs(float(t), y, int(phase), self.data, W, np.zeros(self.y0.size))
         return W[self.layout.work["phi"]].copy()
 
-    def signals(self, T: np.ndarray, Y: np.ndarray, phases: np.ndarray, out: np.ndarray) -> int:
+    def signals(
+        self,
+        T: np.ndarray,
+        Y: np.ndarray,
+        phases: np.ndarray,
+        out: np.ndarray,
+        *,
+        lean: bool = False,
+    ) -> int:
         """Recompute the recorded signals into ``out`` (the shared ``signals`` of
         ``templates/record.py``, which calls this loop's ``rhs`` and its plant's
-        ``control_gain``); returns the first row outside the plant's envelope (-1: none)."""
+        ``control_gain``); returns the first row outside the plant's envelope (-1: none).
+        ``lean``: only the tracking errors, commands and applied commands, into the narrow
+        block of :func:`~adaptive_ftc.sim.result.lean_signal_block` (``simulate``'s
+        ``lean_signals``)."""
         m = int(self.data.i[Header.M])
-        scratch = (np.zeros(self.y0.size), np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
-        return int(self._shared().signals(T, Y, phases, self.data, self.work(), out, *scratch))
+        # lean: a dY one longer than the state, so that rhs stops once the commands are known
+        # (parts/skeleton.py)
+        dY = np.zeros(self.y0.size + 1 if lean else self.y0.size)
+        scratch = (dY, np.zeros(m), np.zeros(self.n_x), np.zeros(self.n_x))
+        shared = self._shared()
+        return int(shared.signals(T, Y, phases, self.data, self.work(), out, *scratch, int(lean)))
 
 
 # the plant's part of the recorded signals (one module per plant, _gain_module_source): the

@@ -18,7 +18,7 @@ from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.sim import solvers
 from adaptive_ftc.sim.compile_errors import clear_compile_errors
 from adaptive_ftc.sim.compose import Assembled, assemble
-from adaptive_ftc.sim.result import SimResult, signal_block
+from adaptive_ftc.sim.result import SimResult, lean_signal_block, signal_block
 from adaptive_ftc.sim.status import RunStatus, SimulationInterrupted, StatusReason, describe
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -208,7 +208,13 @@ def _user_times(loop: ClosedLoop, t_eval) -> np.ndarray:
     return np.clip(t, t0, t1)
 
 
-def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=None) -> SimResult:
+def simulate(
+    loop: ClosedLoop,
+    solver: SolverOptions | None = None,
+    *,
+    t_eval=None,
+    lean_signals: bool = False,
+) -> SimResult:
     """Simulate a closed loop.
 
     Integration restarts exactly at every failure onset/recovery (each interval of fixed
@@ -225,6 +231,13 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
         scipy's ``t_eval`` and python-control's ``T``); default: every ``solver.record_dt``.
         The integration itself (its steps) does not depend on it: between steps the state is
         interpolated (cubic Hermite for RK4, the method's dense output for the adaptive ones).
+    lean_signals
+        Compute only the signals that :meth:`SimResult.metrics`, :meth:`SimResult.recovery`
+        and :meth:`SimResult.activity` read (tracking errors ``e``, commands ``u_cmd``,
+        applied commands ``u_applied``; states and times as always): every other signal
+        (``y``, ``yd``, ``s``, ``u0``, ``gain``, ``control_gain``, ...) is a read-only ``nan``
+        array that takes no memory. Those numbers are the same as without it; a campaign asks
+        for it (its row reads nothing else), a result for users should not.
 
     Returns
     -------
@@ -252,15 +265,18 @@ def simulate(loop: ClosedLoop, solver: SolverOptions | None = None, *, t_eval=No
     'completed'
     """
     compiled = CompiledLoop.build(loop, solver or SolverOptions(), t_eval=t_eval)
-    return finish_run(compiled, compiled.integrate(), stacklevel=3)
+    return finish_run(compiled, compiled.integrate(), stacklevel=3, lean=lean_signals)
 
 
-def finish_run(compiled: CompiledLoop, run: Integration, *, stacklevel: int = 2) -> SimResult:
+def finish_run(
+    compiled: CompiledLoop, run: Integration, *, stacklevel: int = 2, lean: bool = False
+) -> SimResult:
     """The :class:`SimResult` of ``run`` (an integration of ``compiled``, by
     :meth:`CompiledLoop.integrate` or the lane engine, ``sim/lanes.py``): signals, envelope
-    cut, status, meta counts; warns or raises as :func:`simulate` does."""
+    cut, status, meta counts; warns or raises as :func:`simulate` does. ``lean``: only the
+    signals the metrics read (:func:`simulate`'s ``lean_signals``)."""
     loop = compiled.loop
-    T, Y, phases, signals, status, reason = compiled.recorded(run)
+    T, Y, phases, signals, status, reason = compiled.recorded(run, lean=lean)
     message = describe(status, reason, _run_label(loop))
     result = SimResult.from_run(
         loop,
@@ -274,6 +290,7 @@ def finish_run(compiled: CompiledLoop, run: Integration, *, stacklevel: int = 2)
         wall_time=run.wall,
         status=status,
         reason=reason,
+        lean=lean,
     )
     result.meta.update(_counts(run.stats))
     if status is RunStatus.INTERRUPTED:
@@ -370,16 +387,17 @@ class CompiledLoop:
         wall = time.perf_counter() - start
         return Integration(Y, phases, nrec, outcome[0], outcome[1], wall, stats)
 
-    def recorded(self, run: Integration):
+    def recorded(self, run: Integration, *, lean: bool = False):
         """The records of ``run`` with their signals, cut at the first one outside the plant's
-        envelope: ``(T, Y, phases, signals, status, reason)``."""
+        envelope: ``(T, Y, phases, signals, status, reason)``; ``lean``: only the signals the
+        metrics read (``simulate``'s ``lean_signals``)."""
         nrec = run.nrec
         T, Y, phases = self.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
-        signals = signal_block(self.loop, nrec)
+        signals = (lean_signal_block if lean else signal_block)(self.loop, nrec)
         status, reason = run.status, run.reason
         if nrec:
             # the signals' pass over the records also finds the first one outside the envelope
-            first = self.asm.signals(T, Y, phases, signals)
+            first = self.asm.signals(T, Y, phases, signals, lean=lean)
             cut, env_reason = _envelope_cut(self.loop, Y, T, nrec, first=first)
             if env_reason is not None:
                 status, reason = RunStatus.DIVERGED, env_reason

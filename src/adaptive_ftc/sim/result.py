@@ -125,12 +125,20 @@ class SimResult:
         wall_time: float,
         status: RunStatus | str = RunStatus.COMPLETED,
         reason: StatusReason | None = None,
+        lean: bool = False,
     ) -> SimResult:
         """Build a result from recorded closed-loop states; ``signals``: their block from
         ``asm.signals`` (:func:`signal_block`), else recomputed here. ``status`` and
-        ``reason`` say how the run ended; ``message`` is the text built from them."""
+        ``reason`` say how the run ended; ``message`` is the text built from them. ``lean``:
+        ``signals`` is the narrow block of :func:`lean_signal_block` (``e``, ``u_cmd``,
+        ``u_applied``); every other signal is a read-only ``nan`` array (no memory)."""
         p, m, n = loop.plant.n_outputs, loop.plant.n_actuators, loop.plant.n_states
         out = signals
+        if lean and out is None:
+            raise ConfigurationError(
+                "SimResult.from_run(lean=True) needs the lean signals block "
+                "(lean_signal_block, filled by asm.signals(..., lean=True)); pass signals=."
+            )
         if out is None:
             out = signal_block(loop, T.size)
             if T.size:
@@ -140,7 +148,17 @@ class SimResult:
                     np.ascontiguousarray(phases),
                     out,
                 )
-        col = {name: out[:, where] for name, where, _ in asm.layout.records}
+        if lean:
+            nan = np.full(1, np.nan)
+            col = {
+                name: np.lib.stride_tricks.as_strided(
+                    nan, (T.size, where.stop - where.start), (0, 0), writeable=False
+                )
+                for name, where, _ in asm.layout.records
+            }
+            col.update(e=out[:, :p], u_cmd=out[:, p : p + m], u_applied=out[:, p + m : p + 2 * m])
+        else:
+            col = {name: out[:, where] for name, where, _ in asm.layout.records}
         times = sorted(
             {t for f in loop.failures.failures for t in f.jump_times if loop.t0 < t < loop.t_final}
         )
@@ -782,6 +800,14 @@ def _run_meta(loop: ClosedLoop, asm: Assembled, solver: Any, wall_time: float) -
 
 
 # ---------------------------------------------------------------------- export helpers
+def lean_signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
+    """An uninitialised block for the lean signals of ``rows`` records of ``loop``: ``e``,
+    ``u_cmd`` and ``u_applied`` (``p + 2 m`` columns; ``simulate``'s ``lean_signals``)."""
+    from adaptive_ftc.sim import blocks
+
+    return blocks.empty((rows, loop.plant.n_outputs + 2 * loop.plant.n_actuators))
+
+
 def signal_block(loop: ClosedLoop, rows: int) -> np.ndarray:
     """An uninitialised block for the recorded signals of ``rows`` records of ``loop``
     (``Assembled.signals`` writes every column of every row)."""

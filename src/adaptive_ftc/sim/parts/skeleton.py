@@ -11,7 +11,15 @@ from collections.abc import Sequence
 from adaptive_ftc.sim.layout import WORK
 from adaptive_ftc.sim.parts.base import Build, Part
 
-__all__ = ["JUMP_HOOKS", "RHS_HOOKS", "jump_source", "rhs_lines", "used_views", "view"]
+__all__ = [
+    "COMMANDS_ONLY_TEST",
+    "JUMP_HOOKS",
+    "RHS_HOOKS",
+    "jump_source",
+    "rhs_lines",
+    "used_views",
+    "view",
+]
 
 #: the hooks of ``rhs(t, Y, ph, D, W, dY)``, in order (the comments say what each holds)
 RHS_HOOKS: tuple[str, ...] = (
@@ -42,6 +50,11 @@ RHS_HOOKS: tuple[str, ...] = (
     "adapt_post",  # ... and after them (constraint-aware)
     "after_adapt",  # between samples: the held derivatives (sampler)
 )
+
+#: the test of ``rhs``'s early return once the commands are known (before the ``plant`` hook):
+#: a caller that wants the commands only passes a ``dY`` one longer than ``Y`` (the lean signals
+#: of templates/record.py). Simulator-only: the C export drops it (export/controller_side.py).
+COMMANDS_ONLY_TEST = "dY.size != Y.size"
 
 #: the hooks of ``jump(t, Y, ph, D, W)``, in order
 JUMP_HOOKS: tuple[str, ...] = (
@@ -77,7 +90,19 @@ def rhs_lines(b: Build, parts: Sequence[Part]) -> list[str]:
         "    c = D.c",
         *[view(name) for name in WORK],
     ]
-    return head + _hooks(filled, RHS_HOOKS)
+    at = RHS_HOOKS.index("plant")
+    # the commands are known before the plant's hook: a caller that wants only them (the lean
+    # signals of a campaign's records, templates/record.py) passes a dY one longer than Y (a
+    # part may write a derivative before this point: the constraint-aware command filter)
+    commands_only = [
+        f"    if {COMMANDS_ONLY_TEST}:  # the commands only (lean signals): no more derivatives",
+        "        return",
+    ]
+    body = _hooks(filled, RHS_HOOKS)  # (checks the hooks' names)
+    before = len(
+        _hooks([{k: v for k, v in f.items() if k in RHS_HOOKS[:at]} for f in filled], RHS_HOOKS)
+    )
+    return head + body[:before] + commands_only + body[before:]
 
 
 def jump_source(b: Build, parts: Sequence[Part]) -> str:

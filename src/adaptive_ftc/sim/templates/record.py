@@ -40,19 +40,25 @@ MISC_UF_COMP = MISC_GAIN = MISC_SDOT_USED = MISC_REF_VALID = 0
 
 # --- template: begin ---
 @hot
-def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
+def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot, lean):
     """One row of ``out`` per recorded time. Columns: y(p), yd(p), yd_dot(p), e(p), edot(p),
     s(p), sdot(p), q(p), u0(p), u(m), uf(m), uf_comp, gain (N(tau) or rho), control_gain
     (sum_j g_j R_0j df_j/du, the true control gain of output 1 along the allocation),
     sdot_used.
 
+    ``lean`` (1): ``out`` is the narrow block of the signals a run's metrics, recovery and
+    activity read, e(p), u(m), uf(m) (``result.lean_signal_block``), and nothing else is
+    computed: not the plant's control gain, and ``rhs`` stops once the commands are known (the
+    caller passes a ``dY`` one longer than ``Y``; the generated ``rhs`` then returns before the
+    plant's equations, ``parts/skeleton.py``).
+
     Returns the first row whose plant states leave the plant's envelope (-1: none), so that
     the engine needs no pass of its own over the records to cut a run there.
 
-    ``dY`` (``Ys.shape[1]``), ``unit`` (``M``), ``x0dot``, ``x1dot`` (``NX``): zeros given by
-    the caller. The rows allocate nothing, so they run without reference counting. The table
-    at ``D.i[I_SIGT]``: ``layout.SignalTable`` (written by ``LoopLayout.signal_table``); the
-    columns: ``layout.RecordLayout``."""
+    ``dY`` (``Ys.shape[1]``, one more when ``lean``), ``unit`` (``M``), ``x0dot``, ``x1dot``
+    (``NX``): zeros given by the caller. The rows allocate nothing, so they run without
+    reference counting. The table at ``D.i[I_SIGT]``: ``layout.SignalTable`` (written by
+    ``LoopLayout.signal_table``); the columns: ``layout.RecordLayout``."""
     c = D.c
     s = D.i[I_SIGT]
     P = D.i[s + SIGT_P]
@@ -70,6 +76,15 @@ def signals(T, Ys, phases, D, W, out, dY, unit, x0dot, x1dot):
         ph = phases[n]
         W[MISC + MISC_REF_VALID] = 0.0  # the reference cache must not carry over between rows
         rhs(t, Y, ph, D, W, dY)
+        if lean:  # the narrow block: e(p), u(m), uf(m)
+            for i in range(P):
+                out[n, i] = W[REF + 3 * i] - Y[D.i[pos + i]]
+            for j in range(M):
+                out[n, P + j] = W[U + j]
+                out[n, P + M + j] = W[UF + j]
+            if outside < 0 and leaves_envelope(Y, D) >= 0:
+                outside = n
+            continue
         for i in range(P):
             pi = D.i[pos + i]
             vi = D.i[vel + i]
