@@ -243,17 +243,51 @@ def success_tables(df, threshold: float | None = None) -> dict[str, Any]:
                 ["compensable (rank condition (3.6) holds)", "not compensable"],
             )
         ]
-    out["comparison"] = _comparisons(df, ok, designs, per)
+    out["comparison"] = _comparisons(df, ok, designs, per, out)
     return out
 
 
-def _comparisons(df, ok, designs: list[str], per: dict[str, dict]) -> list[dict[str, Any]]:
-    """Each tested design against the best fair baseline run (the floor when none is)."""
+#: What decided between baselines tied on success rate, in the order of :func:`_baseline_rank`.
+TIE_BREAKS = ("members tracked", "members completed", "median final error", "spec order")
+
+
+def _baseline_rank(d: str, designs: list[str], info: dict[str, Any]) -> tuple:
+    """Sort key of a baseline (higher is better): its success rate; on a tie (0 % for every
+    baseline, say) the members it tracked on (completed within the error threshold, whatever
+    the other criteria said), then the members it completed without diverging, then the lower
+    median final error, then the spec's order. A baseline that diverged on every member is
+    never named the best while another tracked on some."""
+    o = info["outcomes"][d]
+    tracked = o["success"] + o["failed another criterion"]
+    completed = tracked + o["error too large"]
+    med = info["median_error_final"][d]
+    return (
+        info["per_design"][d]["rate"],
+        tracked,
+        completed,
+        -med if not math.isnan(med) else -math.inf,
+        -designs.index(d),
+    )
+
+
+def _comparisons(
+    df, ok, designs: list[str], per: dict[str, dict], info: dict[str, Any]
+) -> list[dict[str, Any]]:
+    """Each tested design against the best fair baseline run (the floor when none is); the
+    best by :func:`_baseline_rank`."""
     fair = [d for d in designs if role(d) == "fair baseline"]
     pool = fair or [d for d in designs if role(d) == "floor"]
     if not pool:
         return []
-    best = max(pool, key=lambda d: (per[d]["rate"], -designs.index(d)))
+    ranked = sorted(pool, key=lambda d: _baseline_rank(d, designs, info), reverse=True)
+    best = ranked[0]
+    kb = _baseline_rank(best, designs, info)
+    tied = [d for d in ranked[1:] if per[d]["rate"] == per[best]["rate"]]
+    tie_break = None
+    if tied:
+        kr = _baseline_rank(tied[0], designs, info)
+        tie_break = TIE_BREAKS[next(i for i in range(1, len(kb)) if kb[i] != kr[i]) - 1]
+    o = info["outcomes"][best]
     out = []
     b_rows = df[df["design"] == best].set_index("index")
     b_ok = ok[df["design"] == best].set_axis(b_rows.index)
@@ -290,9 +324,32 @@ def _comparisons(df, ok, designs: list[str], per: dict[str, dict]) -> list[dict[
                 "both": int((a & b).sum()),
                 "neither": int((~a & ~b).sum()),
                 "median_error_ratio": float(ratio.median()) if len(ratio) else math.nan,
+                "tied_with": tied,
+                "tie_break": tie_break,
+                "baseline_tracked": o["success"] + o["failed another criterion"],
+                "baseline_completed": o["success"]
+                + o["failed another criterion"]
+                + o["error too large"],
             }
         )
     return out
+
+
+def _tie_words(comp: dict[str, Any], info: dict[str, Any]) -> str:
+    """Why ``comp['baseline']`` was chosen among the baselines tied with it on success rate."""
+    b = comp["baseline"]
+    n = info["per_design"][b]["runs"]
+    return {
+        "members tracked": f"{b} tracked on the most members ({comp['baseline_tracked']} of {n})",
+        "members completed": (
+            f"{b} completed the most runs without diverging ({comp['baseline_completed']} of {n})"
+        ),
+        "median final error": (
+            f"{b} had the lowest median final error "
+            f"({_num(info['median_error_final'][b])}, completed runs)"
+        ),
+        "spec order": f"{b} comes first in the spec (tied on every count)",
+    }[comp["tie_break"]]
 
 
 def pct(x: float) -> str:
@@ -365,10 +422,23 @@ def _design_sentence(info: dict[str, Any], d: str) -> str:
                 "worse": "clearly worse than",
                 "not distinguishable": "not distinguishable at this sample size from",
             }[comp["verdict"]]
-            text += (
-                f", {how} the best fair baseline, {comp['baseline']} ({pct(b['rate'])}, "
-                f"CI {_ci_text(b)})"
-            )
+            if b["successes"] == 0 and comp["tied_with"]:
+                # every fair baseline at 0 %: none is "best" by success; say so, and why the
+                # paired comparison uses the one it uses
+                text += (
+                    f", {how} every fair baseline: none succeeded on any member "
+                    f"(0\u00a0%, CI {_ci_text(b)}); it is paired with {comp['baseline']}, as "
+                    + _tie_words(comp, info)
+                )
+            else:
+                text += (
+                    f", {how} the best fair baseline, {comp['baseline']} ({pct(b['rate'])}, "
+                    f"CI {_ci_text(b)})"
+                )
+                if comp["tied_with"]:
+                    text += f", tied on success with {', '.join(comp['tied_with'])}: " + _tie_words(
+                        comp, info
+                    )
     div = info["outcomes"][d]["diverged"]
     if div:
         text += f"; {div} of its runs ({pct(div / r['runs'])}) diverged"
@@ -718,6 +788,12 @@ def _comparison_html(info: dict[str, Any], unit: str) -> str:
             if c["baseline_role"] == "floor"
             else f"the best fair baseline, <b>{html.escape(b)}</b>"
         )
+        if c["baseline_role"] != "floor" and c["tied_with"]:
+            what += (
+                " (no fair baseline succeeded on any member; "
+                if pb["successes"] == 0
+                else f" (tied on success with {html.escape(', '.join(c['tied_with']))}; "
+            ) + f"{html.escape(_tie_words(c, info))})"
         rows = [
             [
                 f"<td>{html.escape(d)}</td>",
@@ -754,8 +830,10 @@ def _comparison_html(info: dict[str, Any], unit: str) -> str:
         "Wilson intervals do not overlap. The error ratio is the median over members that both "
         "completed of the ratio of their final-window RMS errors (below 1: the design tracks "
         "better). The best fair baseline is the nominal-inverse or fixed-gain run with the "
-        "highest success rate; the frozen run is only a floor, the oracle (knows the failure) "
-        "a bound."
+        "highest success rate; on a tie (0&nbsp;% for both, say), the one that tracked on the "
+        "most members (completed within the error threshold), then the one that completed the "
+        "most runs without diverging, then the lower median final error. The frozen run is only "
+        "a floor, the oracle (knows the failure) a bound."
     )
     return "".join(parts) + f'<p class="meta">{note}</p>'
 

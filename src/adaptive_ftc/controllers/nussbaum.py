@@ -104,6 +104,27 @@ class NussbaumAdaptive(AdaptiveController):
             omega = min(omega, constraints.C_EULER / ca.sample_time)
         return omega
 
+    def gain_cap(self) -> float:
+        """Largest ``|N(tau)|`` the law of ``theta`` uses (``inf``: none): ``|N(tau0)|`` where
+        the noise rule applies (:meth:`tau_prefilter` finite), the gain the constraint-aware
+        scale ``r`` is sized for (:meth:`theta_gain`: the loop gain ``alpha0 r |N(tau0)| b
+        |Pi|^2`` at most the admitted loop rate ``w``).
+
+        Why: after a direction search ``|N(tau)|`` is wherever ``tau`` stopped, not
+        ``|N(tau0)|``: hypersonic-nussbaum-s1-neg with 1 % noise ends its search at ``tau`` =
+        2.58, ``N`` = -5.6, 10.4x the designed gain, and the loop runs 10x past ``w`` (14.9
+        1/s): 62 % of the command's fast content was at 10-30 Hz, the measurement noise the
+        loop tracked (fast content 8.4e-2 rad; capped 1.5e-2, the positive-signed run's
+        1.1e-2). Capped, ``N`` keeps its sign change (the direction search) but not its
+        growth: a sign-switching search at the designed gain, not a Nussbaum function in the
+        strict sense (its running mean stays bounded), so §4.3's Nussbaum lemma does not cover
+        this option; it relies on the declared bound ``b_max`` on the control gain's
+        magnitude, which the scale ``r`` assumes already (docs/hardware.md, "§4.3 Nussbaum")."""
+        if not math.isfinite(self.tau_prefilter()):
+            return math.inf
+        cap = abs(float(self.nussbaum_expression()(tau=float(self.tau0))))
+        return cap if cap > 0 else math.inf  # N(tau0) = 0: the scale has nothing to size
+
     def gains(self) -> NussbaumGains:
         """``(alpha0, alpha1, sigma)`` as the compiled law uses them: the thesis's, or, under a
         constraint-aware model that slows the law by ``r``, ``r alpha0`` and ``r alpha1``;
@@ -142,5 +163,13 @@ class NussbaumAdaptive(AdaptiveController):
             lines[-1:] = [
                 f"    dY[{qf}] = c[{at}] * (q[0] - Y[{qf}])  # constraint-aware: prefiltered q",
                 f"    dY[{extra_at}] = tau_law(Y[{qf}], D.gains.alpha1)",
+            ]
+        cap = self.gain_cap()
+        if math.isfinite(cap):
+            cat = len(g.consts)
+            g.consts.append(cap)
+            lines[1:2] = [
+                f"    gain = nussbaum(Y[{extra_at}], c)",
+                f"    gain = min(max(gain, -c[{cat}]), c[{cat}])  # |N(tau0)| at most",
             ]
         return [*lines, *self.theta_laws(blocks, "D.gains.alpha0", "D.gains.sigma", "gain")]
