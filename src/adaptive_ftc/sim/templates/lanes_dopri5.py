@@ -16,7 +16,7 @@ its single run's, bit for bit. The placeholders above the marker exist only so t
 imports and lints on its own.
 """
 
-# ruff: noqa: F811
+# ruff: noqa: F811, I001
 import math
 
 import numpy as np
@@ -369,9 +369,7 @@ def run_group(
             rhs_rows(B)
             for w in range(W):
                 if active[w] and start[w]:
-                    h[w] = h_start_finish(
-                        B, w, rtol[w], h_max[w], b[w] - a[w], hs[w], dnf[w], 5.0
-                    )
+                    h[w] = h_start_finish(B, w, rtol[w], h_max[w], b[w] - a[w], hs[w], dnf[w], 5.0)
                     stats[w, 2] += 2
                     reject[w] = False
                     facold[w] = 1e-4
