@@ -221,25 +221,28 @@ def dopri5_stages(B):
 
 
 @inl
-def dense(B, w, hh):
-    """The single run's _dopri5_dense for lane w: its coefficients into rows RC.."""
+def dense(B):
+    """The single run's _dopri5_dense of every lane's step: its coefficients into rows RC..
+    (for all lanes at once, vectorised; read only by the accepted lanes with a record in
+    their step, as the single run computes them only there)."""
     for i in range(NY):
-        y0 = B[(Y + i) * W + w]
-        f0 = B[(F0 + i) * W + w]
-        k7 = B[(K7 + i) * W + w]
-        ydiff = B[(YN + i) * W + w] - y0
-        bspl = hh * f0 - ydiff
-        B[(RC + i) * W + w] = ydiff
-        B[(RC + NY + i) * W + w] = bspl
-        B[(RC + 2 * NY + i) * W + w] = ydiff - hh * k7 - bspl
-        B[(RC + 3 * NY + i) * W + w] = hh * (
-            _D1 * f0
-            + _D3 * B[(K3 + i) * W + w]
-            + _D4 * B[(K4 + i) * W + w]
-            + _D5 * B[(K5 + i) * W + w]
-            + _D6 * B[(K6 + i) * W + w]
-            + _D7 * k7
-        )
+        for w in range(W):
+            hh = B[HH * W + w]
+            f0 = B[(F0 + i) * W + w]
+            k7 = B[(K7 + i) * W + w]
+            ydiff = B[(YN + i) * W + w] - B[(Y + i) * W + w]
+            bspl = hh * f0 - ydiff
+            B[(RC + i) * W + w] = ydiff
+            B[(RC + NY + i) * W + w] = bspl
+            B[(RC + 2 * NY + i) * W + w] = ydiff - hh * k7 - bspl
+            B[(RC + 3 * NY + i) * W + w] = hh * (
+                _D1 * f0
+                + _D3 * B[(K3 + i) * W + w]
+                + _D4 * B[(K4 + i) * W + w]
+                + _D5 * B[(K5 + i) * W + w]
+                + _D6 * B[(K6 + i) * W + w]
+                + _D7 * k7
+            )
 
 
 @inl
@@ -402,6 +405,12 @@ def run_group(
         if n_active == 0:
             break
         dopri5_stages(B)
+        need_dense = False
+        for w in range(W):
+            if active[w] and inside[w]:
+                need_dense = True
+        if need_dense:
+            dense(B)
         # acceptance per lane: a rejected lane retries, an accepted one records and advances
         for w in range(W):
             if not active[w]:
@@ -426,8 +435,6 @@ def run_group(
                 active[w] = False
                 continue
             stats[w, 0] += 1
-            if inside[w]:
-                dense(B, w, hh)
             fac11 = err**0.17
             fac = fac11 / facold[w] ** 0.04
             fac = max(0.1, min(5.0, fac / 0.9))
