@@ -10,13 +10,15 @@ so that LLVM's SLP vectoriser turns the right-hand side into vector instructions
 What a lane computes is its member's own single run, bit for bit: the same fixed-step RK4
 (:func:`~adaptive_ftc.sim.engine.simulate` with ``method="rk4"``), on the member's own break
 times and step sizes (lanes advance in lockstep of *step count*, each on its own step; a lane
-that has finished idles with a zero step until its group is done), the same operations in the
-same order, libm's ``exp``, ``tanh``, ``sin``, ``cos`` (scalar calls per lane, under strict IEEE
-arithmetic), its own records, divergence check and status (a diverging lane stops at its own
-record; the others go on).
+that has finished idles with a zero step until its group is done), or the same DOPRI5
+(``method="dopri5"``, stage 2, ``templates/lanes_dopri5.py``: lanes advance in lockstep of
+step *attempts*, each with its own step size, error control, accept or reject, break times
+and dense-output records), the same operations in the same order, libm's ``exp``, ``tanh``,
+``sin``, ``cos`` (scalar calls per lane, under strict IEEE arithmetic), its own records,
+divergence check and status (a diverging lane stops at its own record; the others go on).
 
-Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 with the exact
-``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
+Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 or DOPRI5 with the
+exact ``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
 a lane form of their dynamics, :data:`LANE_PLANTS`); the direct design (2.22), (2.29) without
 the constraint-aware option; one fuzzy basis (raw or normalised, any grid) or linear
 regressor; ideal actuators (no actuator table), no sensors, a continuous controller, the fixed
