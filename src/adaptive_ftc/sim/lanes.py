@@ -283,7 +283,8 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         claim("DY", ny)
         claim("RC", 4 * ny)
         claim("ATOL", ny)
-        for name in ("T", "T1", "HH", "TIN", "ACT", "ERR", "RT", "REFT", "U0"):
+        claim("REC", ny)  # the records of a pass, all lanes at once
+        for name in ("T", "T1", "HH", "TIN", "ACT", "ERR", "RT", "REFT", "U0", "SS", "EX", "RW"):
             claim(name, 1)
     for name in ("TOT", "QQ"):
         claim(name, 1)
@@ -643,7 +644,6 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
         t_rec[w, : cl.t_rec.size] = cl.t_rec
         n_rec[w] = cl.t_rec.size
         y0[w] = cl.asm.y0
-    out_Y = np.empty((width, maxrec, plan.ny))
     out_ph = np.zeros((width, maxrec), dtype=np.int64)
     status = np.zeros(width, dtype=np.int64)
     nrec = np.zeros(width, dtype=np.int64)
@@ -652,7 +652,9 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
     stats = np.zeros((width, 5), dtype=np.int64)
     bound = float(first.solver.divergence_bound)
     start = time.perf_counter()
+    out_Y: np.ndarray | tuple
     if method == "rk4":
+        out_Y = np.empty((width, maxrec, plan.ny))
         # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
         ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
         a, b, h, tol = (np.zeros(width) for _ in range(4))
@@ -663,6 +665,14 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
             t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
         )  # fmt: skip
     else:  # dopri5: each lane's own tolerances (rows ATOL..) and step-size state
+        # each member's records in its own block (from the pool of sim/blocks.py, as a single
+        # run's: no fresh pages to zero, 26 MB a 120 s run recorded every millisecond); the
+        # padding lanes record nothing
+        from adaptive_ftc.sim import blocks
+
+        own = [blocks.empty((cl.t_rec.size, plan.ny)) for cl in compiled]
+        out_Y = tuple(own + [np.empty((1, plan.ny)) for _ in range(width - n)])
+        n_rec[n:] = 0
         for w, cl in enumerate(members):
             B[rows["ATOL"] * width + w : (rows["ATOL"] + plan.ny) * width : width] = cl.atol
         rtol = np.array([float(cl.solver.rtol) for cl in members])
@@ -680,7 +690,7 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
     for w in range(n):
         cl = compiled[w]
         size = cl.t_rec.size
-        Y = out_Y[w, :size].copy()
+        Y = out_Y[w][:size]
         phases = out_ph[w, :size].copy()
         k = int(nrec[w])
         if status[w] == 0:

@@ -26,7 +26,7 @@ from numba import njit as inl
 # placeholders: each lane module defines its width, sizes and the first row of each quantity
 W = NY = NENV = ENV = 1
 CR = Y = YN = YT = YS = F0 = K2 = K3 = K4 = K5 = K6 = K7 = DE = RC = ATOL = DY = 0
-T = T1 = HH = TIN = ACT = ERR = RT = REFT = FK = FC = 0
+T = T1 = HH = TIN = ACT = ERR = RT = REFT = FK = FC = REC = SS = EX = RW = 0
 
 
 def rhs(B, tt, y, dy):  # placeholder: the lane module's right-hand side
@@ -72,9 +72,9 @@ def first_bad(B, row, w, bound):
 def keep_stop(B, row, w, r, out_Y):
     """Leave lane w's state of rows row.. in its row after the last record (the single run's
     _keep_stop)."""
-    if r < out_Y.shape[1]:
+    if r < out_Y[w].shape[0]:
         for i in range(NY):
-            out_Y[w, r, i] = B[(row + i) * W + w]
+            out_Y[w][r, i] = B[(row + i) * W + w]
 
 
 @inl
@@ -82,7 +82,7 @@ def records_at(B, w, upto, ph, t_rec, n_rec, r, out_Y, out_ph):
     """The single run's _records_at for lane w: records ``<= upto`` take its state Y."""
     while r < n_rec[w] and t_rec[w, r] <= upto:
         for i in range(NY):
-            out_Y[w, r, i] = B[(Y + i) * W + w]
+            out_Y[w][r, i] = B[(Y + i) * W + w]
         out_ph[w, r] = ph
         r += 1
     return r
@@ -246,19 +246,28 @@ def dense(B):
 
 
 @inl
-def record(B, w, r, t_rec, n_rec, limit, t, t1, hh, tol, ph, out_Y, out_ph):
-    """The single run's _record for lane w: the records ``< limit`` of its step ``[t, t1]``
-    (the step's end state, or the dense output); returns the new ``r``."""
-    while r < n_rec[w] and t_rec[w, r] < limit:
-        tr = t_rec[w, r]
-        if abs(tr - t1) <= tol:
-            for i in range(NY):
-                out_Y[w, r, i] = B[(YN + i) * W + w]
-        else:
-            s = (tr - t) / hh
-            s1 = 1.0 - s
-            for i in range(NY):
-                out_Y[w, r, i] = B[(Y + i) * W + w] + s * (
+def records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph):
+    """The single run's _record for every accepted lane with a record in its step (row ACT,
+    ``inside``): the records ``< limit`` of its step ``[T, T1]``, the step's end state where a
+    record falls on it, else the dense output; one record of every such lane at a time, the
+    interpolation of all lanes at once (vectorised) into rows REC.., then copied out."""
+    while True:
+        more = False
+        for w in range(W):
+            B[RW * W + w] = 0.0
+            if B[ACT * W + w] != 0.0 and r[w] < n_rec[w] and t_rec[w, r[w]] < limit[w]:
+                tr = t_rec[w, r[w]]
+                B[SS * W + w] = (tr - B[T * W + w]) / B[HH * W + w]
+                B[EX * W + w] = 1.0 if abs(tr - B[T1 * W + w]) <= tol[w] else 0.0
+                B[RW * W + w] = 1.0
+                more = True
+        if not more:
+            return
+        for i in range(NY):
+            for w in range(W):
+                s = B[SS * W + w]
+                s1 = 1.0 - s
+                v = B[(Y + i) * W + w] + s * (
                     B[(RC + i) * W + w]
                     + s1
                     * (
@@ -266,9 +275,13 @@ def record(B, w, r, t_rec, n_rec, limit, t, t1, hh, tol, ph, out_Y, out_ph):
                         + s * (B[(RC + 2 * NY + i) * W + w] + s1 * B[(RC + 3 * NY + i) * W + w])
                     )
                 )
-        out_ph[w, r] = ph
-        r += 1
-    return r
+                B[(REC + i) * W + w] = B[(YN + i) * W + w] if B[EX * W + w] != 0.0 else v
+        for w in range(W):
+            if B[RW * W + w] != 0.0:
+                for i in range(NY):
+                    out_Y[w][r[w], i] = B[(REC + i) * W + w]
+                out_ph[w, r[w]] = ph[w]
+                r[w] += 1
 
 
 @inl
@@ -315,10 +328,10 @@ def run_group(
     caller); y0[W, NY]; brk[W, :], nph[W]: break times and intervals; fkind[W, nph, M] (-1
     healthy, 0 affine, 1 incipient) and fcon[W, nph, M, 5]: the failure of each actuator per
     interval; rtol[W], h_max[W]: the tolerances; t_rec[W, :], n_rec[W]: record times;
-    out_Y[W, rows, NY], out_ph[W, rows]: records (and the state where a lane stopped in the row
-    after its last record); status[W] (0 finished, 1 diverged, 2 step size underflow or too
-    many steps), nrec_out, t_stop, bad_out[W]; stats[W, 5] as the single run's. The rest:
-    per-lane scratch."""
+    out_Y: a tuple of W arrays [rows, NY] (each member's own records, and the state where it
+    stopped in the row after its last record), out_ph[W, rows]: their phases; status[W] (0
+    finished, 1 diverged, 2 step size underflow or too many steps), nrec_out, t_stop,
+    bad_out[W]; stats[W, 5] as the single run's. The rest: per-lane scratch."""
     for w in range(W):
         B[REFT * W + w] = np.nan  # no reference time yet (strict IEEE: nan != t)
         B[RT * W + w] = rtol[w]
@@ -412,6 +425,7 @@ def run_group(
         if need_dense:
             dense(B)
         # acceptance per lane: a rejected lane retries, an accepted one records and advances
+        n_inside = 0
         for w in range(W):
             if not active[w]:
                 continue
@@ -442,17 +456,17 @@ def run_group(
             if reject[w]:
                 hnew = min(hnew, hh)
             facold[w] = max(err, 1e-4)
-            t1 = B[T1 * W + w]
             if inside[w]:
-                r[w] = record(
-                    B, w, r[w], t_rec, n_rec, limit[w], B[T * W + w], t1, hh, tol[w], ph[w],
-                    out_Y, out_ph,
-                )  # fmt: skip
+                n_inside += 1
             B[ACT * W + w] = 1.0
-            B[T * W + w] = t1
             h[w] = min(hnew, h_max[w])
             reject[w] = False
-        # the accepted lanes take their new state and f (first same as last)
+        if n_inside > 0:  # the records of the accepted steps, from their start (T, Y)
+            records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph)
+        # the accepted lanes take their new time, state and f (first same as last)
+        for w in range(W):
+            if B[ACT * W + w] != 0.0:
+                B[T * W + w] = B[T1 * W + w]
         for i in range(NY):
             for w in range(W):
                 if B[ACT * W + w] != 0.0:
