@@ -80,9 +80,10 @@ def keep_stop(B, row, w, r, out_Y):
 @inl
 def records_at(B, w, upto, ph, t_rec, n_rec, r, out_Y, out_ph):
     """The single run's _records_at for lane w: records ``<= upto`` take its state Y."""
+    o = out_Y[w]
     while r < n_rec[w] and t_rec[w, r] <= upto:
         for i in range(NY):
-            out_Y[w][r, i] = B[(Y + i) * W + w]
+            o[r, i] = B[(Y + i) * W + w]
         out_ph[w, r] = ph
         r += 1
     return r
@@ -278,10 +279,12 @@ def records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph):
                 B[(REC + i) * W + w] = B[(YN + i) * W + w] if B[EX * W + w] != 0.0 else v
         for w in range(W):
             if B[RW * W + w] != 0.0:
+                o = out_Y[w]  # the member's own block, taken out of the tuple once
+                rw = r[w]
                 for i in range(NY):
-                    out_Y[w][r[w], i] = B[(REC + i) * W + w]
-                out_ph[w, r[w]] = ph[w]
-                r[w] += 1
+                    o[rw, i] = B[(REC + i) * W + w]
+                out_ph[w, rw] = ph[w]
+                r[w] = rw + 1
 
 
 @inl
