@@ -283,8 +283,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         claim("DY", ny)
         claim("RC", 4 * ny)
         claim("ATOL", ny)
-        claim("REC", ny)  # the records of a pass, all lanes at once
-        for name in ("T", "T1", "HH", "TIN", "ACT", "ERR", "RT", "REFT", "U0", "SS", "EX", "RW"):
+        for name in ("T", "T1", "HH", "TIN", "ACT", "ERR", "RT", "REFT", "U0"):
             claim(name, 1)
     for name in ("TOT", "QQ"):
         claim(name, 1)
@@ -683,7 +682,7 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
         module.run_group(  # type: ignore[attr-defined]
             B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, out_Y, out_ph,
             status, nrec, t_stop, bad, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf,
-            limit, start_, reject, last, inside, active,
+            limit, start_, reject, last, inside, active, np.empty((6, plan.ny)),
         )  # fmt: skip
     wall = (time.perf_counter() - start) / width
     out = []

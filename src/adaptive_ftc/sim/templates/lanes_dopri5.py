@@ -26,7 +26,7 @@ from numba import njit as inl
 # placeholders: each lane module defines its width, sizes and the first row of each quantity
 W = NY = NENV = ENV = 1
 CR = Y = YN = YT = YS = F0 = K2 = K3 = K4 = K5 = K6 = K7 = DE = RC = ATOL = DY = 0
-T = T1 = HH = TIN = ACT = ERR = RT = REFT = FK = FC = REC = SS = EX = RW = 0
+T = T1 = HH = TIN = ACT = ERR = RT = REFT = FK = FC = 0
 
 
 def rhs(B, tt, y, dy):  # placeholder: the lane module's right-hand side
@@ -247,44 +247,45 @@ def dense(B):
 
 
 @inl
-def records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph):
-    """The single run's _record for every accepted lane with a record in its step (row ACT,
-    ``inside``): the records ``< limit`` of its step ``[T, T1]``, the step's end state where a
-    record falls on it, else the dense output; one record of every such lane at a time, the
-    interpolation of all lanes at once (vectorised) into rows REC.., then copied out."""
-    while True:
-        more = False
-        for w in range(W):
-            B[RW * W + w] = 0.0
-            if B[ACT * W + w] != 0.0 and r[w] < n_rec[w] and t_rec[w, r[w]] < limit[w]:
-                tr = t_rec[w, r[w]]
-                B[SS * W + w] = (tr - B[T * W + w]) / B[HH * W + w]
-                B[EX * W + w] = 1.0 if abs(tr - B[T1 * W + w]) <= tol[w] else 0.0
-                B[RW * W + w] = 1.0
-                more = True
-        if not more:
-            return
+def records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph, P):
+    """The single run's _record for every accepted lane (row ACT) with a record in its step:
+    the records ``< limit`` of its step ``[T, T1]``, the step's end state where a record falls
+    on it, else the dense output. The lane's start state, coefficients and end state are first
+    gathered into the contiguous rows of ``P`` (6 x NY), so that each record is the single
+    run's loop over the states (vectorised over them), not a strided one."""
+    for w in range(W):
+        if B[ACT * W + w] == 0.0 or not (r[w] < n_rec[w] and t_rec[w, r[w]] < limit[w]):
+            continue
         for i in range(NY):
-            for w in range(W):
-                s = B[SS * W + w]
-                s1 = 1.0 - s
-                v = B[(Y + i) * W + w] + s * (
-                    B[(RC + i) * W + w]
-                    + s1
-                    * (
-                        B[(RC + NY + i) * W + w]
-                        + s * (B[(RC + 2 * NY + i) * W + w] + s1 * B[(RC + 3 * NY + i) * W + w])
-                    )
-                )
-                B[(REC + i) * W + w] = B[(YN + i) * W + w] if B[EX * W + w] != 0.0 else v
-        for w in range(W):
-            if B[RW * W + w] != 0.0:
-                o = out_Y[w]  # the member's own block, taken out of the tuple once
-                rw = r[w]
+            P[0, i] = B[(Y + i) * W + w]
+            P[1, i] = B[(RC + i) * W + w]
+            P[2, i] = B[(RC + NY + i) * W + w]
+            P[3, i] = B[(RC + 2 * NY + i) * W + w]
+            P[4, i] = B[(RC + 3 * NY + i) * W + w]
+            P[5, i] = B[(YN + i) * W + w]
+        o = out_Y[w]  # the member's own block
+        t = B[T * W + w]
+        t1 = B[T1 * W + w]
+        hh = B[HH * W + w]
+        tl = tol[w]
+        lim = limit[w]
+        p = ph[w]
+        rw = r[w]
+        while rw < n_rec[w] and t_rec[w, rw] < lim:
+            tr = t_rec[w, rw]
+            if abs(tr - t1) <= tl:
                 for i in range(NY):
-                    o[rw, i] = B[(REC + i) * W + w]
-                out_ph[w, rw] = ph[w]
-                r[w] = rw + 1
+                    o[rw, i] = P[5, i]
+            else:
+                s = (tr - t) / hh
+                s1 = 1.0 - s
+                for i in range(NY):
+                    o[rw, i] = P[0, i] + s * (
+                        P[1, i] + s1 * (P[2, i] + s * (P[3, i] + s1 * P[4, i]))
+                    )
+            out_ph[w, rw] = p
+            rw += 1
+        r[w] = rw
 
 
 @inl
@@ -323,7 +324,7 @@ def enter(B, w, brk, nph, fkind, fcon, t_rec, n_rec, out_Y, out_ph, ph, r, a, b,
 def run_group(
     B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, out_Y, out_ph, status,
     nrec_out, t_stop, bad_out, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf, limit,
-    start, reject, last, inside, active,
+    start, reject, last, inside, active, P,
 ):  # fmt: skip
     """DOPRI5 of the W lanes in lockstep of step attempts, each on its own steps and breaks.
 
@@ -334,7 +335,8 @@ def run_group(
     out_Y: a tuple of W arrays [rows, NY] (each member's own records, and the state where it
     stopped in the row after its last record), out_ph[W, rows]: their phases; status[W] (0
     finished, 1 diverged, 2 step size underflow or too many steps), nrec_out, t_stop,
-    bad_out[W]; stats[W, 5] as the single run's. The rest: per-lane scratch."""
+    bad_out[W]; stats[W, 5] as the single run's. The rest: per-lane scratch, and P[6, NY]
+    for the records."""
     for w in range(W):
         B[REFT * W + w] = np.nan  # no reference time yet (strict IEEE: nan != t)
         B[RT * W + w] = rtol[w]
@@ -465,7 +467,7 @@ def run_group(
             h[w] = min(hnew, h_max[w])
             reject[w] = False
         if n_inside > 0:  # the records of the accepted steps, from their start (T, Y)
-            records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph)
+            records(B, r, t_rec, n_rec, limit, tol, ph, out_Y, out_ph, P)
         # the accepted lanes take their new time, state and f (first same as last)
         for w in range(W):
             if B[ACT * W + w] != 0.0:
