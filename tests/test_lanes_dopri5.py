@@ -219,5 +219,7 @@ def test_only_rk4_and_dopri5_have_a_lane_form(base):
         assert why is not None and f"'{method}'" in why
     with pytest.raises(ConfigurationError, match="RK4 and DOPRI5 only.*'auto'.*lanes=False"):
         list(iter_simulate([base], SolverOptions(method="auto"), jobs=1, lanes=True))
+    with pytest.raises(ConfigurationError, match="kernels='vector'.*RK4 only.*kernels='libm'"):
+        simulate_lanes([base], DP, kernels="vector")
     assert "DOPRI5" in lane_source(base, DP)
     assert "DOPRI5" not in lane_source(base, SolverOptions(method="rk4"))

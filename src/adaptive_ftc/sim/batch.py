@@ -99,9 +99,9 @@ def iter_simulate(
     lanes. With lanes the threads take groups of up to 8 consecutive members, and up to
     ``max(window, 2 * jobs * 8)`` members are in flight. The lane module of a structure
     compiles once (10-30 s; cached on disk like the loop modules). ``lane_kernels``:
-    ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b: call-free
-    ``exp`` and ``tanh`` that vectorise, faster, about 1e-14 of the signal scale from the
-    single runs).
+    ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b, RK4 only:
+    call-free ``exp`` and ``tanh`` that vectorise, faster, about 1e-14 of the signal scale
+    from the single runs).
 
     Examples
     --------

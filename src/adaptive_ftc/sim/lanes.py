@@ -613,6 +613,13 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
             "A lane group runs one solver method; group the members by method (got "
             f"{sorted({cl.solver.method for cl in compiled})})."
         )
+    if method == "dopri5" and kernels == "vector":
+        # measured 1.3e-10 of the signal scale from the single runs (docs/performance.md,
+        # "Lane engine (stage 2)"), not the ~1e-14 that the vector kernels promise with RK4
+        raise ConfigurationError(
+            "The call-free lane kernels (kernels='vector') are for fixed-step RK4 only; with "
+            "DOPRI5 use kernels='libm' (bit-identical to the single runs)."
+        )
     module, plan = lane_module(first.loop, first.asm, width, kernels, method)
     _self_check(module, plan, first, width, kernels)
     m = first.loop.plant.n_actuators
