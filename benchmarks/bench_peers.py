@@ -9,9 +9,12 @@ Engines, each on ONE thread so that its wall time is its per-core time:
 
 * ``batch``: this project's member-per-thread batch (:func:`iter_simulate`, ``jobs=1``);
 * ``lanes``: this project's lane engine (``iter_simulate(..., lanes=True)``, ``sim/lanes.py``:
-  8 members per compiled call in SIMD lanes; RK4 only, stage 1 of issue 29), same thread;
-  ``lanes-vec``: the same with ``lane_kernels="vector"`` (stage 1b: call-free exp and tanh,
-  about 1e-14 from the single runs instead of bit-identical);
+  8 members per compiled call in SIMD lanes; RK4 (stage 1 of issue 29) and DOPRI5 (stage 2:
+  each lane its own step size and error control), same thread; with DOPRI5 it also prints the
+  lanes' occupancy: the share of the group's step attempts that were a member's own (a group
+  runs until its slowest member); ``lanes-vec`` (RK4): the same with
+  ``lane_kernels="vector"`` (stage 1b: call-free exp and tanh, about 1e-14 from the single
+  runs instead of bit-identical);
 * ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
   skipped with a message when no C compiler is found;
 * ``scipy``: :func:`scipy.integrate.solve_ivp` (``RK45``) on the same compiled right-hand side
@@ -29,9 +32,10 @@ times.
 
 Methods: RK4 with dt = 1e-3 and Dopri5 with rtol = 1e-6, atol = 1e-9 (record_dt 0.01).
 Printed per engine and method: per-core seconds per member, that time relative to the C loop
-(RK4), and the max difference of each member's final state (relative above 1) from the single
-run of the same member: for ``batch`` and ``lanes`` its own :func:`simulate` (must be 0: the
-batch runs the single-run code, the lanes reproduce it bit for bit), for the other engines
+(RK4), to the batch and to the JAX peer, and the max difference of each member's final state
+(relative above 1) from the single run of the same member: for ``batch`` and ``lanes`` its own
+:func:`simulate` (must be 0: the batch runs the single-run code, the lanes reproduce it bit for
+bit, RK4 and DOPRI5), for the other engines
 this project's single run of the same method (the agreement between engines). ``--check K``
 compares the first K members (single runs cost as much as the batch).
 """
@@ -74,13 +78,26 @@ def max_diff(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def python_batch(
-    loops, solver, lanes: bool = False, kernels: str = "libm"
+    loops, solver, lanes: bool = False, kernels: str = "libm", attempts: list | None = None
 ) -> tuple[float, np.ndarray]:
-    """Per-core seconds of the batch (or the lane engine) on one thread, and its rows."""
+    """Per-core seconds of the batch (or the lane engine) on one thread, and its rows
+    (``attempts``: receives each member's step attempts, accepted and rejected)."""
     t = time.process_time()
     runs = iter_simulate(loops, solver, jobs=1, lanes=lanes, lane_kernels=kernels)
-    rows = np.array([final_row(r) for r in runs])
-    return time.process_time() - t, rows
+    rows = []
+    for r in runs:
+        rows.append(final_row(r))
+        if attempts is not None:
+            attempts.append(r.meta["steps"] + r.meta.get("rejected_steps", 0))
+    return time.process_time() - t, np.array(rows)
+
+
+def occupancy(attempts: list, width: int = 8) -> float:
+    """The share of a lane engine's step attempts that were its members' own: consecutive
+    groups of ``width`` run until their slowest member (the others idle), the last group
+    padded to ``width``."""
+    groups = [attempts[i : i + width] for i in range(0, len(attempts), width)]
+    return sum(attempts) / sum(width * max(g) for g in groups)
 
 
 def singles(loops, solver) -> np.ndarray:
@@ -172,12 +189,19 @@ def main() -> int:
         t_b, b_rows = python_batch(loops, solver)
         ref = singles(loops[:k], solver)
         lines = [("batch", t_b / args.n, max_diff(b_rows[:k], ref))]
-        if label.startswith("RK4"):  # the lane engine (stage 1: RK4 only), both kernels
-            for name, kernels in (("lanes", "libm"), ("lanes-vec", "vector")):
-                warm = iter_simulate(loops[:2], solver, jobs=1, lanes=True, lane_kernels=kernels)
-                list(warm)  # compile or load the lane module
-                t_l, l_rows = python_batch(loops, solver, lanes=True, kernels=kernels)
-                lines.append((name, t_l / args.n, max_diff(l_rows[:k], ref)))
+        # the lane engine: RK4 with both kernels (stage 1, 1b), DOPRI5 with libm's (stage 2)
+        kinds = (("lanes", "libm"), ("lanes-vec", "vector")) if label.startswith("RK4") else ()
+        for name, kernels in kinds or (("lanes", "libm"),):
+            warm = iter_simulate(loops[:2], solver, jobs=1, lanes=True, lane_kernels=kernels)
+            list(warm)  # compile or load the lane module
+            attempts: list[int] = []
+            t_l, l_rows = python_batch(loops, solver, True, kernels, attempts)
+            lines.append((name, t_l / args.n, max_diff(l_rows[:k], ref)))
+            if label.startswith("Dopri5"):
+                print(
+                    f"  {label}: lane occupancy {occupancy(attempts):.1%} (step attempts of "
+                    "the members / lanes x the groups' attempts)"
+                )
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
         peer = "JAX RK4" if label.startswith("RK4") else "diffrax"
@@ -191,6 +215,7 @@ def main() -> int:
         jax_per = jax_rows[peer][0] if peer in jax_rows else None
         for name, per, diff in lines:
             rel = f"{per / c_per:6.2f}x C (RK4)" if c_per else "  (no C)"
+            rel += f"  {per / lines[0][1]:6.2f}x batch"
             rel += f"  {per / jax_per:6.2f}x {peer}" if jax_per else ""
             cost = f"{per * 1e3:9.2f} ms per member per core"
             print(f"    {name:10s} {cost}  {rel}  max diff {diff:.1e}")

@@ -188,8 +188,8 @@ def test_lanes_with_lean_signals_equal_lean_single_runs(base):
 
 
 def test_lanes_true_names_why_a_loop_cannot_run_in_lanes(base):
-    with pytest.raises(ConfigurationError, match="fixed-step RK4 only.*'dopri5'"):
-        list(iter_simulate([base], SolverOptions(method="dopri5"), jobs=1, lanes=True))
+    with pytest.raises(ConfigurationError, match="fixed-step RK4 and DOPRI5 only.*'rodasp'"):
+        list(iter_simulate([base], SolverOptions(method="rodasp"), jobs=1, lanes=True))
     pattern = replace(base, failures=(Stuck(actuator=2, onset=0.5, value="0.1*cos(t)"),))
     with pytest.raises(ConfigurationError, match="not affine in u.*lanes=False"):
         list(iter_simulate([base, pattern], RK4, jobs=1, lanes=True))
@@ -308,7 +308,7 @@ def test_a_lane_form_that_drifts_from_its_part_is_refused(base):
     module, plan = lanes.lane_module(cl.loop, cl.asm)
     lanes._self_check(module, plan, cl, LANE_WIDTH, "libm")  # the real one agrees
     broken = SimpleNamespace(rhs_rows=lambda B: None)
-    key = f"{LANE_WIDTH} libm\n{cl.asm.source}"
+    key = f"{LANE_WIDTH} libm rk4\n{cl.asm.source}"
     lanes._checked.discard(key)
     try:
         with pytest.raises(ConfigurationError, match="disagrees with its single run.*lanes=False"):

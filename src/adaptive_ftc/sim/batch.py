@@ -94,16 +94,17 @@ def iter_simulate(
 
     ``lanes``: run members in SIMD lanes (:mod:`adaptive_ftc.sim.lanes`: ``LANE_WIDTH`` = 8
     members of one structure per compiled call, each member's result equal to its own
-    :func:`simulate` bit for bit; fixed-step RK4 and the loops :func:`~adaptive_ftc.sim.lanes.
-    ineligible` accepts). ``False`` (default): one member per thread. ``"auto"``: consecutive
-    eligible members of one structure in lanes, every other member one at a time. ``True``:
+    :func:`simulate` bit for bit; fixed-step RK4 or DOPRI5 and the loops
+    :func:`~adaptive_ftc.sim.lanes.ineligible` accepts). ``False`` (default): one member per
+    thread. ``"auto"``: consecutive eligible members of one structure in lanes, every other
+    member one at a time. ``True``:
     as ``"auto"``, but a :class:`ConfigurationError` naming why for a loop that cannot run in
     lanes. With lanes the threads take groups of up to 8 consecutive members, and up to
     ``max(window, 2 * jobs * 8)`` members are in flight. The lane module of a structure
     compiles once (10-30 s; cached on disk like the loop modules). ``lane_kernels``:
-    ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b: call-free
-    ``exp`` and ``tanh`` that vectorise, faster, about 1e-14 of the signal scale from the
-    single runs).
+    ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b, RK4 only:
+    call-free ``exp`` and ``tanh`` that vectorise, faster, about 1e-14 of the signal scale
+    from the single runs).
 
     Examples
     --------

@@ -53,7 +53,10 @@ def _take(nbytes: int) -> bytearray:
         free = _pool.get(nbytes)
         if free:
             _pooled -= nbytes
-            return free.pop()
+            raw = free.pop()
+            if not free:  # no empty list left behind for _give_back's eviction to pop from
+                del _pool[nbytes]
+            return raw
     return bytearray(nbytes)
 
 

@@ -10,13 +10,15 @@ so that LLVM's SLP vectoriser turns the right-hand side into vector instructions
 What a lane computes is its member's own single run, bit for bit: the same fixed-step RK4
 (:func:`~adaptive_ftc.sim.engine.simulate` with ``method="rk4"``), on the member's own break
 times and step sizes (lanes advance in lockstep of *step count*, each on its own step; a lane
-that has finished idles with a zero step until its group is done), the same operations in the
-same order, libm's ``exp``, ``tanh``, ``sin``, ``cos`` (scalar calls per lane, under strict IEEE
-arithmetic), its own records, divergence check and status (a diverging lane stops at its own
-record; the others go on).
+that has finished idles with a zero step until its group is done), or the same DOPRI5
+(``method="dopri5"``, stage 2, ``templates/lanes_dopri5.py``: lanes advance in lockstep of
+step *attempts*, each with its own step size, error control, accept or reject, break times
+and dense-output records), the same operations in the same order, libm's ``exp``, ``tanh``,
+``sin``, ``cos`` (scalar calls per lane, under strict IEEE arithmetic), its own records,
+divergence check and status (a diverging lane stops at its own record; the others go on).
 
-Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 with the exact
-``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
+Eligible loops (:func:`ineligible` says why a loop is not): fixed-step RK4 or DOPRI5 with the
+exact ``s'``; the built-in hypersonic plant (2.50) and plants written as equations (the plants with
 a lane form of their dynamics, :data:`LANE_PLANTS`); the direct design (2.22), (2.29) without
 the constraint-aware option; one fuzzy basis (raw or normalised, any grid) or linear
 regressor; ideal actuators (no actuator table), no sensors, a continuous controller, the fixed
@@ -43,7 +45,7 @@ import re
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import cast
 
 import numpy as np
@@ -69,6 +71,9 @@ LANE_WIDTH = 8
 
 #: the plants with a lane form of their dynamics: class name -> emitter of the lane lines
 LANE_PLANTS: dict[str, Callable[..., list[str]]] = {}
+
+#: the solver methods with a lane form: fixed-step RK4 (stage 1) and DOPRI5 (stage 2)
+METHODS = ("rk4", "dopri5")
 
 _LANE_OPT = 3  # numba's default level: the prototype's measurements
 _PLANT_ROWS = 10
@@ -126,8 +131,11 @@ def ineligible(loop, solver) -> str | None:
         from adaptive_ftc.sim.engine import SolverOptions
 
         solver = SolverOptions()
-    if solver.method != "rk4":
-        return f"the lane engine runs fixed-step RK4 only (method {solver.method!r} asked for)"
+    if solver.method not in METHODS:
+        return (
+            "the lane engine runs fixed-step RK4 and DOPRI5 only (method "
+            f"{solver.method!r} asked for)"
+        )
     if solver.sdot_for(loop) != "exact":
         return "the lane engine computes the exact s' only (sdot 'filtered' asked for)"
     plant = type(loop.plant).__name__
@@ -236,8 +244,9 @@ def _reference_lines(source: str) -> list[str]:
     return [ln.strip() for ln in m.group(1).splitlines() if re.match(r"\s+r\d+ = ", ln)]
 
 
-def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
-    """The lane module of ``loop``'s structure (``asm``: its assembled single-run loop)."""
+def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> _Plan:
+    """The lane module of ``loop``'s structure (``asm``: its assembled single-run loop) for
+    ``method`` (``"rk4"`` or ``"dopri5"``: the template and its rows)."""
     from adaptive_ftc.approximators import FuzzyBasis
 
     params = asm.layout.params
@@ -263,9 +272,20 @@ def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
         nxt += max(n, 1)
 
     claim("CR", nc)
-    for name in ("Y", "K1", "K2", "K3", "K4", "YT", "YN", "FE", "DY"):
-        claim(name, ny)
-    for name in ("T", "TM", "T1", "HH", "H2", "H6", "TIN", "ACT", "BAD", "REFT", "U0", "TOT", "QQ"):
+    if method == "rk4":
+        for name in ("Y", "K1", "K2", "K3", "K4", "YT", "YN", "FE", "DY"):
+            claim(name, ny)
+        for name in ("T", "TM", "T1", "HH", "H2", "H6", "TIN", "ACT", "BAD", "REFT", "U0"):
+            claim(name, 1)
+    else:  # dopri5: the stages k2..k7 (f0 is k1), the error, dense output, tolerances
+        for name in ("Y", "YN", "YT", "YS", "F0", "K2", "K3", "K4", "K5", "K6", "K7", "DE"):
+            claim(name, ny)
+        claim("DY", ny)
+        claim("RC", 4 * ny)
+        claim("ATOL", ny)
+        for name in ("T", "T1", "HH", "TIN", "ACT", "ERR", "RT", "REFT", "U0"):
+            claim(name, 1)
+    for name in ("TOT", "QQ"):
         claim(name, 1)
     claim("FK", m)
     claim("FC", 5 * m)
@@ -409,16 +429,18 @@ def _plan(loop, asm, width: int, kernels: str = "libm") -> _Plan:
     from adaptive_ftc.sim.mathlib import GUARDED  # the expression language's guarded math
 
     head = _HEAD.format(
-        title=f"{loop.plant.name!r} + 'direct', W = {width}, {kernels} kernels",
+        title=f"{loop.plant.name!r} + 'direct'{_TITLE[method]}, W = {width}, {kernels} kernels",
         guarded=", ".join(GUARDED),
         jits="\n".join(f"{name} = inl({name})" for name in GUARDED),
     )
     if kernels == "vector":
         head += _VECTOR_IMPORTS
-    kernel = codegen.template("lanes_rk4")
+    kernel = codegen.template(f"lanes_{method}")
     text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", kernel])
     return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
 
+
+_TITLE = {"rk4": "", "dopri5": ", DOPRI5"}  # (the RK4 modules' text as in stage 1)
 
 _HEAD = '''"""Generated lane module (issue 29): {title}.
 
@@ -452,16 +474,18 @@ _modules_lock = threading.Lock()
 _LANE_IMPORTS = ["adaptive_ftc.sim.lanes", "adaptive_ftc.sim.mathlib"]
 
 
-def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm"):
+def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm", method: str = "rk4"):
     """The compiled lane module of ``loop``'s structure and its plan (generated once per
-    structure and width, cached on disk like the loop modules)."""
-    key = f"{width} {kernels}\n{asm.source}"
+    structure, width and method, cached on disk like the loop modules)."""
+    key = f"{width} {kernels} {method}\n{asm.source}"
     with _modules_lock:
         found = _modules.get(key)
     if found is not None:
         return found
-    plan = _plan(loop, asm, width, _kernels(kernels))
+    plan = _plan(loop, asm, width, _kernels(kernels), method)
     imports = _LANE_IMPORTS + (["adaptive_ftc.sim.lane_kernels"] if kernels == "vector" else [])
+    if method == "dopri5":  # its tableau is imported from the single run's integrators
+        imports = [*imports, "adaptive_ftc.sim.templates.adaptive"]
     module = codegen.load_module(plan.text, imports=imports, kind="lanes")
     with _modules_lock:
         _modules[key] = (module, plan)
@@ -478,7 +502,7 @@ def lane_source(loop, solver=None, width: int = LANE_WIDTH, kernels: str = "libm
     if why is not None:
         raise ConfigurationError(_refusal(loop, why))
     cl = CompiledLoop.build(loop, solver)
-    return _plan(loop, cl.asm, width, _kernels(kernels)).text
+    return _plan(loop, cl.asm, width, _kernels(kernels), solver.method).text
 
 
 #: the lane kernels: libm's exp and tanh (bit-identical to the single run) or the call-free
@@ -531,7 +555,7 @@ def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
     each lane at another state, time and failure interval of ``cl`` (exactly equal with libm's
     kernels, within 1e-12 with the call-free ones). The lane form of a plant or law written
     twice (here and in its part) cannot drift apart silently."""
-    key = f"{width} {kernels}\n{cl.asm.source}"
+    key = f"{width} {kernels} {cl.solver.method}\n{cl.asm.source}"
     if key in _checked:
         return
     rows, asm = plan.rows, cl.asm
@@ -583,7 +607,20 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
             f"of at most {width} (simulate_lanes and iter_simulate do)."
         )
     first = compiled[0]
-    module, plan = lane_module(first.loop, first.asm, width, kernels)
+    method = first.solver.method
+    if any(cl.solver.method != method for cl in compiled):
+        raise ConfigurationError(
+            "A lane group runs one solver method; group the members by method (got "
+            f"{sorted({cl.solver.method for cl in compiled})})."
+        )
+    if method == "dopri5" and kernels == "vector":
+        # measured 1.3e-10 of the signal scale from the single runs (docs/performance.md,
+        # "Lane engine (stage 2)"), not the ~1e-14 that the vector kernels promise with RK4
+        raise ConfigurationError(
+            "The call-free lane kernels (kernels='vector') are for fixed-step RK4 only; with "
+            "DOPRI5 use kernels='libm' (bit-identical to the single runs)."
+        )
+    module, plan = lane_module(first.loop, first.asm, width, kernels, method)
     _self_check(module, plan, first, width, kernels)
     m = first.loop.plant.n_actuators
     pick = [*range(n), *([0] * (width - n))]  # padding lanes: copies of the first member
@@ -613,39 +650,67 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
         t_rec[w, : cl.t_rec.size] = cl.t_rec
         n_rec[w] = cl.t_rec.size
         y0[w] = cl.asm.y0
-    out_Y = np.empty((width, maxrec, plan.ny))
     out_ph = np.zeros((width, maxrec), dtype=np.int64)
     status = np.zeros(width, dtype=np.int64)
     nrec = np.zeros(width, dtype=np.int64)
     t_stop = np.zeros(width)
     bad = -np.ones(width, dtype=np.int64)
     stats = np.zeros((width, 5), dtype=np.int64)
-    # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
-    ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
-    a, b, h, tol = (np.zeros(width) for _ in range(4))
-    active = np.zeros(width, dtype=np.bool_)
-    dt = float(first.solver.dt)
     bound = float(first.solver.divergence_bound)
     start = time.perf_counter()
-    module.run_group(  # type: ignore[attr-defined]
-        B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
-        t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
-    )  # fmt: skip
+    out_Y: np.ndarray | tuple
+    if method == "rk4":
+        out_Y = np.empty((width, maxrec, plan.ny))
+        # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
+        ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
+        a, b, h, tol = (np.zeros(width) for _ in range(4))
+        active = np.zeros(width, dtype=np.bool_)
+        dt = float(first.solver.dt)
+        module.run_group(  # type: ignore[attr-defined]
+            B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
+            t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
+        )  # fmt: skip
+    else:  # dopri5: each lane's own tolerances (rows ATOL..) and step-size state
+        # each member's records in its own block (from the pool of sim/blocks.py, as a single
+        # run's: no fresh pages to zero, 26 MB a 120 s run recorded every millisecond); the
+        # padding lanes record nothing
+        from adaptive_ftc.sim import blocks
+
+        own = [blocks.empty((cl.t_rec.size, plan.ny)) for cl in compiled]
+        out_Y = tuple(own + [np.empty((1, plan.ny)) for _ in range(width - n)])
+        n_rec[n:] = 0
+        for w, cl in enumerate(members):
+            B[rows["ATOL"] * width + w : (rows["ATOL"] + plan.ny) * width : width] = cl.atol
+        rtol = np.array([float(cl.solver.rtol) for cl in members])
+        h_max = np.array([float(min(cl.solver.max_step, 1e300)) for cl in members])
+        ph, r, nstep = (np.zeros(width, dtype=np.int64) for _ in range(3))
+        a, b, tol, h, facold, hs, dnf, limit = (np.zeros(width) for _ in range(8))
+        start_, reject, last, inside, active = (np.zeros(width, dtype=np.bool_) for _ in range(5))
+        module.run_group(  # type: ignore[attr-defined]
+            B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, out_Y, out_ph,
+            status, nrec, t_stop, bad, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf,
+            limit, start_, reject, last, inside, active, np.empty((6, plan.ny)),
+        )  # fmt: skip
     wall = (time.perf_counter() - start) / width
     out = []
     for w in range(n):
         cl = compiled[w]
         size = cl.t_rec.size
-        Y = out_Y[w, :size].copy()
+        Y = out_Y[w][:size]
         phases = out_ph[w, :size].copy()
         k = int(nrec[w])
         if status[w] == 0:
             outcome = (RunStatus.COMPLETED, None)
         else:
             outcome = _stop(
-                cl.loop, cl.asm, cl.solver, cl.t_rec, Y, k, 1, float(t_stop[w]), int(bad[w]),
-                Y[k].copy() if k < size else None,
+                cl.loop, cl.asm, cl.solver, cl.t_rec, Y, k, int(status[w]), float(t_stop[w]),
+                int(bad[w]), Y[k].copy() if k < size else None,
             )  # fmt: skip
+            if outcome[0] is RunStatus.STEP_UNDERFLOW and outcome[1] is not None:
+                from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
+
+                if int(stats[w, 0]) + int(stats[w, 1]) >= MAX_STEPS:  # as the single run
+                    outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
         out.append(Integration(Y, phases, k, outcome[0], outcome[1], wall, stats[w].copy()))
     return out
 

@@ -1,0 +1,87 @@
+"""Campaign throughput with the lane engine (issue 29, stage 2): bench_campaign.py's campaign
+(hypersonic-direct-s1, 120 s runs, the base scenario's DOPRI5 rtol 1e-6 / atol 1e-9) run by
+``run_campaign`` as it is (members one per thread) and with its members in SIMD lanes
+(``iter_simulate(..., lanes="auto")``, patched into the campaign runner here: the runner does
+not pass ``lanes`` yet), interleaved, in the same process.
+
+Run: ``python benchmarks/bench_campaign_lanes.py [--runs 200] [--jobs 1] [--rounds 2]``.
+
+Prints per round the wall and CPU time of each and their ratio, checks that both results
+tables are equal (every metric of every member), and the lane occupancy of the DOPRI5
+groups (a group runs until its slowest member). The first lane group of a structure compiles
+its lane module (timed apart, "cold" only when the cache is empty).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_campaign import spec_data  # noqa: E402
+
+import adaptive_ftc.campaigns.runner as runner  # noqa: E402
+from adaptive_ftc.campaigns import load_campaign, run_campaign  # noqa: E402
+from adaptive_ftc.campaigns.store import read_results  # noqa: E402
+from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
+from adaptive_ftc.sim.batch import iter_simulate  # noqa: E402
+
+
+def timed(spec, out: Path, jobs: int, lanes: bool) -> tuple[float, float]:
+    """Wall and CPU seconds of one run_campaign (summary page not written)."""
+    runner.iter_simulate = (  # type: ignore[attr-defined]
+        functools.partial(iter_simulate, lanes="auto") if lanes else iter_simulate
+    )
+    try:
+        wall, cpu = time.perf_counter(), time.process_time()
+        run_campaign(spec, out, jobs=jobs, progress=False, summary=False)
+        return time.perf_counter() - wall, time.process_time() - cpu
+    finally:
+        runner.iter_simulate = iter_simulate  # type: ignore[attr-defined]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--runs", type=int, default=200)
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args()
+    warnings.simplefilter("ignore", DivergenceWarning)
+    spec = load_campaign(spec_data(args.runs))
+    small = load_campaign({**spec_data(2), "chunk_size": 2})
+    print(
+        f"campaign of hypersonic-direct-s1, {args.runs} runs x 120 s, method "
+        f"{spec.solver.method} rtol {spec.solver.rtol:g}, {args.jobs} thread(s)"
+    )
+    with tempfile.TemporaryDirectory(prefix="aftc-bench-lanes-") as tmp:
+        root = Path(tmp)
+        t = time.perf_counter()
+        timed(small, root / "warm0", 1, False)  # compile or load the loop modules
+        print(f"  warm-up, members one at a time:  {time.perf_counter() - t:7.2f} s")
+        t = time.perf_counter()
+        timed(small, root / "warm1", 1, True)  # compile or load the lane module
+        print(f"  warm-up, lane module:            {time.perf_counter() - t:7.2f} s")
+        for k in range(args.rounds):
+            w0, c0 = timed(spec, root / f"single{k}", args.jobs, False)
+            w1, c1 = timed(spec, root / f"lanes{k}", args.jobs, True)
+            print(
+                f"  round {k}: one at a time {w0:6.2f} s wall {c0:6.2f} s CPU; lanes {w1:6.2f} s "
+                f"wall {c1:6.2f} s CPU; lanes / one at a time: wall {w1 / w0:.3f}, "
+                f"CPU {c1 / c0:.3f}"
+            )
+        a = read_results(root / "single0")
+        b = read_results(root / "lanes0")
+        timing = [c for c in a.columns if "wall" in c]  # the runs' own timings differ
+        print(f"  columns: {list(a.columns)}")
+        same = a.drop(columns=timing).equals(b.drop(columns=timing))
+        print(f"  results tables equal (every column but {timing}): {same}")
+    return 0 if same else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
