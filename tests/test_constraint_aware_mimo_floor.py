@@ -111,6 +111,28 @@ def test_the_floor_budget_without_the_filter_lag_meets_the_tracking_target(
     assert np.max(_run(slow, manipulator.solver).rms_error(5.5, 7.5)) > 0.1  # 0.13 rad
 
 
+def test_behind_a_fast_command_filter_the_floor_passes_through_its_rate_clip(
+    manipulator, monkeypatch
+):
+    # campaign member 409: 1 ms, 45.5 N m/s, continuous, 4.7e-3 rad of noise on q1: the floor
+    # carries the noise; after the filter it steps the lag-free motors at their rate limit
+    hw = dict(lag=0.001, rate=45.5, travel=11.7, sample_time=0.0, noise=(4.67e-3, 1.64e-3))
+    solver = replace(manipulator.solver, record_dt=0.001)  # fine enough to judge activity
+    loop = _member(manipulator, t_final=6.0, **hw)
+    assert loop.controller.bound(loop).configuration().feedback_filtered
+    r = _run(loop, solver)
+    assert np.max(r.rms_error(4.0, 6.0)) < 0.05
+    assert max(a.rate_limited_fraction for a in r.activity(4.0, 6.0).values()) <= 0.05  # 0
+    monkeypatch.setattr(mimo, "C_FLOOR_INSIDE", False)
+    after = _member(manipulator, t_final=6.0, **hw)
+    assert not after.controller.bound(after).configuration().feedback_filtered
+    r_after = _run(after, solver)
+    assert max(a.rate_limited_fraction for a in r_after.activity(4.0, 6.0).values()) > 0.2
+    # behind a slow filter (capped by a 43.5 ms lag) the floor stays after it
+    slow = _member(manipulator, t_final=4.0, **MEMBER_1)
+    assert not slow.controller.bound(slow).configuration().feedback_filtered
+
+
 def test_the_floor_budget_counts_noise_by_its_std_and_adds_no_prefilter():
     # 50 Hz, 15 ms, 4.5e-3 rad: the shared rule's density bound alone gives 10.5 1/s
     ca = ConstraintAware(lag=0.015, rate=30.0, travel=12.0, sample_time=0.02, noise=4.5e-3)

@@ -319,10 +319,12 @@ class Configuration(NamedTuple):
     #: sample's step, ``u0 = uf + T uf'`` (0 = its state ``uf``: one sample more of lag; the
     #: constraint-aware MIMO law, :meth:`MimoDirectAdaptive.sampled_configuration`)
     step: float = 0.0
-    #: per-output gains of a fixed proportional feedback ``u0_i += f_i s_i`` after the command
-    #: filter (``()`` = none; the constraint-aware MIMO law's floor,
-    #: :meth:`MimoDirectAdaptive.output_floor`)
+    #: per-output gains of a fixed proportional feedback ``u0_i += f_i s_i`` (``()`` = none;
+    #: the constraint-aware MIMO law's floor, :meth:`MimoDirectAdaptive.output_floor`)
     output_feedback: tuple = ()
+    #: the floor ``output_feedback`` enters before the command filter (its rate and travel
+    #: limits apply to it) instead of after it
+    feedback_filtered: bool = False
 
     @property
     def filtered(self) -> bool:
@@ -927,6 +929,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
+    if (
+        any(f > 0 for f in cfg.output_feedback) and cfg.feedback_filtered
+    ):  # per-output fixed feedback (MIMO floor)
+        f0 = len(g.consts)
+        g.consts.extend(float(f) for f in cfg.output_feedback)
+        control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")
+        control += [
+            f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
+            for i, f in enumerate(cfg.output_feedback)
+            if f > 0
+        ]
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
@@ -951,7 +964,9 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         fb = f"c[{len(g.consts) - 1}]"
         control.append("    # constraint-aware: fixed proportional feedback on s")
         control += [f"    u0[{i}] += {fb} * sig[{nx + 2 * p + i}]" for i in range(p)]
-    if any(f > 0 for f in cfg.output_feedback):  # per-output fixed feedback (MIMO floor)
+    if (
+        any(f > 0 for f in cfg.output_feedback) and not cfg.feedback_filtered
+    ):  # per-output fixed feedback (MIMO floor)
         f0 = len(g.consts)
         g.consts.extend(float(f) for f in cfg.output_feedback)
         control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")

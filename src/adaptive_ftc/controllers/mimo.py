@@ -87,6 +87,17 @@ C_FLOOR = 1.0
 #: cycles at 20 Hz behind 41-45 ms); 0.8 kept. Without limits: the shared ``C_DELAY``.
 C_FLOOR_DELAY = 0.8
 
+#: the floor enters **before** the command filter (its rate clip, 0.9 x the rate limit, and
+#: travel clip apply to it, and the compensated error sees what they hold back) where the
+#: filter is not capped by the actuator's lag (``omega_f < 1/lag``: a fast filter, or one at
+#: ``1/T`` that a digital law steps through), else after it (behind a slow filter the floor
+#: would add the filter's lag to the actuator's, and the actuator's own lag smooths the noise
+#: the floor carries). Measured on the campaign: after the filter everywhere, 11 members with
+#: lags of 0.1-11 ms spent 6-43 % of the final window at a rate limit (the floor's share of the
+#: measurement noise, stepping a lag-free actuator at its limit); before it where the filter
+#: is fast: 8 (3 fixed, none lost: 92.8 % -> 93.4 %). ``False``: after it everywhere.
+C_FLOOR_INSIDE = True
+
 
 class MimoGains(NamedTuple):
     """Adaptation gains of (3.37)."""
@@ -328,13 +339,18 @@ class MimoDirectAdaptive(AdaptiveController):
 
     def floor_configuration(self, cfg):
         """``cfg`` with the per-output floor feedback of :meth:`output_floor` (gain
-        ``rate_i / b_i``)."""
+        ``rate_i / b_i``), before the command filter where the filter is not capped by the
+        actuator's lag (``C_FLOOR_INSIDE``)."""
         rates = self.output_floor()
         if not rates:
             return cfg
         b = self.input_gains_out
         gains = tuple(r / b[i] if r > 0 and b[i] > 0 else 0.0 for i, r in enumerate(rates))
-        return cfg._replace(output_feedback=gains)
+        ca = self.constraint_aware
+        inside = cfg.filtered and not (ca.lag > 0 and cfg.omega_f >= 1.0 / ca.lag)
+        return cfg._replace(
+            output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE)
+        )
 
     def admitted_rate(self) -> float:
         """The loop rate ``w`` the designer's model admits (:meth:`ConstraintAware.omega_max`
