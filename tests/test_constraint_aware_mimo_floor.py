@@ -159,3 +159,25 @@ def test_the_floor_budget_counts_noise_by_its_std_and_adds_no_prefilter():
 def test_floor_delay_is_checked():
     with pytest.raises(ValueError, match="floor_delay"):
         ConstraintAware(lag=0.01, floor_delay=-1.0)
+
+
+def test_a_digital_floor_loop_keeps_w_t_below_the_floor_sample_bound(manipulator, monkeypatch):
+    """Issue 25's 50 Hz case (no limits, the ``s'`` estimate's lag ``T`` declared, as in
+    scripts/hardware_cases.py): the floor and the normalised law each move ``u0`` by about ``w
+    T s`` per sample; at ``w = 0.5/T`` the sampled loop is lost after the 25 s failure."""
+
+    def run():
+        loop = replace(manipulator.loop, sample_time=0.02)
+        ca = ConstraintAware.from_loop(loop, derivative_lag=0.02)
+        loop = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+        ctrl = loop.controller.bound(loop)
+        r = _run(loop, replace(manipulator.solver, filter_tau=0.02))
+        return ctrl.admitted_rate(), float(np.max(r.rms_error(25.0, 30.0)))
+
+    w, err = run()
+    assert w == pytest.approx(C_FLOOR_SAMPLE / 0.02, rel=1e-12)  # 20 1/s
+    assert err < 0.05  # 3.4e-2 rad
+    monkeypatch.setattr(constraints, "C_FLOOR_SAMPLE", 0.5)
+    w, err = run()
+    assert w == pytest.approx(25.0, rel=1e-12)
+    assert err > 0.1  # 1.1 rad
