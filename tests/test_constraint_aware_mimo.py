@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt
 
-from adaptive_ftc.controllers.constraints import ConstraintAware
+from adaptive_ftc.controllers.constraints import C_FLOOR_SAMPLE, ConstraintAware
 from adaptive_ftc.controllers.mimo import normaliser
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.hardware import Actuators
@@ -102,12 +102,13 @@ def test_manipulator_at_50_hz_keeps_the_arm_the_thesis_law_loses(manipulator):
         record_dt=1e-3,
     )
     aware = replace(loop.controller, constraint_aware=ConstraintAware.from_loop(loop))
-    # the loop rate is the smaller of the digital MIMO cap 0.5/T and the summed-lags bound
-    # 1/(T/2 + s' lag); the digital law's s' (the backward difference it looks ahead
-    # through, docs/hardware.md) adds no lag, so the cap binds (25 1/s; with the shared
-    # default 2T filter lag: 20)
-    w = min(0.5 / 0.02, 1.0 / (0.5 * 0.02))
-    assert w == pytest.approx(25.0)
+    # the loop rate: the manipulator's joints have a feedback floor (a local basis,
+    # tests/test_constraint_aware_mimo_floor.py), whose rule bounds w T by C_FLOOR_SAMPLE and
+    # the summed lags, a whole sample here (the digital law's s', the backward difference it
+    # looks ahead through, docs/hardware.md, adds no lag): 20 1/s (before the floor, 0.5/T)
+    w = min(C_FLOOR_SAMPLE / 0.02, 1.0 / 0.02)
+    assert aware.bound(loop).admitted_rate() == pytest.approx(w, rel=1e-12)
+    assert w == pytest.approx(20.0)
     # each output's own adaptation gain (joint 1, 104 1/s, is below C_RAISE x the admitted
     # rate 37.5 and raised 1.08x)
     etas = [e for e, _ in aware.bound(loop).output_adaptation()] or [aware.eta] * 2

@@ -286,6 +286,16 @@ C_MARGIN = 0.9
 RHO_FACTOR = 1.25
 
 
+#: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's
+#: ``C_FLOOR``): ``w_max <= C_FLOOR_SAMPLE / T`` instead of the shared ``C_SAMPLE``: the
+#: floor and the normalised law (``mimo.C_SAMPLE_NORMALISED``) each move ``u0`` by about
+#: ``w T s`` per sample. Measured: manipulator-mimo-s1 at 50 Hz (no limits, the ``s'``
+#: estimate's lag ``T`` declared) at 0.5 / T loses the tracking (0.79 rad, 8.3 N m of fast
+#: content), at 0.4 / T 3.5e-2 rad; the campaign's 20 Hz members unchanged (98 of 120), 100 Hz
+#: 121 -> 122 of 123.
+C_FLOOR_SAMPLE = 0.4
+
+
 #: the fixed proportional feedback's loop rate, in multiples of the plant's fastest unstable
 #: open-loop mode ``p_u`` (``|lambda|`` of the linearised plant at ``t0``): "respect the
 #: unstable" (Stein, IEEE CSM 23(4) 2003: a loop that stabilises a plant with an unstable pole
@@ -342,6 +352,12 @@ class Configuration(NamedTuple):
     #: sample's step, ``u0 = uf + T uf'`` (0 = its state ``uf``: one sample more of lag; the
     #: constraint-aware MIMO law, :meth:`MimoDirectAdaptive.sampled_configuration`)
     step: float = 0.0
+    #: per-output gains of a fixed proportional feedback ``u0_i += f_i s_i`` (``()`` = none;
+    #: the constraint-aware MIMO law's floor, :meth:`MimoDirectAdaptive.output_floor`)
+    output_feedback: tuple = ()
+    #: the floor ``output_feedback`` enters before the command filter (its rate and travel
+    #: limits apply to it) instead of after it
+    feedback_filtered: bool = False
 
     @property
     def filtered(self) -> bool:
@@ -458,6 +474,17 @@ class ConstraintAware:
         digital or the measurements noisy, else 0 (``s'`` exact); the digital MIMO law sets 0
         (:meth:`MimoDirectAdaptive.bound`: its backward-difference ``s'``, looked ahead
         through, adds no lag). Not a constraint alone.
+    floor_delay
+        Filled by :meth:`MimoDirectAdaptive.bound` where the law has a fixed feedback floor
+        (``mimo.C_FLOOR``; not a constraint, leave it unset): the loop-rate rule then bounds
+        the sum of the loop's lags as ``w (lag + T + tau_d) <= floor_delay`` with rate or
+        travel limits (``C_DELAY`` without), without the command filter's lag (the floor is
+        after the filter), ``w <= C_FLOOR_SAMPLE / T``, and noise by its std alone, ``w <=
+        C_NOISE / noise``, with no prefilter (the floor's path carries the noise of ``s``
+        times ``w / b``: measured on the manipulator-hardware campaign, the density bound
+        (``w`` = 10.5 at 50 Hz) left 20 Hz members at 0.05-0.08 rad that track to 0.013 at
+        the std bound's 22.7, with 0.10 N m of fast content against 0.36; the prefilters that
+        the std bound adds lost the arm or limit-cycled 11 members at ``w`` = 31-44).
 
     Examples
     --------
@@ -484,6 +511,7 @@ class ConstraintAware:
     gain_growth: float | None = None
     feedback: float | None = None
     unstable_rate: float | None = None
+    floor_delay: float | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -514,6 +542,8 @@ class ConstraintAware:
             _number(owner, "feedback", self.feedback, allow_inf=False)
         if self.unstable_rate is not None:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
+        if self.floor_delay is not None:
+            _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
 
     @property
     def is_ideal(self) -> bool:
@@ -609,14 +639,24 @@ class ConstraintAware:
         # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
         # filter's own floor (1/omega_f >= lag, T/C_EULER)
         delay = self.lag + 0.5 * self.sample_time + self.s_lag
-        if delay > 0 and not self.limited:
+        if self.floor_delay is not None:
+            # a loop with a fixed feedback floor (the MIMO law, MimoDirectAdaptive.bound):
+            # its own budget over the actuator's lag, a whole sample and the s' lag
+            delay = self.lag + self.sample_time + self.s_lag
+            if delay > 0:
+                w = min(w, (self.floor_delay if self.limited else C_DELAY) / delay)
+            if self.sample_time > 0:
+                w = min(w, C_FLOOR_SAMPLE / self.sample_time)
+        elif delay > 0 and not self.limited:
             w = min(w, C_DELAY / delay)
-        if self.limited:
+        if self.limited and self.floor_delay is None:
             lag_f = max(self.lag, self.sample_time / C_EULER)
             if delay + lag_f > 0:
                 w = min(w, C_DELAY_LIMITED / (delay + lag_f))
             if delay > 0:
                 w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
+        if self.noise > 0 and self.floor_delay is not None:
+            return min(w, C_NOISE / self.noise), False
         if self.noise > 0:
             # the density bound lowers the loop rate only; where the std bound binds, the
             # measurements are prefiltered too (configure)
@@ -922,6 +962,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
+    if (
+        any(f > 0 for f in cfg.output_feedback) and cfg.feedback_filtered
+    ):  # per-output fixed feedback (MIMO floor)
+        f0 = len(g.consts)
+        g.consts.extend(float(f) for f in cfg.output_feedback)
+        control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")
+        control += [
+            f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
+            for i, f in enumerate(cfg.output_feedback)
+            if f > 0
+        ]
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
@@ -946,6 +997,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         fb = f"c[{len(g.consts) - 1}]"
         control.append("    # constraint-aware: fixed proportional feedback on s")
         control += [f"    u0[{i}] += {fb} * sig[{nx + 2 * p + i}]" for i in range(p)]
+    if (
+        any(f > 0 for f in cfg.output_feedback) and not cfg.feedback_filtered
+    ):  # per-output fixed feedback (MIMO floor)
+        f0 = len(g.consts)
+        g.consts.extend(float(f) for f in cfg.output_feedback)
+        control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")
+        control += [
+            f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
+            for i, f in enumerate(cfg.output_feedback)
+            if f > 0
+        ]
     if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")

@@ -62,6 +62,43 @@ C_RAISE = 3.0
 C_SLOPE = 1.0
 
 
+#: an output whose loop gain is at or above ``C_RAISE w`` at the operating point (zero tracking
+#: error) but below it at the loop's initial state (a local basis: the manipulator's raw fuzzy
+#: basis of the errors, 104 and 606 1/s at zero error against 1.8 and 10.7 at ``t0``) gets a
+#: **fixed proportional feedback floor** ``u0_i += (C_FLOOR w / b_i) s_i`` beside its law, after
+#: the command filter (:meth:`MimoDirectAdaptive.output_floor`): its normalised loop gain is
+#: ``w`` only where ``|Pi_i|^2`` is large and falls to ``g(z)`` where the basis fades; once the
+#: errors leave the basis (|e| of 1-2 rad) the command ``Pi^T theta`` is 0 and the arm is lost
+#: for good. Measured on the manipulator-hardware campaign (issue 25): 309 of the 331
+#: constraint-aware failures of session 10 were arms lost within the first 3 s (errors 1-2 rad
+#: at 3 s, the command exactly 0 in the final window), behind lags above 20 ms with the rule's
+#: ``w`` = 6-10 1/s; with the floor at ``w`` every one of them holds the arm (the floor of
+#: adaptive augmentation, Lavretsky & Wise 2013, ch. 10). 1 = the loop rate; ``2 w`` on joint
+#: 2 gave the same errors.
+C_FLOOR = 1.0
+
+#: the delay budget of a loop with a floor, with rate or travel limits
+#: (:attr:`ConstraintAware.floor_delay`): ``w (lag + T + tau_d) <= C_FLOOR_DELAY`` (a whole
+#: sample: hold and the law's sample) in place of the shared rule's ``C_DELAY_LIMITED`` with the
+#: command filter's lag counted, which gave ``w`` = 6-10 1/s behind 35-50 ms and left the
+#: floored arm at 0.07-0.15 rad of error (target 0.05). The floor is outside the command filter,
+#: so the filter's lag is not in its path. Measured on the first 39 failing members of the
+#: campaign with the loop rate forced to this budget: 0.7: 29 of 39, 0.85: 34 (and two limit
+#: cycles at 20 Hz behind 41-45 ms); 0.8 kept. Without limits: the shared ``C_DELAY``.
+C_FLOOR_DELAY = 0.8
+
+#: the floor enters **before** the command filter (its rate clip, 0.9 x the rate limit, and
+#: travel clip apply to it, and the compensated error sees what they hold back) where the
+#: filter is not capped by the actuator's lag (``omega_f < 1/lag``: a fast filter, or one at
+#: ``1/T`` that a digital law steps through), else after it (behind a slow filter the floor
+#: would add the filter's lag to the actuator's, and the actuator's own lag smooths the noise
+#: the floor carries). Measured on the campaign: after the filter everywhere, 11 members with
+#: lags of 0.1-11 ms spent 6-43 % of the final window at a rate limit (the floor's share of the
+#: measurement noise, stepping a lag-free actuator at its limit); before it where the filter
+#: is fast: 8 (3 fixed, none lost: 92.8 % -> 93.4 %). ``False``: after it everywhere.
+C_FLOOR_INSIDE = True
+
+
 class MimoGains(NamedTuple):
     """Adaptation gains of (3.37)."""
 
@@ -88,6 +125,11 @@ class MimoDirectAdaptive(AdaptiveController):
     #: output's loop gain ``b_i eta |Pi_i|^2`` (:meth:`measured_loop_rate`); not compared, so
     #: ``replace(bound_design, constraint_aware=None)`` equals the thesis design
     output_gains: tuple = field(default=(), compare=False, repr=False)
+    #: constraint-aware only, filled by :meth:`bound` (not a setting): each output's loop gain
+    #: at the loop's initial state and its input gain ``b_i = |d s_i'/d u0_i|``
+    #: (:meth:`output_floor`); not compared
+    initial_gains: tuple = field(default=(), compare=False, repr=False)
+    input_gains_out: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -192,7 +234,24 @@ class MimoDirectAdaptive(AdaptiveController):
             out = replace(out, constraint_aware=replace(ca, derivative_lag=0.0))
         g0 = self._output_gains(loop, zero_error=False)
         g1 = self._output_gains(loop, zero_error=True)
-        return replace(out, output_gains=tuple(float(v) for v in np.maximum(g0, g1)))
+        out = replace(
+            out,
+            output_gains=tuple(float(v) for v in np.maximum(g0, g1)),
+            initial_gains=tuple(float(v) for v in g0),
+            input_gains_out=tuple(float(v) for v in self._input_gains(loop)),
+        )
+        if out.output_floor() and C_FLOOR_DELAY > 0:
+            out = replace(
+                out, constraint_aware=replace(out.constraint_aware, floor_delay=C_FLOOR_DELAY)
+            )
+        return out
+
+    def _input_gains(self, loop) -> np.ndarray:
+        """``b_i = |d s_i'/d u0_i|`` per output: the healthy plant's input gains at the
+        initial state along the allocation (ones where they cannot be formed)."""
+        G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
+        R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+        return np.abs(np.sum(R * G, axis=1)) if G.shape == R.shape else np.ones(R.shape[0])
 
     def robust_settings(self) -> tuple:
         """:meth:`AdaptiveController.robust_settings`, then, constraint-aware, the robust
@@ -243,7 +302,7 @@ class MimoDirectAdaptive(AdaptiveController):
         ``C_RAISE`` = 1, the measurements alone: 2.3e-3 rad, 1.0 N m, both: the loop is lost
         (4.1e-2 rad, 8.6
         N m)."""
-        cfg = super().configuration(b_max, input_gain)
+        cfg = self.floor_configuration(super().configuration(b_max, input_gain))
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or ca.noise <= 0 or cfg.prefiltered:
             return cfg
@@ -261,6 +320,37 @@ class MimoDirectAdaptive(AdaptiveController):
         if ca.sample_time > 0:
             om_q = min(om_q, constraints.C_EULER / ca.sample_time)
         return cfg._replace(omega_q=om_q)
+
+    def output_floor(self) -> tuple[float, ...]:
+        """Constraint-aware only, on a bound design: each output's fixed feedback rate
+        (1/s; 0 = none): ``C_FLOOR w`` for an output whose loop gain at the operating point is
+        at or above ``C_RAISE w`` (not raised, :meth:`output_raise`) but below it at the loop's
+        initial state (``initial_gains``). ``()``: no such output."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal or not self.initial_gains or C_FLOOR <= 0:
+            return ()
+        w = self.admitted_rate()
+        raised = self.output_raise()
+        rates = tuple(
+            C_FLOOR * w if m <= 1.0 and g0 < C_RAISE * w else 0.0
+            for m, g0 in zip(raised, self.initial_gains, strict=True)
+        )
+        return rates if any(r > 0 for r in rates) else ()
+
+    def floor_configuration(self, cfg):
+        """``cfg`` with the per-output floor feedback of :meth:`output_floor` (gain
+        ``rate_i / b_i``), before the command filter where the filter is not capped by the
+        actuator's lag (``C_FLOOR_INSIDE``)."""
+        rates = self.output_floor()
+        if not rates:
+            return cfg
+        b = self.input_gains_out
+        gains = tuple(r / b[i] if r > 0 and b[i] > 0 else 0.0 for i, r in enumerate(rates))
+        ca = self.constraint_aware
+        inside = cfg.filtered and not (ca.lag > 0 and cfg.omega_f >= 1.0 / ca.lag)
+        return cfg._replace(
+            output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE)
+        )
 
     def admitted_rate(self) -> float:
         """The loop rate ``w`` the designer's model admits (:meth:`ConstraintAware.omega_max`
