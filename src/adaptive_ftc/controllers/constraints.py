@@ -288,6 +288,11 @@ AUGMENT_FLOOR = 0.01
 FEEDBACK_GAIN_SCALES = (0.5, 1.0)
 
 
+#: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
+#: (:func:`placed_feedback`).
+FEEDBACK_KI_RANGE = (1e-3, 0.3)
+
+
 def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Numerator and denominator of the order-3 Padé approximant of ``exp(-s delay)``."""
     c = (1.0, 0.5, 0.1, 1.0 / 120.0)
@@ -328,7 +333,7 @@ def placed_feedback(
     grid = np.meshgrid(
         p2 * np.linspace(0.02, 3.0, n),
         p * np.linspace(-1.0, 6.0, n),
-        p2 * p * np.geomspace(1e-3, 0.3, 12),
+        p2 * p * np.geomspace(*FEEDBACK_KI_RANGE, 12),
         indexing="ij",
     )
     S, Dm, ki = (a.ravel() for a in grid)
