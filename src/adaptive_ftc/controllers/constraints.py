@@ -90,14 +90,21 @@ design, not another design) it derives, by the rules below, one configuration
    sigma-modification: where the estimate is on the boundary and the law points outward,
    the outward component is removed. Off by default (``theta_max = inf``).
 
-6. **Fixed proportional feedback** where the plant has a fast unstable open-loop mode:
-   ``u0 += (C_FEEDBACK p_u / b) s`` with ``p_u`` the modulus of the linearised plant's fastest
-   unstable mode at ``t0`` (:meth:`AdaptiveController.open_loop_unstable_rate`) and ``b`` the
-   nominal input gain, where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max`` (Stein, IEEE CSM
-   23(4) 2003, "respect the unstable"; a baseline beside the adaptive law as in adaptive
-   augmentation, Lavretsky & Wise 2013, ch. 10), after the command filter. The thesis law's
-   ``u0 = Pi^T theta`` is all adaptive: slowed to the hardware it cannot hold the wing rock
-   (unstable at 30 rad/s), and a raw fuzzy basis vanishes once the state leaves it.
+6. **Fixed feedback placed on the linearised plant** where the plant has a fast unstable
+   open-loop mode (``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max``, ``p_u`` the modulus of the
+   linearised plant's fastest unstable mode at ``t0``,
+   :meth:`AdaptiveController.open_loop_unstable_rate`; Stein, IEEE CSM 23(4) 2003, "respect
+   the unstable"): a PID ``u0 += (kp e + kd e' + ki int e) / b`` beside the adaptive law (a
+   baseline with integral action augmented by the adaptive law, as in Lavretsky & Wise 2013,
+   ch. 10), after the command filter, with gains placed on the designer's linear model (the
+   plant linearised at ``t0``, :meth:`AdaptiveController.open_loop_rows`, behind the declared
+   lag and half a sample of hold) for the largest worst-case decay rate over an input gain
+   halved or not (:func:`placed_feedback`); the adaptive law then runs below the placed
+   loop's slowest mode (``r g <= C_AUGMENT |decay|``). The thesis law's ``u0 = Pi^T theta``
+   is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
+   rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
+   ``s`` at ``2 p_u`` (the rule before) stiffens the oscillator to where a lag of 35 ms or
+   more leaves no phase.
 
 A digital controller integrates every state of the law by forward Euler at its sample time
 ``T`` (:mod:`adaptive_ftc.hardware`); the rules keep every filter of the law at most
