@@ -1,6 +1,6 @@
 """The wing rock's placed fixed feedback (issue 25, docs/hardware.md "Wing rock §2.4", the
 session-11 rule): PID gains placed on the designer's linear model behind the declared lag and
-hold, robust to a halved input gain, and the adaptive law slowed below the placed loop's
+hold, robust to a loss of input gain, and the adaptive law slowed below the placed loop's
 slowest mode. Truths: the closed-loop poles of the linear model (state space, computed apart
 from the placement's polynomial arithmetic) and short runs of the wing rock behind lags
 without failures (3 s, where the earlier rules limit-cycle)."""
