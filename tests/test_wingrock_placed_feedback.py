@@ -66,6 +66,9 @@ def test_adaptation_runs_below_the_placed_loop():
     assert cfg.scale * bca.loop_gain == pytest.approx(constraints.C_AUGMENT * -decay, rel=1e-9)
     with pytest.raises(ConfigurationError, match="open_loop"):
         ConstraintAware(open_loop=(1.0,))
+    with pytest.raises(ConfigurationError, match="open_loop"):
+        ConstraintAware(open_loop=(1.0, math.nan))
+    assert ConstraintAware(open_loop=[-923.0, 11.0]).open_loop == (-923.0, 11.0)
 
 
 def _hold(lag, sample_time, rate, **over):

@@ -600,6 +600,8 @@ class ConstraintAware:
             _number(owner, "feedback", self.feedback, allow_inf=False)
         if self.unstable_rate is not None:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
+        if isinstance(self.open_loop, list):  # a scenario file's array
+            object.__setattr__(self, "open_loop", tuple(self.open_loop))
         if self.open_loop is not None:
             if not isinstance(self.open_loop, tuple) or len(self.open_loop) != 2:
                 raise ConfigurationError(
