@@ -64,12 +64,19 @@ def test_feedback_only_where_the_unstable_mode_is_near_the_loop_rate():
     bound = _aware(wr).controller.bound(wr)
     ca = bound.constraint_aware
     cfg = bound.configuration()
-    assert cfg.feedback == pytest.approx(
-        constraints.C_FEEDBACK * ca.unstable_rate / ca.input_gain, rel=1e-12
+    # placed on the designer's linear model (the plant linearised at t0, the 20 ms lag)
+    kp, kd, ki, _ = constraints.placed_feedback(*ca.open_loop, 0.02, 0.0)
+    b = ca.input_gain
+    assert (cfg.feedback, cfg.feedback_e, cfg.feedback_i) == pytest.approx(
+        (kd / b, kp / b, ki / b), rel=1e-12
     )
-    # the designer may state it: 0 = none
+    # the designer may state it (a proportional path on s at that loop gain): 0 = none
     off = replace(bound, constraint_aware=replace(ca, feedback=0.0))
     assert off.configuration().feedback == 0.0
+    assert off.configuration().feedback_i == 0.0
+    stated = replace(bound, constraint_aware=replace(ca, feedback=60.0)).configuration()
+    lam = wr.controller.lam * stated.lam_factor
+    assert (stated.feedback, stated.feedback_e) == pytest.approx((60.0 / b, 60.0 * lam / b))
     # the hypersonic loop's unstable mode (0.75 1/s) is far below its slowed loop rate: the
     # rule adds nothing there (its trajectories stay the thesis-rule's)
     hy = load_scenario("hypersonic-direct-s1").loop

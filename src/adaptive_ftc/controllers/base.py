@@ -136,6 +136,7 @@ class AdaptiveController(ABC):
             lam=float(lam),
             input_gain=input_gain,
             slope=self.loop_rate() if self.single_output else None,
+            adaptive=bool(self.regressors()),
         )
 
     def theta_gain(self) -> float:
@@ -218,6 +219,8 @@ class AdaptiveController(ABC):
             updates["gain_growth"] = self.loop_gain_growth()
         if ca.unstable_rate is None:
             updates["unstable_rate"] = self.open_loop_unstable_rate(loop)
+        if ca.open_loop is None and self.single_output:
+            updates["open_loop"] = self.open_loop_rows(loop)
         if ca.loop_rate is None:
             updates["loop_rate"], gain, least = self.measured_loop_rate(loop)
             if ca.loop_gain is None and gain > 0:
@@ -227,12 +230,9 @@ class AdaptiveController(ABC):
         return replace(self, constraint_aware=replace(ca, **updates))
 
     @staticmethod
-    def open_loop_unstable_rate(loop) -> float:
-        """The modulus of the plant's fastest unstable open-loop mode at the loop's initial
-        state with zero command (the largest ``|lambda|`` over the eigenvalues of the
-        linearised plant with a positive real part; 0 where there is none), by central
-        differences of the plant's derivative: the wing rock's 5.5 +- 29.9j gives 30.4 1/s,
-        the hypersonic short period 0.75 1/s."""
+    def _plant_jacobian(loop) -> np.ndarray:
+        """The plant's Jacobian ``d x'/d x`` at the loop's initial state with zero command
+        (central differences of the plant's derivative)."""
         plant = loop.plant
         x0 = np.asarray(loop.initial_state, dtype=float)
         u = np.zeros(plant.n_actuators)
@@ -246,6 +246,32 @@ class AdaptiveController(ABC):
             fp = np.asarray(plant.derivative(loop.t0, xp, u), dtype=float)
             fm = np.asarray(plant.derivative(loop.t0, xm, u), dtype=float)
             jac[:, i] = (fp - fm) / (2.0 * h)
+        return jac
+
+    @classmethod
+    def open_loop_rows(cls, loop) -> tuple[float, float] | None:
+        """``(d y''/d y, d y''/d y')`` of the first output at the loop's initial state with
+        zero command (the plant linearised as ``y'' = a y + c y' + ...``; the wing rock at 1
+        deg: ``-(a0 + 3 a3 phi0^2)``, ``-(a1 + a4 phi0^2)``), the designer's linear model of
+        the placed feedback (:func:`~adaptive_ftc.controllers.constraints.placed_feedback`);
+        ``None`` where the plant has no position/velocity pair for it."""
+        plant = loop.plant
+        pos = getattr(plant, "position_index", ())
+        vel = getattr(plant, "velocity_index", ())
+        if not pos or not vel:
+            return None
+        jac = cls._plant_jacobian(loop)
+        a, c = float(jac[vel[0], pos[0]]), float(jac[vel[0], vel[0]])
+        return (a, c) if math.isfinite(a) and math.isfinite(c) else None
+
+    @classmethod
+    def open_loop_unstable_rate(cls, loop) -> float:
+        """The modulus of the plant's fastest unstable open-loop mode at the loop's initial
+        state with zero command (the largest ``|lambda|`` over the eigenvalues of the
+        linearised plant with a positive real part; 0 where there is none), by central
+        differences of the plant's derivative: the wing rock's 5.5 +- 29.9j gives 30.4 1/s,
+        the hypersonic short period 0.75 1/s."""
+        jac = cls._plant_jacobian(loop)
         if not np.all(np.isfinite(jac)):
             return 0.0
         ev = np.linalg.eigvals(jac)
@@ -301,8 +327,9 @@ class AdaptiveController(ABC):
         if ca is not None and ca.input_gain is None and not ca.is_ideal:
             gain = self.nominal_input_gain(g.loop)
         cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
-        if cfg.feedback and not self.regressors_for(g.p):
-            cfg = cfg._replace(feedback=0.0)  # a baseline's own law (the oracle) keeps its
+        if (cfg.feedback or cfg.feedback_e or cfg.feedback_i) and not self.regressors_for(g.p):
+            # a baseline's own law (the oracle) has no fixed feedback beside it
+            cfg = cfg._replace(feedback=0.0, feedback_e=0.0, feedback_i=0.0)
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         cfg = self.sampled_configuration(cfg, g)

@@ -92,14 +92,22 @@ design, not another design) it derives, by the rules below, one configuration
    sigma-modification: where the estimate is on the boundary and the law points outward,
    the outward component is removed. Off by default (``theta_max = inf``).
 
-6. **Fixed proportional feedback** where the plant has a fast unstable open-loop mode:
-   ``u0 += (C_FEEDBACK p_u / b) s`` with ``p_u`` the modulus of the linearised plant's fastest
-   unstable mode at ``t0`` (:meth:`AdaptiveController.open_loop_unstable_rate`) and ``b`` the
-   nominal input gain, where ``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max`` (Stein, IEEE CSM
-   23(4) 2003, "respect the unstable"; a baseline beside the adaptive law as in adaptive
-   augmentation, Lavretsky & Wise 2013, ch. 10), after the command filter. The thesis law's
-   ``u0 = Pi^T theta`` is all adaptive: slowed to the hardware it cannot hold the wing rock
-   (unstable at 30 rad/s), and a raw fuzzy basis vanishes once the state leaves it.
+6. **Fixed feedback placed on the linearised plant** where the plant has a fast unstable
+   open-loop mode (``C_FEEDBACK p_u > C_FEEDBACK_GATE w_max``, ``p_u`` the modulus of the
+   linearised plant's fastest unstable mode at ``t0``,
+   :meth:`AdaptiveController.open_loop_unstable_rate`; Stein, IEEE CSM 23(4) 2003, "respect
+   the unstable"): a PID ``u0 += (kp e + kd e' + ki int e) / b`` beside the adaptive law (a
+   baseline with integral action augmented by the adaptive law, as in Lavretsky & Wise 2013,
+   ch. 10), after the command filter, with gains placed on the designer's linear model (the
+   plant linearised at ``t0``, :meth:`AdaptiveController.open_loop_rows`, behind the declared
+   lag and half a sample of hold) for the largest worst-case decay rate over an input gain
+   cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
+   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``). The
+   thesis law's ``u0 = Pi^T theta``
+   is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
+   rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
+   ``s`` at ``2 p_u`` (the rule before) stiffens the oscillator to where a lag of 35 ms or
+   more leaves no phase.
 
 A digital controller integrates every state of the law by forward Euler at its sample time
 ``T`` (:mod:`adaptive_ftc.hardware`); the rules keep every filter of the law at most
@@ -141,6 +149,7 @@ and by ``scripts/hardware_cases.py``.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -308,6 +317,94 @@ C_FEEDBACK = 2.0
 #: the MIMO plants: none or 0.011). The same regime counts §2.4's compensator in the loop
 #: gain and caps its linear regressor (:class:`FailureEstimation`).
 C_FEEDBACK_GATE = 0.5
+#: where the fixed feedback is placed, the adaptive law's loop rate is at most ``C_AUGMENT``
+#: times the placed loop's worst-case decay rate: the adaptive law augments the placed loop
+#: below its slowest mode. Measured on the wingrock-hardware campaign: at the hardware's
+#: ``w_max`` (8-20 1/s) on top of the placed loop, members limit-cycled at 8-12 Hz with
+#: 7e-3 rad of roll (frozen, they held 6e-6): 39 of the first 100 succeed; at 0.5, 431 of
+#: 500; at 0.25, 436 (five bias failures more, whose learnt ``theta`` makes the raw fuzzy
+#: basis ``Pi(z)^T theta`` a state feedback of gain ``|theta| / width``); at 0.1 the same
+#: on those members.
+C_AUGMENT = 0.25
+#: ... and at least ``C_AUGMENT AUGMENT_FLOOR`` (1/s) where no placed gains are robustly
+#: stable (the placed loop's ``decay >= 0``): the adaptation is then practically off.
+AUGMENT_FLOOR = 0.01
+#: the input-gain scales the placed feedback must stabilise (:func:`placed_feedback`): the
+#: healthy gain and 65 % of it (every single failure of the wing rock's ailerons but a
+#: stuck or nearly dead first aileron, which carries 47 % of the gain). Measured on the
+#: wingrock-hardware campaign (constraint-aware only, 500 members): (0.5, 1) 436, (0.65, 1)
+#: 455 (28 members with 35-50 ms lags gained, where no gains hold a halved input gain; 9
+#: with the first aileron stuck lost), (0.8, 1) 450.
+FEEDBACK_GAIN_SCALES = (0.65, 1.0)
+
+
+#: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
+#: (:func:`placed_feedback`).
+FEEDBACK_KI_RANGE = (1e-3, 0.3)
+
+
+def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
+    """Numerator and denominator of the order-3 Padé approximant of ``exp(-s delay)``."""
+    c = (1.0, 0.5, 0.1, 1.0 / 120.0)
+    num = np.array([(-1) ** k * c[k] * delay**k for k in range(3, -1, -1)])
+    den = np.array([c[k] * delay**k for k in range(3, -1, -1)])
+    return num, den
+
+
+@functools.lru_cache(maxsize=256)
+def placed_feedback(
+    stiffness: float,
+    damping: float,
+    lag: float,
+    delay: float,
+    scales: tuple[float, ...] = FEEDBACK_GAIN_SCALES,
+    n: int = 31,
+) -> tuple[float, float, float, float]:
+    """The fixed feedback ``u0 += (kp e + kd e' + ki int e) / b`` placed on the designer's
+    linear model: ``y'' = stiffness y + damping y' + beta b u0`` (the plant linearised at
+    ``t0``), ``u0`` through a first-order lag ``lag`` and a delay ``delay`` (half a sample of
+    hold; order-3 Padé). Returns ``(kp, kd, ki, decay)``: the gains (in units of ``y''`` per
+    unit error) whose closed loop has the largest worst-case decay rate (``-decay``, ``decay``
+    the largest real part of its poles) over the input-gain scales ``beta`` in ``scales``, on
+    a grid of closed-loop stiffness ``kp - stiffness`` in ``[0.02, 3] p^2``, damping ``kd -
+    damping`` in ``[-1, 6] p`` and ``ki`` in ``[1e-3, 0.3] p^3`` (``p^2 = max(|stiffness|,
+    damping^2/4)``).
+
+    Why (issue 25, wing rock): behind a lag the loop must act where the lag costs little
+    phase. The wing rock is a negatively damped oscillator at 30.4 rad/s; a proportional
+    path on ``s`` (the rule's first fixed feedback: ``2 p_u``) stiffens it further (35-46
+    rad/s), where a 35 ms lag takes 50-60 degrees. The placed gains cancel most of the
+    stiffness (the oscillation moves down to where the lag costs little) and add damping, as
+    the oracle does by knowing the model, but robustly to a loss of input gain; the integral
+    removes the offset a failure's torque leaves on the softened loop (the adaptive law's
+    raw fuzzy basis vanishes beyond 0.4 rad of roll and cannot)."""
+    p2 = max(abs(stiffness), damping * damping / 4.0, 1e-12)
+    p = math.sqrt(p2)
+    grid = np.meshgrid(
+        p2 * np.linspace(0.02, 3.0, n),
+        p * np.linspace(-1.0, 6.0, n),
+        p2 * p * np.geomspace(*FEEDBACK_KI_RANGE, 12),
+        indexing="ij",
+    )
+    S, Dm, ki = (a.ravel() for a in grid)
+    kp, kd = S + stiffness, Dm + damping
+    nd, dd = _pade3(delay) if delay > 0 else (np.ones(1), np.ones(1))
+    base = np.array([1.0, -damping, -stiffness, 0.0])  # times s: the integral's pole
+    plant = np.polymul(np.polymul(base, [lag, 1.0]) if lag > 0 else base, dd)
+    m = plant.size
+    worst = np.full(S.size, -np.inf)
+    for beta in scales:
+        C = np.tile(plant, (S.size, 1))
+        for j, gain in enumerate((kd, kp, ki)):  # beta (kd s^2 + kp s + ki) nd(s)
+            for k, cn in enumerate(nd[::-1]):
+                C[:, m - 1 - (2 - j + k)] += beta * gain * cn
+        C = C / C[:, :1]
+        M = np.zeros((S.size, m - 1, m - 1))
+        M[:, 0, :] = -C[:, 1:]
+        M[:, np.arange(1, m - 1), np.arange(m - 2)] = 1.0
+        worst = np.maximum(worst, np.linalg.eigvals(M).real.max(axis=1))
+    i = int(np.argmin(worst))
+    return float(kp[i]), float(kd[i]), float(ki[i]), float(worst[i])
 
 
 class Configuration(NamedTuple):
@@ -341,8 +438,8 @@ class Configuration(NamedTuple):
     #: factor on the slope ``k0/eps0`` of the robust term's linear band (the law's integral
     #: path; 1 = the thesis's): ``eps0 -> W eps0 / slope_scale``
     slope_scale: float = 1.0
-    #: gain of the fixed proportional feedback ``u0 += feedback s`` on the filtered error
-    #: (``C_FEEDBACK``; 0 = none)
+    #: gain of the fixed feedback on ``e'``: ``u0 += feedback e' + feedback_e e``
+    #: (:func:`placed_feedback`; 0 = none)
     feedback: float = 0.0
     #: prefilter bandwidth of the measurements the *adaptation's* regressor sees (rad/s; inf
     #: = none): ``u0 = Pi(x)^T theta`` keeps the measured ``x``, the law of ``theta`` gets
@@ -358,6 +455,10 @@ class Configuration(NamedTuple):
     #: the floor ``output_feedback`` enters before the command filter (its rate and travel
     #: limits apply to it) instead of after it
     feedback_filtered: bool = False
+    #: gain of the fixed feedback on ``e`` (see ``feedback``)
+    feedback_e: float = 0.0
+    #: gain of the fixed feedback on ``int e`` (a state per output; 0 = none)
+    feedback_i: float = 0.0
 
     @property
     def filtered(self) -> bool:
@@ -486,6 +587,19 @@ class ConstraintAware:
         the std bound's 22.7, with 0.10 N m of fast content against 0.36; the prefilters that
         the std bound adds lost the arm or limit-cycled 11 members at ``w`` = 31-44).
 
+    feedback
+        The fixed feedback the designer states instead of the rule's: a proportional path
+        ``u0 += (feedback / b) s`` on the filtered error at that loop gain (1/s); 0 = none.
+        ``None`` (default): the rule's, the placed feedback (:meth:`placement`) where
+        :meth:`fast_unstable`.
+    unstable_rate
+        The modulus of the plant's fastest unstable open-loop mode (1/s); ``None``: measured
+        on the loop (:meth:`AdaptiveController.open_loop_unstable_rate`). Not a constraint.
+    open_loop
+        ``(d y''/d y, d y''/d y')`` of the plant linearised at ``t0`` (the designer's linear
+        model of the placed feedback); ``None``: measured on the loop
+        (:meth:`AdaptiveController.open_loop_rows`). Not a constraint.
+
     Examples
     --------
     >>> ConstraintAware().is_ideal
@@ -512,6 +626,7 @@ class ConstraintAware:
     feedback: float | None = None
     unstable_rate: float | None = None
     floor_delay: float | None = None
+    open_loop: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -544,6 +659,20 @@ class ConstraintAware:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
         if self.floor_delay is not None:
             _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
+        if isinstance(self.open_loop, list):  # a scenario file's array
+            object.__setattr__(self, "open_loop", tuple(self.open_loop))
+        if self.open_loop is not None:
+            if not isinstance(self.open_loop, tuple) or len(self.open_loop) != 2:
+                raise ConfigurationError(
+                    f"`open_loop` of {owner} must be a pair (d y''/d y, d y''/d y'); "
+                    f"got {self.open_loop!r}."
+                )
+            for v in self.open_loop:
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    raise ConfigurationError(
+                        f"`open_loop` of {owner} must hold two finite numbers; "
+                        f"got {self.open_loop!r}."
+                    )
 
     @property
     def is_ideal(self) -> bool:
@@ -687,12 +816,15 @@ class ConstraintAware:
         lam: float = 1.0,
         input_gain: float = 0.0,
         slope: float | None = None,
+        adaptive: bool = True,
     ) -> Configuration:
         """The configuration of a law whose linear-band loop rate is ``w0`` (``k + k0/eps0``)
         under this model, for an allocation whose largest gain is ``b_max`` and a filtered
         error ``s = e' + lam e``; ``input_gain`` is the loop's nominal ``|d s'/d u0|``, used
         when the model's own ``input_gain`` is ``None``; ``slope`` the law's ``K = k +
-        k0/eps0`` where the design gives it (used where ``w0`` is the loop gain itself)."""
+        k0/eps0`` where the design gives it (used where ``w0`` is the loop gain itself);
+        ``adaptive``: the law has adaptive estimates (a baseline's own law, the oracle's, is
+        not slowed below a placed feedback it does not have)."""
         if self.is_ideal:
             return IDENTITY
         w, noisy = self.omega_max(w0, b_max)
@@ -716,6 +848,11 @@ class ConstraintAware:
             # smallest loop gain along the run, 1/growth of the one at t0 (§4.4: |rho| down
             # to |rho0| / RHO_FACTOR); growth = 1: K' = w, round 3's rule
             slope_scale = min(1.0, w * w / (scale * g) / big_k / (growth * growth))
+        placed = self.placement(b_max, self._omega_m(w) if noisy else math.inf)
+        if placed is not None and self.feedback is None and adaptive:
+            # the adaptive law augments the placed loop below its slowest mode
+            aug = min(1.0, C_AUGMENT * max(-placed[3], AUGMENT_FLOOR) / w)
+            scale, slope_scale = scale * aug, slope_scale * aug
         lam_factor = 1.0
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         rmin = min(scale, slope_scale)
@@ -730,7 +867,6 @@ class ConstraintAware:
                 cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
                 lam_factor = max(1.0, min(lam_factor, cap))
         omega_f = math.inf
-        feedback = self.feedback_gain(float(input_gain), b_max)
         if limited:
             omega_f = C_FILTER * w
             if self.lag > 0:
@@ -740,10 +876,12 @@ class ConstraintAware:
         omega_q = omega_m = math.inf
         if noisy:
             omega_q = C_PREFILTER_NOISE * w
-            omega_m = C_MEASURE_NOISE * w
+            omega_m = self._omega_m(w)
             if self.sample_time > 0:
                 omega_q = min(omega_q, C_EULER / self.sample_time)
-                omega_m = min(omega_m, C_EULER / self.sample_time)
+        feedback, feedback_e, feedback_i = self.feedback_gains(
+            float(input_gain), b_max, lam * lam_factor, omega_m
+        )
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
@@ -767,6 +905,8 @@ class ConstraintAware:
             self.theta_max,
             slope_scale,
             feedback,
+            feedback_e=feedback_e,
+            feedback_i=feedback_i,
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -781,19 +921,61 @@ class ConstraintAware:
         w_hw, _ = self.omega_max(math.inf, b_max)
         return C_FEEDBACK * p_u > C_FEEDBACK_GATE * w_hw
 
-    def feedback_gain(self, input_gain: float, b_max: float = 1.0) -> float:
-        """The gain of the fixed proportional feedback ``u0 += feedback s``: the loop gain
-        ``self.feedback`` (1/s), else ``C_FEEDBACK p_u`` where :meth:`fast_unstable`, over
-        the nominal input gain ``|d s'/d u0|``; 0 = none."""
+    def _omega_m(self, w: float) -> float:
+        """The measurement prefilter's bandwidth where the noise's std bound binds."""
+        omega_m = C_MEASURE_NOISE * w
+        if self.sample_time > 0:
+            omega_m = min(omega_m, C_EULER / self.sample_time)
+        return omega_m
+
+    def placement(
+        self, b_max: float = 1.0, omega_m: float = math.inf
+    ) -> tuple[float, float, float, float] | None:
+        """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
+        declared lag, half a sample of hold and the measurement prefilter ``1/omega_m`` as
+        delay) where :meth:`fast_unstable` and the plant's linearisation
+        (:attr:`open_loop`) is known; else ``None``."""
+        if self.open_loop is None or not self.fast_unstable(b_max):
+            return None
+        delay = 0.5 * self.sample_time
+        if math.isfinite(omega_m):
+            delay += 1.0 / omega_m
+        return placed_feedback(
+            float(self.open_loop[0]),
+            float(self.open_loop[1]),
+            float(self.lag),
+            delay,
+            tuple(FEEDBACK_GAIN_SCALES),
+        )
+
+    def feedback_gains(
+        self, input_gain: float, b_max: float = 1.0, lam: float = 1.0, omega_m: float = math.inf
+    ) -> tuple[float, float, float]:
+        """The gains ``(on e', on e, on int e)`` of the fixed feedback ``u0 += kd e' + kp e +
+        ki int e``, over the nominal input gain ``b = |d s'/d u0|``; zeros = none.
+
+        Where :meth:`fast_unstable` and the plant's linearisation is known
+        (:attr:`open_loop`), placed on the designer's linear model (:func:`placed_feedback`:
+        the declared lag, half a sample of hold and the measurement prefilter ``1/omega_m``
+        as delay). A designer's ``feedback`` (1/s) is a proportional path on ``s = e' + lam
+        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation,
+        the rule's ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
+        if not b > 0:
+            return 0.0, 0.0, 0.0
+        placed = self.placement(b_max, omega_m)
         if self.feedback is not None:
             rate = self.feedback
+        elif not self.fast_unstable(b_max):
+            rate = 0.0
+        elif placed is not None:
+            kp, kd, ki, _ = placed
+            return kd / b, kp / b, ki / b
         else:
-            p_u = self.unstable_rate or 0.0
-            rate = C_FEEDBACK * p_u if self.fast_unstable(b_max) else 0.0
-        if not rate > 0 or not b > 0:
-            return 0.0
-        return rate / b
+            rate = C_FEEDBACK * (self.unstable_rate or 0.0)
+        if not rate > 0:
+            return 0.0, 0.0, 0.0
+        return rate / b, rate * lam / b, 0.0
 
 
 def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float) -> Configuration:
@@ -935,7 +1117,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_q = at_h + (p if hedged else 0)
     at_m = at_q + (p if cfg.prefiltered else 0)
     at_f = at_m + (nx if cfg.has_measurement_filters else 0)
-    end = at_f + (p if cfg.filtered else 0)
+    at_i = at_f + (p if cfg.filtered else 0)
+    end = at_i + (p if cfg.feedback_i != 0 else 0)
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -944,6 +1127,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"measurement_filter{i + 1}" for i in range(nx)]
     if cfg.filtered:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
+    if cfg.feedback_i != 0:
+        g.adaptive_names += [f"feedback_integral{i + 1}" for i in range(p)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -992,11 +1177,21 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                 f"    u0[{i}] = Y[{f}]",
                 f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
             ]
-    if cfg.feedback > 0:  # the fixed proportional path on the measured filtered error
-        g.consts.append(cfg.feedback)
-        fb = f"c[{len(g.consts) - 1}]"
-        control.append("    # constraint-aware: fixed proportional feedback on s")
-        control += [f"    u0[{i}] += {fb} * sig[{nx + 2 * p + i}]" for i in range(p)]
+    if cfg.feedback != 0 or cfg.feedback_e != 0:  # fixed feedback on the measured errors
+        g.consts.extend([cfg.feedback, cfg.feedback_e])
+        fd, fe = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
+        control.append("    # constraint-aware: fixed feedback on e' and e")
+        control += [
+            f"    u0[{i}] += {fd} * sig[{nx + p + i}] + {fe} * sig[{nx + i}]" for i in range(p)
+        ]
+        if cfg.feedback_i != 0:
+            g.consts.append(cfg.feedback_i)
+            fi = f"c[{len(g.consts) - 1}]"
+            for i in range(p):
+                control += [
+                    f"    dY[{at_i + i}] = sig[{nx + i}]",
+                    f"    u0[{i}] += {fi} * Y[{at_i + i}]",
+                ]
     if (
         any(f > 0 for f in cfg.output_feedback) and not cfg.feedback_filtered
     ):  # per-output fixed feedback (MIMO floor)
