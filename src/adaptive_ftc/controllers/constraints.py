@@ -1002,7 +1002,9 @@ def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float)
     ``lam`` x4 (the shared rule's 8) has 1.74e-2 rad, x2 1.10e-2 (error 4.9e-4 -> 7.3e-4).
     The cost: the wrong-signed runs (hypersonic-nussbaum-s1-neg, -s2-neg) need the larger
     ``lam`` to find the direction (``tau' = alpha1 q^2`` against the wrong-signed loop's
-    growth) and diverge at 0.9 s with noise (docs/hardware.md)."""
+    growth); with noise they track (error 1.6e-4 to 7.2e-4) but keep 1.2x (s1-neg) and 8.7x
+    (s2-neg) the fast-content target, after the Nussbaum gain cap of session 11
+    (``NussbaumAdaptive.gain_cap``; docs/hardware.md)."""
     if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter:
         return cfg
     if w * w * max(1.0, cfg.lam_factor) * ca.noise_density <= C_NOISE_DENSITY:
