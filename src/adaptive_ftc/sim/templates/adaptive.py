@@ -1015,9 +1015,12 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
     if bad >= 0:
         _keep_stop(0, out_Y, w.Y)
         return 0, 1, t_breaks[0], bad
-    r = 0
+    # np.int64, not a literal 0: numba would otherwise also compile _records_at and _steps
+    # for a Literal[int](0) argument, a second copy of the step loop (about 2 s of CPU on a
+    # first run; benchmarks/bench_compile_events.py)
+    r = np.int64(0)
     stiff = not _DOPRI5
-    nstep = 0
+    nstep = np.int64(0)
     for ph in range(nph):
         a = t_breaks[ph]
         b = t_breaks[ph + 1]
