@@ -256,7 +256,8 @@ def _run_chunk(
     out: list[Any] = [None] * len(loops)
     for kind, idx in groups:
         if kind == "lanes" and (len(idx) > 1 or strict):
-            runs = integrate_lanes([built[k] for k in idx], kernels=kernels)
+            # lean: the lanes' own signals pass over the records (stage 3)
+            runs = integrate_lanes([built[k] for k in idx], kernels=kernels, lean=lean)
             for k, run in zip(idx, runs, strict=True):
                 result = finish_run(built[k], run, lean=lean)  # type: ignore[arg-type]
                 out[k] = result if reduce is None else reduce(result)
