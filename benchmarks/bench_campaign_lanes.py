@@ -34,7 +34,6 @@ from adaptive_ftc.campaigns.store import read_results  # noqa: E402
 from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
 from adaptive_ftc.sim.batch import iter_simulate  # noqa: E402
 
-
 LEAN_GROUPS = [0, 0]  # lane groups run, and those with the lanes' lean signals pass
 _integrate_lanes = lane_engine.integrate_lanes
 
