@@ -21,7 +21,7 @@ from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
 from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.compose import Assembled
 from adaptive_ftc.sim.engine import CompiledLoop
-from adaptive_ftc.sim.lanes import LANE_WIDTH, integrate_lanes
+from adaptive_ftc.sim.lanes import LANE_WIDTH, integrate_lanes, lane_groups
 
 SOLVERS = {
     "rk4": SolverOptions(method="rk4", dt=1e-3, record_dt=1e-3),
@@ -59,6 +59,9 @@ def _members(base) -> list:
     ]
     loops = [replace(base, failures=f) for f in fails]
     loops[6] = replace(loops[6], t_final=2.2)
+    # other reference numbers (one structure): this lane computes its own reference, the
+    # others share lane 0's (the same numbers, the same time)
+    loops[5] = replace(loops[5], reference=("pi/30*sin(0.25*t)",))
     ctrl = replace(base.controller, gamma=3.0, k=4.0)
     loops[7] = replace(base, controller=ctrl, initial_state=(0.01, 0.02))
     return loops
@@ -109,7 +112,10 @@ def test_lean_lanes_equal_lean_single_runs(base, method, monkeypatch):
     solver = SOLVERS[method]
     loops = _members(base)
     assert len(loops) == LANE_WIDTH
+    groups, _ = lane_groups(loops, solver)
+    assert groups == [("lanes", list(range(LANE_WIDTH)))]  # one structure, one group
     singles = _singles(loops, solver)
+    assert not np.array_equal(singles[5].e[:400], singles[0].e[:400])  # before its failure
     statuses = [r.status for r in singles]
     assert statuses.count("diverged") == 1 and singles[4].reason.envelope
     lanes = _lean_lanes(loops, solver, monkeypatch)

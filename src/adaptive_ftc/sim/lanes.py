@@ -234,6 +234,9 @@ class _Plan:
     nc: int  # lane rows of constants: D.c[:nc]
     nb: int  # rows of the lane buffer
     rows: dict  # names of rows -> first row (Y, FK, FC, REFT, CR...)
+    #: the places in ``D.c`` that the reference reads (None: not all of them constant): lanes
+    #: whose numbers there equal lane 0's, bit for bit, share its reference in the lean pass
+    ref_consts: tuple[int, ...] | None = None
 
 
 def _reference_lines(source: str) -> list[str]:
@@ -296,6 +299,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     claim("XD", nx)
     claim("UF", m)
     claim("UC", m)  # the commands u = R^T u0 (the lean signals' pass, stage 3)
+    claim("RSH", 1)  # 1: the lane's reference numbers are lane 0's (the lean signals' pass)
     nb = nxt
 
     def cr(k: int) -> str:
@@ -426,10 +430,31 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         '    """The rhs of the W lanes up to their commands: e (row SIG + NX), u (rows UC..) and',
         '    the applied u (rows UF..), as the single run\'s rhs with a dY one longer than Y."""',
     ]
-    for ln in body[4:at_plant]:
+    # the reference: a lane at lane 0's time with lane 0's numbers copies its values (the
+    # same operations on the same numbers: the same bits), the others compute their own
+    at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
+    reference = body[4:at_errors]
+    at_ref = reference.index("        if B[REFT * W + w] != t:")
+    computed = reference[at_ref + 1 : -1]  # the rK lines and the REF rows (REFT's last)
+    commands += reference[: at_ref + 1] + [
+        "            if w > 0 and B[RSH * W + w] != 0.0 and t == B[tt * W]:",
+        "                B[REF * W + w] = B[REF * W]",
+        "                B[(REF + 1) * W + w] = B[(REF + 1) * W]",
+        "                B[(REF + 2) * W + w] = B[(REF + 2) * W]",
+        "            else:",
+        *["    " + ln for ln in computed],
+        reference[-1],
+    ]
+    for ln in body[at_errors:at_plant]:
         commands.append(ln)
         if ln.lstrip().startswith("acc = 0.0 + "):
             commands.append("            B[(UC + j) * W + w] = acc")
+    ref_index = re.findall(r"\bc\[([^\]]+)\]", "\n".join(_reference_lines(asm.source)))
+    ref_consts = (
+        tuple(sorted({int(k) for k in ref_index}))
+        if all(k.strip().isdigit() for k in ref_index)
+        else None
+    )
     env = params["envelope"]
     consts = [
         f"W = {width}",
@@ -455,7 +480,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     text = head + "\n".join(
         [*consts, "", "", "\n".join(body), "", "", "\n".join(commands), "", "", _LEAN_PASS, kernel]
     )
-    return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
+    return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows, ref_consts=ref_consts)
 
 
 _TITLE = {"rk4": "", "dopri5": ", DOPRI5"}  # (the RK4 modules' text as in stage 1)
@@ -765,7 +790,7 @@ def integrate_lanes(
     wall = (time.perf_counter() - start) / width
     lean_out: list = [None] * n
     if lean:
-        lean_out = _lean_signals(module, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon)
+        lean_out = _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon)
     out = []
     for w in range(n):
         cl = compiled[w]
@@ -791,12 +816,19 @@ def integrate_lanes(
     return out
 
 
-def _lean_signals(module, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon) -> list:
+def _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon) -> list:
     """The lean signals' pass of a lane group's records (the module's ``lean_pass``): per
     member ``(block, first record outside the envelope or -1)``."""
     from adaptive_ftc.sim.result import lean_signal_block
 
     n, width = len(compiled), nrec.size
+    rows = plan.rows
+    share = np.zeros(width)
+    if plan.ref_consts is not None:  # the lanes whose reference numbers are lane 0's, bit for bit
+        c = B[rows["CR"] * width : (rows["CR"] + plan.nc) * width].reshape(plan.nc, width)
+        bits = c[list(plan.ref_consts)].view(np.int64)
+        share = np.all(bits == bits[:, :1], axis=0).astype(float)
+    B[rows["RSH"] * width : (rows["RSH"] + 1) * width] = share
     blocks_ = [lean_signal_block(cl.loop, int(nrec[w])) for w, cl in enumerate(compiled)]
     cols = blocks_[0].shape[1]
     outs = tuple(blocks_ + [np.empty((1, cols)) for _ in range(width - n)])
