@@ -90,7 +90,7 @@ def iter_simulate(
     which is dropped there (a campaign reduces each run to its metrics row this way, without
     the trajectories passing through one thread). An exception it raises is raised here.
     ``lean_signals``: as in :func:`simulate` (only the signals the metrics read; a campaign's
-    ``reduce`` reads nothing else).
+    ``reduce`` reads nothing else); with lanes, a lane group computes them itself.
 
     ``lanes``: run members in SIMD lanes (:mod:`adaptive_ftc.sim.lanes`: ``LANE_WIDTH`` = 8
     members of one structure per compiled call, each member's result equal to its own

@@ -32,6 +32,11 @@ read from each member's :class:`~adaptive_ftc.sim.compose.LoopData` into the lan
 members may differ in any number of the loop. The kernel compiles with LLVM's SLP vectoriser
 switched on for its own compilation only (:func:`at_lane_level`; numba leaves it off by default).
 
+With ``lean=True`` (stage 3: a campaign's ``lean_signals``), :func:`integrate_lanes` also runs
+the lanes' own signals' pass over the records (the module's ``commands`` and ``lean_pass``: the
+tracking error, commands and applied commands of every record of every lane, bit for bit each
+member's lean single run's), so the records are not gone over one member at a time.
+
 ``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
 of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
 (about 1e-14 of the signal scale from the single run).
