@@ -96,12 +96,12 @@ def _no_scalar_pass(monkeypatch) -> None:
     monkeypatch.setattr(Assembled, "signals", refuse)
 
 
-def _lean_lanes(loops, solver, monkeypatch):
+def _lean_lanes(loops, solver, monkeypatch, jobs=1):
     with monkeypatch.context() as mp:
         _no_scalar_pass(mp)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DivergenceWarning)
-            return list(iter_simulate(loops, solver, jobs=1, lanes=True, lean_signals=True))
+            return list(iter_simulate(loops, solver, jobs=jobs, lanes=True, lean_signals=True))
 
 
 @pytest.mark.parametrize("method", sorted(SOLVERS))
@@ -129,14 +129,14 @@ def test_lean_lanes_equal_lean_single_runs(base, method, monkeypatch):
 @pytest.mark.parametrize("method", sorted(SOLVERS))
 def test_a_partial_group_and_more_members_than_lanes(base, method, monkeypatch):
     """Ten members: a group of 8 and a group of 2 (six padding lanes that record nothing);
-    a failure at t0 in one lane."""
+    a failure at t0 in one lane; the two groups on two threads."""
     solver = SOLVERS[method]
     loops = _members(base) + [
         replace(base, t_final=1.0, failures=(Bias(actuator=1, onset=0.0, bias=0.05),)),
         replace(base, t_final=1.7, failures=_reversed(1.0)),
     ]
     singles = _singles(loops, solver)
-    lanes = _lean_lanes(loops, solver, monkeypatch)
+    lanes = _lean_lanes(loops, solver, monkeypatch, jobs=2)
     assert len(lanes) == 10
     for a, b in zip(lanes, singles, strict=True):
         _same_lean(a, b)
