@@ -1,8 +1,10 @@
-"""Campaign throughput with the lane engine (issue 29, stage 2): bench_campaign.py's campaign
-(hypersonic-direct-s1, 120 s runs, the base scenario's DOPRI5 rtol 1e-6 / atol 1e-9) run by
-``run_campaign`` as it is (members one per thread) and with its members in SIMD lanes
+"""Campaign throughput with the lane engine (issue 29, stages 2 and 3): bench_campaign.py's
+campaign (hypersonic-direct-s1, 120 s runs, the base scenario's DOPRI5 rtol 1e-6 / atol 1e-9)
+run by ``run_campaign`` as it is (members one per thread) and with its members in SIMD lanes
 (``iter_simulate(..., lanes="auto")``, patched into the campaign runner here: the runner does
-not pass ``lanes`` yet), interleaved, in the same process.
+not pass ``lanes`` yet), interleaved, in the same process. The patched runner passes
+``lean_signals=True`` as the real one does (its keywords go through), so the lane groups take
+the lanes' own signals pass (stage 3); the bench counts the lane groups that did.
 
 Run: ``python benchmarks/bench_campaign_lanes.py [--runs 200] [--jobs 1] [--rounds 2]``.
 
@@ -26,10 +28,23 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_campaign import spec_data  # noqa: E402
 
 import adaptive_ftc.campaigns.runner as runner  # noqa: E402
+import adaptive_ftc.sim.lanes as lane_engine  # noqa: E402
 from adaptive_ftc.campaigns import load_campaign, run_campaign  # noqa: E402
 from adaptive_ftc.campaigns.store import read_results  # noqa: E402
 from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
 from adaptive_ftc.sim.batch import iter_simulate  # noqa: E402
+
+LEAN_GROUPS = [0, 0]  # lane groups run, and those with the lanes' lean signals pass
+_integrate_lanes = lane_engine.integrate_lanes
+
+
+def _counted(compiled, *args, **kw):
+    LEAN_GROUPS[0] += 1
+    LEAN_GROUPS[1] += bool(kw.get("lean"))
+    return _integrate_lanes(compiled, *args, **kw)
+
+
+lane_engine.integrate_lanes = _counted  # batch._run_chunk imports it from there on each call
 
 
 def timed(spec, out: Path, jobs: int, lanes: bool) -> tuple[float, float]:
@@ -74,6 +89,7 @@ def main() -> int:
                 f"wall {c1:6.2f} s CPU; lanes / one at a time: wall {w1 / w0:.3f}, "
                 f"CPU {c1 / c0:.3f}"
             )
+        print(f"  lane groups: {LEAN_GROUPS[0]}, with the lanes' lean signals: {LEAN_GROUPS[1]}")
         a = read_results(root / "single0")
         b = read_results(root / "lanes0")
         timing = [c for c in a.columns if "wall" in c]  # the runs' own timings differ

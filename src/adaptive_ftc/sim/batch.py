@@ -90,7 +90,7 @@ def iter_simulate(
     which is dropped there (a campaign reduces each run to its metrics row this way, without
     the trajectories passing through one thread). An exception it raises is raised here.
     ``lean_signals``: as in :func:`simulate` (only the signals the metrics read; a campaign's
-    ``reduce`` reads nothing else).
+    ``reduce`` reads nothing else); with lanes, a lane group computes them itself.
 
     ``lanes``: run members in SIMD lanes (:mod:`adaptive_ftc.sim.lanes`: ``LANE_WIDTH`` = 8
     members of one structure per compiled call, each member's result equal to its own
@@ -256,7 +256,8 @@ def _run_chunk(
     out: list[Any] = [None] * len(loops)
     for kind, idx in groups:
         if kind == "lanes" and (len(idx) > 1 or strict):
-            runs = integrate_lanes([built[k] for k in idx], kernels=kernels)
+            # lean: the lanes' own signals pass over the records (stage 3)
+            runs = integrate_lanes([built[k] for k in idx], kernels=kernels, lean=lean)
             for k, run in zip(idx, runs, strict=True):
                 result = finish_run(built[k], run, lean=lean)  # type: ignore[arg-type]
                 out[k] = result if reduce is None else reduce(result)

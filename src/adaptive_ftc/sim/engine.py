@@ -336,6 +336,10 @@ class Integration(NamedTuple):
     reason: StatusReason | None
     wall: float
     stats: np.ndarray
+    #: the lean signals' block and the first record outside the plant's envelope (-1: none),
+    #: when the integrator computed them already (the lane engine's signals pass, stage 3);
+    #: :meth:`CompiledLoop.recorded` then uses them for a lean result instead of its own pass
+    lean_signals: tuple[np.ndarray, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -393,11 +397,18 @@ class CompiledLoop:
         metrics read (``simulate``'s ``lean_signals``)."""
         nrec = run.nrec
         T, Y, phases = self.t_rec[:nrec], run.Y[:nrec], run.phases[:nrec]
-        signals = (lean_signal_block if lean else signal_block)(self.loop, nrec)
+        signals: np.ndarray
+        if lean and run.lean_signals is not None:
+            signals = run.lean_signals[0]
+        else:
+            signals = (lean_signal_block if lean else signal_block)(self.loop, nrec)
         status, reason = run.status, run.reason
         if nrec:
             # the signals' pass over the records also finds the first one outside the envelope
-            first = self.asm.signals(T, Y, phases, signals, lean=lean)
+            if lean and run.lean_signals is not None:  # computed in lanes (sim/lanes.py)
+                first = run.lean_signals[1]
+            else:
+                first = self.asm.signals(T, Y, phases, signals, lean=lean)
             cut, env_reason = _envelope_cut(self.loop, Y, T, nrec, first=first)
             if env_reason is not None:
                 status, reason = RunStatus.DIVERGED, env_reason

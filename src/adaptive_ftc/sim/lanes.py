@@ -32,6 +32,11 @@ read from each member's :class:`~adaptive_ftc.sim.compose.LoopData` into the lan
 members may differ in any number of the loop. The kernel compiles with LLVM's SLP vectoriser
 switched on for its own compilation only (:func:`at_lane_level`; numba leaves it off by default).
 
+With ``lean=True`` (stage 3: a campaign's ``lean_signals``), :func:`integrate_lanes` also runs
+the lanes' own signals' pass over the records (the module's ``commands`` and ``lean_pass``: the
+tracking error, commands and applied commands of every record of every lane, bit for bit each
+member's lean single run's), so the records are not gone over one member at a time.
+
 ``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
 of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
 (about 1e-14 of the signal scale from the single run).
@@ -234,6 +239,9 @@ class _Plan:
     nc: int  # lane rows of constants: D.c[:nc]
     nb: int  # rows of the lane buffer
     rows: dict  # names of rows -> first row (Y, FK, FC, REFT, CR...)
+    #: the places in ``D.c`` that the reference reads (None: not all of them constant): lanes
+    #: whose numbers there equal lane 0's, bit for bit, share its reference in the lean pass
+    ref_consts: tuple[int, ...] | None = None
 
 
 def _reference_lines(source: str) -> list[str]:
@@ -295,6 +303,8 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     claim("PHI", n_phi)
     claim("XD", nx)
     claim("UF", m)
+    claim("UC", m)  # the commands u = R^T u0 (the lean signals' pass, stage 3)
+    claim("RSH", 1)  # 1: the lane's reference numbers are lane 0's (the lean signals' pass)
     nb = nxt
 
     def cr(k: int) -> str:
@@ -417,11 +427,47 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         f"            adapt = B[{cr(at['adapt'])} * W + w]",
         f"            B[(dy + {nx} + l) * W + w] = v if adapt != 0.0 else 0.0",
     ]
+    # the commands only (the rhs up to the plant, storing u too): the lean signals' pass
+    at_plant = body.index("    # the plant")
+    commands = [
+        "@inl",
+        "def commands(B, tt, y):",
+        '    """The rhs of the W lanes up to their commands: e (row SIG + NX), u (rows UC..) and',
+        '    the applied u (rows UF..), as the single run\'s rhs with a dY one longer than Y."""',
+    ]
+    # the reference: a lane at lane 0's time with lane 0's numbers copies its values (the
+    # same operations on the same numbers: the same bits), the others compute their own
+    at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
+    reference = body[4:at_errors]
+    at_ref = reference.index("        if B[REFT * W + w] != t:")
+    computed = reference[at_ref + 1 : -1]  # the rK lines and the REF rows (REFT's last)
+    commands += reference[: at_ref + 1] + [
+        "            if w > 0 and B[RSH * W + w] != 0.0 and t == B[tt * W]:",
+        "                B[REF * W + w] = B[REF * W]",
+        "                B[(REF + 1) * W + w] = B[(REF + 1) * W]",
+        "                B[(REF + 2) * W + w] = B[(REF + 2) * W]",
+        "            else:",
+        *["    " + ln for ln in computed],
+        reference[-1],
+    ]
+    for ln in body[at_errors:at_plant]:
+        commands.append(ln)
+        if ln.lstrip().startswith("acc = 0.0 + "):
+            commands.append("            B[(UC + j) * W + w] = acc")
+    ref_index = re.findall(r"\bc\[([^\]]+)\]", "\n".join(_reference_lines(asm.source)))
+    ref_consts = (
+        tuple(sorted({int(k) for k in ref_index}))
+        if all(k.strip().isdigit() for k in ref_index)
+        else None
+    )
     env = params["envelope"]
     consts = [
         f"W = {width}",
         f"NY = {ny}",
         f"NB = {nb}",
+        f"NX = {nx}",
+        f"M = {m}",
+        f"POS = {pos}",
         f"ENV = {env.start}",
         f"NENV = {env.stop - env.start}",
         *[f"{name} = {row}" for name, row in rows.items()],
@@ -436,8 +482,10 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     if kernels == "vector":
         head += _VECTOR_IMPORTS
     kernel = codegen.template(f"lanes_{method}")
-    text = head + "\n".join([*consts, "", "", "\n".join(body), "", "", kernel])
-    return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows)
+    text = head + "\n".join(
+        [*consts, "", "", "\n".join(body), "", "", "\n".join(commands), "", "", _LEAN_PASS, kernel]
+    )
+    return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows, ref_consts=ref_consts)
 
 
 _TITLE = {"rk4": "", "dopri5": ", DOPRI5"}  # (the RK4 modules' text as in stage 1)
@@ -459,6 +507,55 @@ from adaptive_ftc.sim.mathlib import {guarded}
 hot = at_lane_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
 inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
 {jits}
+
+'''
+
+# the lean signals' pass of a lane group (stage 3), pasted after ``commands``
+_LEAN_PASS = '''@hot
+def lean_pass(B, t_rec, Ys, phs, nrec, fkind, fcon, outs, outside, prev):
+    """The lean signals of the W lanes' records, as each member's single run computes them
+    (templates/record.py with lean: its rhs up to the commands at every record): e, u and the
+    applied u of record n of lane w into outs[w][n], and per lane the first record whose plant
+    states leave the envelope (outside[w], -1: none). Ys[w], phs[w], t_rec[w]: lane w's
+    records, phases and times (nrec[w] of them: 0 for a padding lane); fkind, fcon: the
+    failures per interval (as run_group's); prev: scratch. Lanes past their last record
+    idle."""
+    nmax = 0
+    for w in range(W):
+        B[REFT * W + w] = np.nan
+        outside[w] = -1
+        prev[w] = -1
+        nmax = max(nmax, nrec[w])
+    for n in range(nmax):
+        for w in range(W):
+            if n >= nrec[w]:
+                continue
+            p = phs[w, n]
+            if p != prev[w]:  # the record's interval: its failures
+                prev[w] = p
+                for j in range(M):
+                    B[(FK + j) * W + w] = fkind[w, p, j]
+                    for k in range(5):
+                        B[(FC + 5 * j + k) * W + w] = fcon[w, p, j, k]
+            B[TIN * W + w] = t_rec[w, n]
+            Yw = Ys[w]
+            for i in range(NY):
+                B[(YT + i) * W + w] = Yw[n, i]
+        commands(B, TIN, YT)
+        for w in range(W):
+            if n >= nrec[w]:
+                continue
+            o = outs[w]
+            o[n, 0] = B[(SIG + NX) * W + w]
+            for j in range(M):
+                o[n, 1 + j] = B[(UC + j) * W + w]
+                o[n, 1 + M + j] = B[(UF + j) * W + w]
+            if outside[w] < 0:
+                for i in range(NENV):
+                    if not (abs(B[(YT + i) * W + w]) <= B[(CR + ENV + i) * W + w]):
+                        outside[w] = n
+                        break
+
 
 '''
 
@@ -592,11 +689,15 @@ def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
     _checked.add(key)
 
 
-def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm") -> list:
+def integrate_lanes(
+    compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm", *, lean: bool = False
+) -> list:
     """Integrate ``compiled`` (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure,
     at most ``width``, every one eligible) in one lane group; returns one
     :class:`~adaptive_ftc.sim.engine.Integration` per member, each equal to its own
-    ``integrate()``."""
+    ``integrate()``. ``lean``: with the lean signals of every record too, computed for the
+    lanes at once (stage 3: the module's ``lean_pass``), each member's equal to its single
+    run's lean pass (:func:`~adaptive_ftc.sim.engine.finish_run` with ``lean`` takes them)."""
     from adaptive_ftc.sim.engine import Integration, _stop
     from adaptive_ftc.sim.status import RunStatus
 
@@ -692,6 +793,9 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
             limit, start_, reject, last, inside, active, np.empty((6, plan.ny)),
         )  # fmt: skip
     wall = (time.perf_counter() - start) / width
+    lean_out: list = [None] * n
+    if lean:
+        lean_out = _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon)
     out = []
     for w in range(n):
         cl = compiled[w]
@@ -711,8 +815,35 @@ def integrate_lanes(compiled: Sequence, width: int = LANE_WIDTH, kernels: str = 
 
                 if int(stats[w, 0]) + int(stats[w, 1]) >= MAX_STEPS:  # as the single run
                     outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
-        out.append(Integration(Y, phases, k, outcome[0], outcome[1], wall, stats[w].copy()))
+        out.append(
+            Integration(Y, phases, k, *outcome, wall, stats[w].copy(), lean_signals=lean_out[w])
+        )
     return out
+
+
+def _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon) -> list:
+    """The lean signals' pass of a lane group's records (the module's ``lean_pass``): per
+    member ``(block, first record outside the envelope or -1)``."""
+    from adaptive_ftc.sim.result import lean_signal_block
+
+    n, width = len(compiled), nrec.size
+    rows = plan.rows
+    share = np.zeros(width)
+    if plan.ref_consts is not None:  # the lanes whose reference numbers are lane 0's, bit for bit
+        c = B[rows["CR"] * width : (rows["CR"] + plan.nc) * width].reshape(plan.nc, width)
+        bits = c[list(plan.ref_consts)].view(np.int64)
+        share = np.all(bits == bits[:, :1], axis=0).astype(float)
+    B[rows["RSH"] * width : (rows["RSH"] + 1) * width] = share
+    blocks_ = [lean_signal_block(cl.loop, int(nrec[w])) for w, cl in enumerate(compiled)]
+    cols = blocks_[0].shape[1]
+    outs = tuple(blocks_ + [np.empty((1, cols)) for _ in range(width - n)])
+    counts = nrec.copy()
+    counts[n:] = 0  # padding lanes: no records
+    ys = tuple(out_Y[w] for w in range(width))
+    outside = np.empty(width, dtype=np.int64)
+    prev = np.empty(width, dtype=np.int64)
+    module.lean_pass(B, t_rec, ys, out_ph, counts, fkind, fcon, outs, outside, prev)
+    return [(blocks_[w], int(outside[w])) for w in range(n)]
 
 
 def simulate_lanes(
