@@ -338,6 +338,20 @@ AUGMENT_FLOOR = 0.01
 FEEDBACK_GAIN_SCALES = (0.65, 1.0)
 
 
+#: the feedback is placed only where the designer's model declares a delay (an actuator lag,
+#: a rate limiter's own linear band ``RATE_ONLY_TAU`` included, or a sample time); without
+#: one (noise alone) the proportional path on ``s`` at ``C_FEEDBACK p_u`` (the session-10
+#: rule) keeps its phase and the adaptive law is not slowed below it. Measured (issue 25's
+#: noise case, 1 % of the reference, wingrock-direct-s1, judged 8.5-10 s after the aileron's
+#: recovery at 8 s): placed, the recovery's transient is still decaying in the window, error
+#: 1.06e-2 rad (target 1.75e-3); proportional 2.0e-4. Not a gain for §2.4 (its capped
+#: compensator does not learn the stuck aileron's torque at this loop rate): the roll is
+#: lost at 0.44 rad (session 10's number), placed 1.0e-2; both fail. The wingrock-hardware
+#: campaign draws a rate limit for every member, so every member declares a delay and the
+#: campaign is unchanged. ``True``: placed without a delay too.
+PLACE_UNDELAYED = False
+
+
 #: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
 #: (:func:`placed_feedback`).
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
@@ -934,8 +948,11 @@ class ConstraintAware:
         """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
         declared lag, half a sample of hold and the measurement prefilter ``1/omega_m`` as
         delay) where :meth:`fast_unstable` and the plant's linearisation
-        (:attr:`open_loop`) is known; else ``None``."""
+        (:attr:`open_loop`) is known and the model declares a lag or a sample time
+        (``PLACE_UNDELAYED``); else ``None``."""
         if self.open_loop is None or not self.fast_unstable(b_max):
+            return None
+        if not (PLACE_UNDELAYED or self.lag > 0 or self.sample_time > 0):
             return None
         delay = 0.5 * self.sample_time
         if math.isfinite(omega_m):
