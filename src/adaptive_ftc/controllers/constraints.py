@@ -102,7 +102,9 @@ design, not another design) it derives, by the rules below, one configuration
    plant linearised at ``t0``, :meth:`AdaptiveController.open_loop_rows`, behind the declared
    lag and half a sample of hold) for the largest worst-case decay rate over an input gain
    cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
-   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``). The
+   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``); only
+   behind a declared lag or sample time (``PLACE_UNDELAYED``: noise alone keeps the
+   proportional path below). The
    thesis law's ``u0 = Pi^T theta``
    is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
    rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
@@ -975,8 +977,9 @@ class ConstraintAware:
         (:attr:`open_loop`), placed on the designer's linear model (:func:`placed_feedback`:
         the declared lag, half a sample of hold and the measurement prefilter ``1/omega_m``
         as delay). A designer's ``feedback`` (1/s) is a proportional path on ``s = e' + lam
-        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation,
-        the rule's ``C_FEEDBACK p_u`` on ``s``."""
+        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation
+        or without a declared lag or sample time (``PLACE_UNDELAYED``), the rule's
+        ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if not b > 0:
             return 0.0, 0.0, 0.0
