@@ -102,7 +102,9 @@ design, not another design) it derives, by the rules below, one configuration
    plant linearised at ``t0``, :meth:`AdaptiveController.open_loop_rows`, behind the declared
    lag and half a sample of hold) for the largest worst-case decay rate over an input gain
    cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
-   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``). The
+   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``); only
+   behind a declared lag or sample time (``PLACE_UNDELAYED``: noise alone keeps the
+   proportional path below). The
    thesis law's ``u0 = Pi^T theta``
    is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
    rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
@@ -336,6 +338,20 @@ AUGMENT_FLOOR = 0.01
 #: 455 (28 members with 35-50 ms lags gained, where no gains hold a halved input gain; 9
 #: with the first aileron stuck lost), (0.8, 1) 450.
 FEEDBACK_GAIN_SCALES = (0.65, 1.0)
+
+
+#: the feedback is placed only where the designer's model declares a delay (an actuator lag,
+#: a rate limiter's own linear band ``RATE_ONLY_TAU`` included, or a sample time); without
+#: one (noise alone) the proportional path on ``s`` at ``C_FEEDBACK p_u`` (the session-10
+#: rule) keeps its phase and the adaptive law is not slowed below it. Measured (issue 25's
+#: noise case, 1 % of the reference, wingrock-direct-s1, judged 8.5-10 s after the aileron's
+#: recovery at 8 s): placed, the recovery's transient is still decaying in the window, error
+#: 1.06e-2 rad (target 1.75e-3); proportional 2.0e-4. Not a gain for §2.4 (its capped
+#: compensator does not learn the stuck aileron's torque at this loop rate): the roll is
+#: lost at 0.44 rad (session 10's number), placed 1.0e-2; both fail. The wingrock-hardware
+#: campaign draws a rate limit for every member, so every member declares a delay and the
+#: campaign is unchanged. ``True``: placed without a delay too.
+PLACE_UNDELAYED = False
 
 
 #: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
@@ -934,8 +950,11 @@ class ConstraintAware:
         """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
         declared lag, half a sample of hold and the measurement prefilter ``1/omega_m`` as
         delay) where :meth:`fast_unstable` and the plant's linearisation
-        (:attr:`open_loop`) is known; else ``None``."""
+        (:attr:`open_loop`) is known and the model declares a lag or a sample time
+        (``PLACE_UNDELAYED``); else ``None``."""
         if self.open_loop is None or not self.fast_unstable(b_max):
+            return None
+        if not (PLACE_UNDELAYED or self.lag > 0 or self.sample_time > 0):
             return None
         delay = 0.5 * self.sample_time
         if math.isfinite(omega_m):
@@ -958,8 +977,9 @@ class ConstraintAware:
         (:attr:`open_loop`), placed on the designer's linear model (:func:`placed_feedback`:
         the declared lag, half a sample of hold and the measurement prefilter ``1/omega_m``
         as delay). A designer's ``feedback`` (1/s) is a proportional path on ``s = e' + lam
-        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation,
-        the rule's ``C_FEEDBACK p_u`` on ``s``."""
+        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation
+        or without a declared lag or sample time (``PLACE_UNDELAYED``), the rule's
+        ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if not b > 0:
             return 0.0, 0.0, 0.0
