@@ -1112,6 +1112,20 @@ def _filtered_regressors(g, at_m: int) -> list[str]:
     return lines
 
 
+def _floor_lines(cfg: Configuration, g, nx: int, p: int) -> list[str]:
+    """The MIMO floor's lines, ``u0_i += f_i s_i`` per output with ``f_i > 0`` (its gains
+    appended to the module's constants); none without a floor."""
+    if not any(f > 0 for f in cfg.output_feedback):
+        return []
+    f0 = len(g.consts)
+    g.consts.extend(float(f) for f in cfg.output_feedback)
+    return ["    # constraint-aware: fixed proportional feedback on each s_i (floor)"] + [
+        f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
+        for i, f in enumerate(cfg.output_feedback)
+        if f > 0
+    ]
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -1169,17 +1183,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
-    if (
-        any(f > 0 for f in cfg.output_feedback) and cfg.feedback_filtered
-    ):  # per-output fixed feedback (MIMO floor)
-        f0 = len(g.consts)
-        g.consts.extend(float(f) for f in cfg.output_feedback)
-        control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")
-        control += [
-            f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
-            for i, f in enumerate(cfg.output_feedback)
-            if f > 0
-        ]
+    if cfg.feedback_filtered:  # the MIMO floor before the command filter
+        control += _floor_lines(cfg, g, nx, p)
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
@@ -1214,17 +1219,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                     f"    dY[{at_i + i}] = sig[{nx + i}]",
                     f"    u0[{i}] += {fi} * Y[{at_i + i}]",
                 ]
-    if (
-        any(f > 0 for f in cfg.output_feedback) and not cfg.feedback_filtered
-    ):  # per-output fixed feedback (MIMO floor)
-        f0 = len(g.consts)
-        g.consts.extend(float(f) for f in cfg.output_feedback)
-        control.append("    # constraint-aware: fixed proportional feedback on each s_i (floor)")
-        control += [
-            f"    u0[{i}] += c[{f0 + i}] * sig[{nx + 2 * p + i}]"
-            for i, f in enumerate(cfg.output_feedback)
-            if f > 0
-        ]
+    if not cfg.feedback_filtered:  # the MIMO floor after the command filter
+        control += _floor_lines(cfg, g, nx, p)
     if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")

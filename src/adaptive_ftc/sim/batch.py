@@ -139,16 +139,7 @@ def iter_simulate(
         )
         return
     window = 4 * jobs if window is None else window
-    bar: Any = None  # an EtaBar (a known number of runs) or a tqdm bar (an open stream)
-    if progress:
-        if isinstance(loops, Sized):  # runs of one solver: the ETA counts them as equals
-            from adaptive_ftc._feedback import EtaBar
-
-            bar = EtaBar(len(loops), desc="simulations", unit="run")
-        else:  # an open stream: no total, no ETA
-            from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
-
-            bar = tqdm(total=None, desc="simulations")
+    bar = _bar(loops, progress)
     source = iter(loops)
     pending: deque = deque()
     pool = ThreadPoolExecutor(max_workers=jobs)
@@ -162,15 +153,34 @@ def iter_simulate(
             following = next(source, None)
             if following is not None:  # the next run starts before the caller takes this result
                 pending.append(pool.submit(_run, following, solver, reduce, lean_signals))
-            if hasattr(bar, "tick"):
-                bar.tick()
-            elif bar is not None:
-                bar.update()
+            _tick(bar)
             yield result
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
             bar.close()
+
+
+def _bar(loops: Iterable, progress: bool) -> Any:
+    """The progress bar of a batch: an EtaBar for a known number of runs (of one solver: the
+    ETA counts them as equals), a tqdm bar without total or ETA for an open stream, or None."""
+    if not progress:
+        return None
+    if isinstance(loops, Sized):
+        from adaptive_ftc._feedback import EtaBar
+
+        return EtaBar(len(loops), desc="simulations", unit="run")
+    from tqdm.auto import tqdm  # imported on use: it costs 40 ms at import time
+
+    return tqdm(total=None, desc="simulations")
+
+
+def _tick(bar: Any) -> None:
+    """One run more on the bar (an EtaBar ticks, a tqdm bar updates; None: no bar)."""
+    if hasattr(bar, "tick"):
+        bar.tick()
+    elif bar is not None:
+        bar.update()
 
 
 def _run(
@@ -188,16 +198,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
 
     width = LANE_WIDTH
     in_flight = max(window or 0, 2 * jobs * width)
-    bar: Any = None
-    if progress:
-        if isinstance(loops, Sized):
-            from adaptive_ftc._feedback import EtaBar
-
-            bar = EtaBar(len(loops), desc="simulations", unit="run")
-        else:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=None, desc="simulations")
+    bar = _bar(loops, progress)
     source = iter(loops)
 
     def chunk() -> list:
@@ -232,10 +233,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
                 pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
                 members += len(part)
             for result in results:
-                if hasattr(bar, "tick"):
-                    bar.tick()
-                elif bar is not None:
-                    bar.update()
+                _tick(bar)
                 yield result
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
