@@ -481,11 +481,24 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     )
     if kernels == "vector":
         head += _VECTOR_IMPORTS
+        body = _vector_reference(body)
     kernel = codegen.template(f"lanes_{method}")
     text = head + "\n".join(
         [*consts, "", "", "\n".join(body), "", "", "\n".join(commands), "", "", _LEAN_PASS, kernel]
     )
     return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows, ref_consts=ref_consts)
+
+
+def _vector_reference(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the vector kernels' reference (stage 1c): the call-free ``vsin``
+    and ``vcos`` for libm's, computed for every lane at every call instead of per lane whose
+    time moved (the same numbers: a branch per lane would stop the vectoriser)."""
+    at_if = body.index("        if B[REFT * W + w] != t:")
+    at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
+    block = [ln[4:] for ln in body[at_if + 1 : at_errors]]
+    out = [*body[: at_if - 1], "        t = B[tt * W + w]", *block, *body[at_errors:]]
+    out[at_if - 2] = "    for w in range(W):  # the reference of every lane (call-free, vectorised)"
+    return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
 
 
 _TITLE = {"rk4": "", "dopri5": ", DOPRI5"}  # (the RK4 modules' text as in stage 1)
@@ -559,8 +572,8 @@ def lean_pass(B, t_rec, Ys, phs, nrec, fkind, fcon, outs, outside, prev):
 
 '''
 
-_VECTOR_IMPORTS = """# the call-free exp and tanh (stage 1b): they vectorise; ~1 ulp from libm
-from adaptive_ftc.sim.lane_kernels import vexp, vtanh
+_VECTOR_IMPORTS = """# call-free exp, tanh (1b), sin, cos (1c): they vectorise; ~1 ulp off libm
+from adaptive_ftc.sim.lane_kernels import vcos, vexp, vsin, vtanh
 
 """
 
