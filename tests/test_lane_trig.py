@@ -46,3 +46,22 @@ def test_vsin_vcos_at_special_points():
     assert abs(out[0, 5] - 1.0) <= 2**-52 and abs(out[1, 5]) < 1e-16
     assert abs(out[0, 6]) < 1e-15 and abs(out[1, 6] + 1.0) <= 2**-52
     assert math.isnan(out[0, 7]) and math.isnan(out[1, 7])  # beyond TRIG_MAX: nan, not garbage
+
+
+def test_only_the_vector_lane_module_uses_the_trig_kernels_and_contraction():
+    """kernels='vector' (RK4): the reference through vsin/vcos for every lane (no per-lane
+    branch) and fused multiply-adds only; the libm module keeps libm and strict IEEE."""
+    from dataclasses import replace
+
+    from adaptive_ftc import SolverOptions, load_scenario
+    from adaptive_ftc.sim.lanes import lane_source
+
+    loop = replace(load_scenario("hypersonic-direct-s1").loop, t_final=1.0, failures=())
+    rk4 = SolverOptions(method="rk4", dt=1e-3, record_dt=0.01)
+    vec = lane_source(loop, rk4, kernels="vector")
+    libm = lane_source(loop, rk4, kernels="libm")
+    rhs = vec[vec.index("def rhs(") : vec.index("def commands(")]
+    assert "vsin(" in rhs and "vcos(" in rhs and "math.sin(" not in rhs
+    assert "if B[REFT * W + w] != t:" not in rhs
+    assert vec.count('fastmath={"contract"}') == 2 and "fastmath" not in libm
+    assert "math.sin(" in libm and "vsin" not in libm
