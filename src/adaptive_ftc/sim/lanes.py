@@ -483,6 +483,8 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         head = _contract(head) + _VECTOR_IMPORTS
         body = _vector_reference(body)
     kernel = codegen.template(f"lanes_{method}")
+    if kernels == "vector" and method == "rk4":
+        kernel = _pasted_stages(kernel)
     text = head + "\n".join(
         [*consts, "", "", "\n".join(body), "", "", "\n".join(commands), "", "", _LEAN_PASS, kernel]
     )
@@ -499,6 +501,27 @@ def _vector_reference(body: list[str]) -> list[str]:
     out = [*body[: at_if - 1], "        t = B[tt * W + w]", *block, *body[at_errors:]]
     out[at_if - 2] = "    for w in range(W):  # the reference of every lane (call-free, vectorised)"
     return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
+
+
+#: the RK4 template's stage: the rhs through its shared compiled copy, rows copied in and out
+_SHARED_STAGE = """    for w in range(W):
+        B[TIN * W + w] = B[tt * W + w]
+    if y != YT:
+        for i in range(NY * W):
+            B[YT * W + i] = B[y * W + i]
+    rhs_rows(B)
+    for i in range(NY * W):
+        B[dy * W + i] = B[DY * W + i]
+"""
+
+
+def _pasted_stages(kernel: str) -> str:
+    """The RK4 template with the rhs pasted into each stage (vector kernels, stage 1c): its
+    rows become constants at each of the five call sites and the row copies go; the same
+    operations on the same numbers, at the cost of compiling the rhs five times."""
+    if _SHARED_STAGE not in kernel:  # pragma: no cover - guards the template's text
+        raise ConfigurationError("The lane RK4 template changed its stage; report this as a bug.")
+    return kernel.replace(_SHARED_STAGE, "    rhs(B, tt, y, dy)  # pasted: rows as constants\n")
 
 
 def _contract(head: str) -> str:
