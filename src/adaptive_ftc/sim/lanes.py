@@ -37,9 +37,11 @@ the lanes' own signals' pass over the records (the module's ``commands`` and ``l
 tracking error, commands and applied commands of every record of every lane, bit for bit each
 member's lean single run's), so the records are not gone over one member at a time.
 
-``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
-of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
-(about 1e-14 of the signal scale from the single run).
+``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` (and, stage 1c, the
+reference's ``sin`` and ``cos``) for the call-free ones of :mod:`adaptive_ftc.sim.lane_kernels`,
+which vectorise too; with RK4 it also pastes the rhs into the five stages and allows fused
+multiply-adds (``fastmath={"contract"}``, nothing else): faster, compiles about 5x longer, no
+longer bit-identical (about 1e-14 of the signal scale from the single run).
 """
 
 from __future__ import annotations
@@ -660,7 +662,7 @@ def _kernels(kernels: str) -> str:
     if kernels not in KERNELS:
         raise ConfigurationError(
             f"`kernels` must be 'libm' (bit-identical to single runs) or 'vector' (call-free "
-            f"exp and tanh, about 1e-14 from them); got {kernels!r}."
+            f"exp, tanh, sin and cos, about 1e-14 from them); got {kernels!r}."
         )
     return kernels
 
