@@ -13,7 +13,8 @@ Engines, each on ONE thread so that its wall time is its per-core time:
   each lane its own step size and error control), same thread; with DOPRI5 it also prints the
   lanes' occupancy: the share of the group's step attempts that were a member's own (a group
   runs until its slowest member); ``lanes-vec`` (RK4): the same with
-  ``lane_kernels="vector"`` (stage 1b: call-free exp and tanh, about 1e-14 from the single
+  ``lane_kernels="vector"`` (stage 1b/1c: call-free exp, tanh, sin, cos, the rhs pasted into
+  the RK4 stages, fused multiply-adds; about 1e-14 from the single
   runs instead of bit-identical);
 * ``C``: the hand-written C loop (``benchmarks/c/hypersonic_loop.c``, RK4 only, 1 pthread);
   skipped with a message when no C compiler is found;

@@ -103,8 +103,9 @@ def iter_simulate(
     ``max(window, 2 * jobs * 8)`` members are in flight. The lane module of a structure
     compiles once (10-30 s; cached on disk like the loop modules). ``lane_kernels``:
     ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b, RK4 only:
-    call-free ``exp`` and ``tanh`` that vectorise, faster, about 1e-14 of the signal scale
-    from the single runs).
+    call-free ``exp``, ``tanh``, ``sin``, ``cos`` that vectorise, the rhs pasted into the
+    stages and fused multiply-adds: faster, its lane module compiles about 5x longer, about
+    1e-14 of the signal scale from the single runs).
 
     Examples
     --------

@@ -1,12 +1,15 @@
-"""Call-free ``exp`` and ``tanh`` for the lane modules' vector kernels (issue 29, stage 1b).
+"""Call-free ``exp``, ``tanh``, ``sin`` and ``cos`` for the lane modules' vector kernels (issue
+29, stage 1b; ``sin``/``cos`` since stage 1c).
 
 libm's ``exp`` and ``tanh`` are scalar calls: in a lane loop they stay one call per lane and
 stop the vectoriser. These are written in arithmetic alone (no call, no branch LLVM cannot turn
 into a select), so a lane loop that calls them vectorises across lanes. They are not libm: exp
 is within 1 ulp of libm's on [-700, 700] (mean 0.10 ulp), tanh within 2 ulp
-(``benchmarks/lanes_prototype.py`` measured both), so a lane module that uses them
-(``kernels="vector"`` in :mod:`adaptive_ftc.sim.lanes`) is no longer bit-identical to the
-single run: about 1e-14 of the signal scale over a 120 s run (docs/performance.md).
+(``benchmarks/lanes_prototype.py`` measured both), sin and cos (fdlibm kernels after a two-part
+reduction by pi/2) within 1 ulp on |x| <= 1e4 (tests/test_lane_trig.py; nan beyond |x| = 1e6),
+so a lane module that uses them (``kernels="vector"`` in :mod:`adaptive_ftc.sim.lanes`) is no
+longer bit-identical to the single run: about 1e-14 of the signal scale over a 120 s run
+(docs/performance.md).
 
 Used only by generated lane modules (imported there, jitted inline; this module's source keys
 their disk cache).
@@ -21,7 +24,7 @@ from llvmlite import ir as llvm_ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-__all__ = ["vexp", "vtanh"]
+__all__ = ["vcos", "vexp", "vsin", "vtanh"]
 
 # Cody-Waite split of ln 2 (fdlibm): n * LN2_HI is exact for |n| < 2^20
 LN2_HI = 6.93147180369123816490e-01
@@ -36,6 +39,16 @@ C13, C12, C11, C10, C9, C8, C7, C6, C5, C4, C3, C2, C1, C0 = (
 # Cephes: tanh on |x| <= 0.625 as x + x^3 P(x^2) / Q(x^2)
 TP0, TP1, TP2 = -9.64399179425052238628e-1, -9.92877231001918586564e1, -1.61468768441708447952e3
 TQ0, TQ1, TQ2 = 1.12811678491632931402e2, 2.23548839060100448583e3, 4.84406305325125486048e3
+# fdlibm: pi/2 in two parts (n * PIO2_1 exact for |n| < 2^20) and the sin/cos kernels on
+# [-pi/4, pi/4] (k_sin.c, k_cos.c without the tail term)
+TWO_OVER_PI = 6.36619772367581382433e-01
+PIO2_1 = 1.57079632673412561417e00
+PIO2_1T = 6.07710050650619224932e-11
+S1, S2, S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+S4, S5, S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+K1, K2, K3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+TRIG_MAX = 1e6  # |x| beyond: nan (loud), not a silently inaccurate reduction
+K4, K5, K6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
 @intrinsic
@@ -88,3 +101,33 @@ def vtanh(x):
     z = x * x
     small = x + x * z * ((TP0 * z + TP1) * z + TP2) / (((z + TQ0) * z + TQ1) * z + TQ2)
     return small if ax <= 0.625 else big
+
+
+@_inl
+def _quadrant(x):
+    """x reduced by pi/2: (the quadrant n mod 4, sin r, cos r) of x = n pi/2 + r, |r| <= pi/4
+    (accurate while |n| < 2^20; the callers give nan beyond TRIG_MAX)."""
+    n = np.floor(x * TWO_OVER_PI + 0.5)  # a float (math.floor would convert to int64)
+    r = (x - n * PIO2_1) - n * PIO2_1T
+    z = r * r
+    sr = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))))
+    cr = 1.0 - (0.5 * z - z * z * (K1 + z * (K2 + z * (K3 + z * (K4 + z * (K5 + z * K6))))))
+    q = np.int64(n if abs(n) <= 2.0 * TRIG_MAX else 0.0) & 3  # (no undefined conversion)
+    return q, sr, cr
+
+
+@_inl
+def vsin(x):
+    """sin(x) without calls: fdlibm's kernels after a two-part reduction by pi/2 (every
+    quadrant's value computed, one selected); nan for |x| > TRIG_MAX, inf and nan."""
+    q, sr, cr = _quadrant(x)
+    v = sr if q == 0 else (cr if q == 1 else (-sr if q == 2 else -cr))
+    return v if abs(x) <= TRIG_MAX else np.nan
+
+
+@_inl
+def vcos(x):
+    """cos(x) without calls, as :func:`vsin`."""
+    q, sr, cr = _quadrant(x)
+    v = cr if q == 0 else (-sr if q == 1 else (-cr if q == 2 else sr))
+    return v if abs(x) <= TRIG_MAX else np.nan

@@ -37,9 +37,11 @@ the lanes' own signals' pass over the records (the module's ``commands`` and ``l
 tracking error, commands and applied commands of every record of every lane, bit for bit each
 member's lean single run's), so the records are not gone over one member at a time.
 
-``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` for the call-free ones
-of :mod:`adaptive_ftc.sim.lane_kernels`, which vectorise too: faster, no longer bit-identical
-(about 1e-14 of the signal scale from the single run).
+``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` (and, stage 1c, the
+reference's ``sin`` and ``cos``) for the call-free ones of :mod:`adaptive_ftc.sim.lane_kernels`,
+which vectorise too; with RK4 it also pastes the rhs into the five stages and allows fused
+multiply-adds (``fastmath={"contract"}``, nothing else): faster, compiles about 5x longer, no
+longer bit-identical (about 1e-14 of the signal scale from the single run).
 """
 
 from __future__ import annotations
@@ -480,12 +482,61 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         jits="\n".join(f"{name} = inl({name})" for name in GUARDED),
     )
     if kernels == "vector":
-        head += _VECTOR_IMPORTS
+        head = _contract(head) + _VECTOR_IMPORTS
+        body = _vector_reference(body)
     kernel = codegen.template(f"lanes_{method}")
+    if kernels == "vector" and method == "rk4":
+        kernel = _pasted_stages(kernel)
     text = head + "\n".join(
         [*consts, "", "", "\n".join(body), "", "", "\n".join(commands), "", "", _LEAN_PASS, kernel]
     )
     return _Plan(text=text, ny=ny, nc=nc, nb=nb, rows=rows, ref_consts=ref_consts)
+
+
+def _vector_reference(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the vector kernels' reference (stage 1c): the call-free ``vsin``
+    and ``vcos`` for libm's, computed for every lane at every call instead of per lane whose
+    time moved (the same numbers: a branch per lane would stop the vectoriser)."""
+    at_if = body.index("        if B[REFT * W + w] != t:")
+    at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
+    block = [ln[4:] for ln in body[at_if + 1 : at_errors]]
+    out = [*body[: at_if - 1], "        t = B[tt * W + w]", *block, *body[at_errors:]]
+    out[at_if - 2] = "    for w in range(W):  # the reference of every lane (call-free, vectorised)"
+    return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
+
+
+#: the RK4 template's stage: the rhs through its shared compiled copy, rows copied in and out
+_SHARED_STAGE = """    for w in range(W):
+        B[TIN * W + w] = B[tt * W + w]
+    if y != YT:
+        for i in range(NY * W):
+            B[YT * W + i] = B[y * W + i]
+    rhs_rows(B)
+    for i in range(NY * W):
+        B[dy * W + i] = B[DY * W + i]
+"""
+
+
+def _pasted_stages(kernel: str) -> str:
+    """The RK4 template with the rhs pasted into each stage (vector kernels, stage 1c): its
+    rows become constants at each of the five call sites and the row copies go; the same
+    operations on the same numbers, at the cost of compiling the rhs five times."""
+    if _SHARED_STAGE not in kernel:  # pragma: no cover - guards the template's text
+        raise ConfigurationError("The lane RK4 template changed its stage; report this as a bug.")
+    return kernel.replace(_SHARED_STAGE, "    rhs(B, tt, y, dy)  # pasted: rows as constants\n")
+
+
+def _contract(head: str) -> str:
+    """The module ``head`` with fused multiply-adds allowed (``fastmath={"contract"}``, the
+    vector kernels only, stage 1c): no other fast-math flag, since ``nnan`` breaks the NaN
+    reference cache and reassociation undoes exp's Cody-Waite split (docs/performance.md)."""
+    strict = "_nrt=False"
+    # (the two jits of _HEAD: hot and inl)
+    head = head.replace(strict, strict + ', fastmath={"contract"}')
+    return head.replace(
+        "# strict IEEE (no fastmath): every lane reproduces its single run bit for bit",
+        "# fused multiply-adds only (vector kernels): ~1e-14 from the single runs, not bit for bit",
+    )
 
 
 _TITLE = {"rk4": "", "dopri5": ", DOPRI5"}  # (the RK4 modules' text as in stage 1)
@@ -559,8 +610,8 @@ def lean_pass(B, t_rec, Ys, phs, nrec, fkind, fcon, outs, outside, prev):
 
 '''
 
-_VECTOR_IMPORTS = """# the call-free exp and tanh (stage 1b): they vectorise; ~1 ulp from libm
-from adaptive_ftc.sim.lane_kernels import vexp, vtanh
+_VECTOR_IMPORTS = """# call-free exp, tanh (1b), sin, cos (1c): they vectorise; ~1 ulp off libm
+from adaptive_ftc.sim.lane_kernels import vcos, vexp, vsin, vtanh
 
 """
 
@@ -611,7 +662,7 @@ def _kernels(kernels: str) -> str:
     if kernels not in KERNELS:
         raise ConfigurationError(
             f"`kernels` must be 'libm' (bit-identical to single runs) or 'vector' (call-free "
-            f"exp and tanh, about 1e-14 from them); got {kernels!r}."
+            f"exp, tanh, sin and cos, about 1e-14 from them); got {kernels!r}."
         )
     return kernels
 
