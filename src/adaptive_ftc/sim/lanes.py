@@ -109,21 +109,9 @@ def _lane_level() -> Iterator[None]:
 def at_lane_level(decorator: Callable) -> Callable:
     """Wrap a numba decorator so that its dispatchers compile (or load from the cache) with
     the SLP vectoriser on (:func:`_lane_level`); the lane modules define ``hot`` this way."""
+    from adaptive_ftc.sim.optlevel import compiling_within
 
-    def wrap(func):
-        dispatcher = decorator(func)
-        if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: the plain function
-            return dispatcher
-        compile_ = dispatcher.compile
-
-        def compile(sig):
-            with _lane_level():
-                return compile_(sig)
-
-        dispatcher.compile = compile
-        return dispatcher
-
-    return wrap
+    return compiling_within(decorator, _lane_level)
 
 
 # ----------------------------------------------------------------------------- eligibility

@@ -45,6 +45,13 @@ def at_loop_level(decorator: Callable) -> Callable:
     """Wrap a numba decorator (``njit(...)``) so that its dispatchers compile (or load from the
     cache) at :data:`LOOP_OPT`; the generated modules define their ``jit`` and ``hot`` this
     way."""
+    return compiling_within(decorator, _loop_level)
+
+
+def compiling_within(decorator: Callable, settings: Callable) -> Callable:
+    """Wrap a numba decorator so that its dispatchers compile (or load from the cache) inside
+    the context ``settings()`` (numba's settings for that compile only: :func:`_loop_level`,
+    the lane modules' SLP switch)."""
 
     def wrap(func):
         dispatcher = decorator(func)
@@ -53,7 +60,7 @@ def at_loop_level(decorator: Callable) -> Callable:
         compile_ = dispatcher.compile
 
         def compile(sig):
-            with _loop_level():
+            with settings():
                 return compile_(sig)
 
         dispatcher.compile = compile  # numba's first call compiles through self.compile
