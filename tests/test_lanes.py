@@ -27,39 +27,24 @@ from adaptive_ftc.sim.lanes import (
     lane_source,
     simulate_lanes,
 )
+from tests.lane_checks import assert_same_run, lane_base, reversed_elevators, single_runs
 
 RK4 = SolverOptions(method="rk4", dt=1e-3, record_dt=0.01)
 
 
 @pytest.fixture(scope="module")
 def base():
-    sc = load_scenario("hypersonic-direct-s1")
-    return replace(sc.loop, t_final=3.0, failures=())
+    return lane_base()
 
 
-def _reversed(onset: float) -> tuple:
-    """Both elevators reversed: alpha leaves the plant's envelope within a second."""
-    return tuple(Affine(actuator=j, onset=onset, effectiveness=-1.0, bias=0.0) for j in (1, 2))
+_reversed = reversed_elevators
 
 
-def _same(a, b) -> None:
-    """``a`` (lanes) is ``b`` (its single run) bit for bit."""
-    assert a.status == b.status
-    assert a.reason == b.reason
-    assert a.message == b.message
-    np.testing.assert_array_equal(a.time, b.time)
-    np.testing.assert_array_equal(a.states, b.states)
-    np.testing.assert_array_equal(a.adaptive, b.adaptive)
-    for name in ("u_cmd", "u_f", "s", "sdot", "control_gain"):  # the signals' pass
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-    for key in ("steps", "rhs_evaluations", "rejected_steps"):
-        assert a.meta[key] == b.meta[key], key
+_same = assert_same_run
 
 
 def _singles(loops, solver=RK4):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DivergenceWarning)
-        return [simulate(loop, solver) for loop in loops]
+    return single_runs(loops, solver)
 
 
 def _members(base) -> list:

@@ -12,15 +12,15 @@ from __future__ import annotations
 import warnings
 from dataclasses import replace
 
-import numpy as np
 import pytest
 
-from adaptive_ftc import SolverOptions, load_scenario, simulate
+from adaptive_ftc import SolverOptions, load_scenario
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
 from adaptive_ftc.sim import lanes as lane_engine
 from adaptive_ftc.sim.batch import iter_simulate, simulate_many
 from adaptive_ftc.sim.lanes import LANE_WIDTH, ineligible, lane_source, simulate_lanes
+from tests.lane_checks import assert_same_run, lane_base, reversed_elevators, single_runs
 
 #: the catalogue's and the campaigns' DOPRI5 setting on the hypersonic loop
 DP = SolverOptions(method="dopri5", rtol=1e-6, atol=1e-9, record_dt=0.01)
@@ -28,33 +28,17 @@ DP = SolverOptions(method="dopri5", rtol=1e-6, atol=1e-9, record_dt=0.01)
 
 @pytest.fixture(scope="module")
 def base():
-    sc = load_scenario("hypersonic-direct-s1")
-    return replace(sc.loop, t_final=3.0, failures=())
+    return lane_base()
 
 
-def _reversed(onset: float) -> tuple:
-    """Both elevators reversed: alpha leaves the plant's envelope within a second."""
-    return tuple(Affine(actuator=j, onset=onset, effectiveness=-1.0, bias=0.0) for j in (1, 2))
+_reversed = reversed_elevators
 
 
-def _same(a, b) -> None:
-    """``a`` (lanes) is ``b`` (its single run) bit for bit."""
-    assert a.status == b.status
-    assert a.reason == b.reason
-    assert a.message == b.message
-    np.testing.assert_array_equal(a.time, b.time)
-    np.testing.assert_array_equal(a.states, b.states)
-    np.testing.assert_array_equal(a.adaptive, b.adaptive)
-    for name in ("u_cmd", "u_f", "s", "sdot", "control_gain"):  # the signals' pass
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-    for key in ("steps", "rejected_steps", "rhs_evaluations"):
-        assert a.meta[key] == b.meta[key], key
+_same = assert_same_run
 
 
 def _singles(loops, solver=DP):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DivergenceWarning)
-        return [simulate(loop, solver) for loop in loops]
+    return single_runs(loops, solver)
 
 
 def _lanes(loops, solver=DP):

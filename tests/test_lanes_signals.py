@@ -15,13 +15,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adaptive_ftc import SolverOptions, load_scenario, simulate
+from adaptive_ftc import SolverOptions, simulate
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.faults import Affine, Bias, LossOfEffectiveness, Stuck
 from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.compose import Assembled
 from adaptive_ftc.sim.engine import CompiledLoop
 from adaptive_ftc.sim.lanes import LANE_WIDTH, integrate_lanes, lane_groups
+from tests.lane_checks import lane_base, reversed_elevators
 
 SOLVERS = {
     "rk4": SolverOptions(method="rk4", dt=1e-3, record_dt=1e-3),
@@ -31,13 +32,10 @@ SOLVERS = {
 
 @pytest.fixture(scope="module")
 def base():
-    sc = load_scenario("hypersonic-direct-s1")
-    return replace(sc.loop, t_final=3.0, failures=())
+    return lane_base()
 
 
-def _reversed(onset: float) -> tuple:
-    """Both elevators reversed: alpha leaves the plant's envelope within a second."""
-    return tuple(Affine(actuator=j, onset=onset, effectiveness=-1.0, bias=0.0) for j in (1, 2))
+_reversed = reversed_elevators
 
 
 def _members(base) -> list:
