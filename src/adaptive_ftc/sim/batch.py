@@ -215,24 +215,25 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
         return out
 
     pending: deque = deque()
-    members = 0
+    members = 0  # submitted and not yet yielded
     pool = ThreadPoolExecutor(max_workers=jobs)
-    try:
+
+    def fill() -> None:
+        """Submit chunks until ``in_flight`` members are out or the source is dry."""
+        nonlocal members
         while members < in_flight:
             part = chunk()
             if not part:
-                break
+                return
             pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
             members += len(part)
+
+    try:
+        fill()
         while pending:
             results = pending.popleft().result()
             members -= len(results)
-            while members < in_flight:
-                part = chunk()
-                if not part:
-                    break
-                pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
-                members += len(part)
+            fill()  # the next chunks start before the caller takes these results
             for result in results:
                 _tick(bar)
                 yield result
