@@ -96,11 +96,46 @@ def _thesis_law(loop: ClosedLoop) -> ClosedLoop:
     return dataclasses.replace(loop, controller=ctrl)
 
 
+def _has_option(loop: ClosedLoop) -> bool:
+    """Whether the loop's design has the constraint-aware option (a ``constraint_aware``
+    field: every adaptive design of :mod:`adaptive_ftc.controllers`)."""
+    ctrl = loop.controller
+    return dataclasses.is_dataclass(ctrl) and any(
+        f.name == "constraint_aware" for f in dataclasses.fields(ctrl)
+    )
+
+
+def _oracle(loop: ClosedLoop) -> ClosedLoop:
+    """The oracle under the same hardware *and the same designer's model* as the member's
+    ``constraint-aware`` design (issue 25, item 3): :func:`~adaptive_ftc.baselines.oracle` of
+    :func:`_constraint_aware`'s loop, so it runs with the same command filter (rate, travel and
+    bandwidth limits), the same smoothing of the robust term and the same measurement filters,
+    all derived from the member's drawn hardware, and knows the failure. Its result is "how
+    good could a controller that knows the failure be on this hardware": where it fails too,
+    the member is evidence of an infeasible draw, not of a weak law. A base design without the
+    constraint-aware option gets :func:`_oracle_plain`. On ideal hardware the model is ideal
+    and the oracle is the thesis-gain one."""
+    return baselines.oracle(_constraint_aware(loop) if _has_option(loop) else loop)
+
+
+def _oracle_plain(loop: ClosedLoop) -> ClosedLoop:
+    """The oracle with the thesis's gains and no designer's model (the campaigns' ``oracle``
+    before issue 25's fair oracle): feedback linearisation knowing the failure, on the
+    member's drawn hardware with no command filter; under lags, rate limits, sampling and
+    noise its command chatters, so it is no yardstick there (kept for comparison)."""
+    if not _has_option(loop):
+        return baselines.oracle(loop)
+    return baselines.oracle(loop, constraint_aware=None)
+
+
 #: Designs a campaign can compare, by name: a function of the member's closed loop (base
 #: design, drawn failures and hardware). ``adaptive`` is the base scenario's design as it is;
 #: ``thesis-law`` and ``constraint-aware`` are that design without / with the constraint-aware
-#: option (derived from each member's drawn hardware); the others are the baselines of
-#: :mod:`adaptive_ftc.baselines`. A user adds designs with :func:`register_design`.
+#: option (derived from each member's drawn hardware); ``oracle`` knows the failure and runs
+#: under the same designer's model as ``constraint-aware`` (:func:`_oracle`), ``oracle-plain``
+#: is the thesis-gain oracle with no command filter (:func:`_oracle_plain`); the others are
+#: the baselines of :mod:`adaptive_ftc.baselines`. A user adds designs with
+#: :func:`register_design`.
 DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "adaptive": lambda loop: loop,
     "frozen": lambda loop: loop.frozen(),
@@ -108,7 +143,8 @@ DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "constraint-aware": _constraint_aware,
     "fixed-gain": baselines.campaign_fixed_gain,
     "nominal-inverse": baselines.nominal_inverse,
-    "oracle": baselines.oracle,
+    "oracle": _oracle,
+    "oracle-plain": _oracle_plain,
 }
 #: Designs that need an adaptive base design with the ``constraint_aware`` option.
 _OPTION_DESIGNS = ("thesis-law", "constraint-aware")

@@ -54,8 +54,12 @@ SEVERITY_WORDS = ("mild", "moderate", "serious", "severe", "extreme")
 FAIR_COMPETITORS = ("nominal-inverse", "fixed-gain")
 #: Adaptation switched off: shown as the floor, never as the baseline to beat.
 FLOOR = "frozen"
-#: Knows the true failure: a bound, shown but never compared with.
+#: Knows the true failure: a bound, shown but never compared with. ``oracle`` runs under the
+#: same hardware and designer's model as ``constraint-aware`` (a yardstick: where it fails
+#: too, the draw is evidence of infeasibility); ``oracle-plain`` is the thesis-gain oracle
+#: with no command filter (see :data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`).
 _ORACLE = "oracle"
+ORACLES = (_ORACLE, "oracle-plain")
 
 #: Statuses of rows that are not runs of the design: a draw the closed loop refused, Ctrl-C.
 NOT_RUN = ("invalid", "interrupted")
@@ -149,7 +153,7 @@ def role(design: str) -> str:
         return "fair baseline"
     if design == FLOOR:
         return "floor"
-    if design == _ORACLE:
+    if design in ORACLES:
         return "bound"
     return "tested"
 
@@ -159,6 +163,13 @@ _ROLE_WORDS = {
     "fair baseline": "fair baseline",
     "floor": "floor (adaptation frozen)",
     "bound": "bound (knows the failure; not compared with)",
+}
+#: Role words of the two oracles on the page (what tells them apart).
+_ORACLE_WORDS = {
+    _ORACLE: "bound (knows the failure; the constraint-aware design's hardware model and "
+    "filters; not compared with)",
+    "oracle-plain": "bound (knows the failure; thesis gains, no command filter: no yardstick "
+    "under hardware; not compared with)",
 }
 
 
@@ -244,6 +255,51 @@ def success_tables(df, threshold: float | None = None) -> dict[str, Any]:
             )
         ]
     out["comparison"] = _comparisons(df, ok, designs, per, out)
+    out["oracle_check"] = _oracle_check(df, ok, designs)
+    return out
+
+
+def _oracle_check(df, ok, designs: list[str]) -> list[dict[str, Any]]:
+    """Per design under test, its failed members and how many of them the ``oracle`` failed
+    too (empty when no ``oracle`` was run).
+
+    The campaigns' ``oracle`` knows the failure and runs under the same hardware and the same
+    designer's model (command filter, smoothing, measurement filters) as ``constraint-aware``:
+    where it fails too, the draw is evidence that the task is beyond a controller of this form
+    on this hardware; where it succeeds, the member was feasible and the design lost it.
+    Members with an invalid draw or an interrupted run (:data:`NOT_RUN`) are left out: nothing
+    was tried there. ``oracle-plain`` (no command filter) is no such yardstick and is not used.
+    """
+    if _ORACLE not in designs:
+        return []
+    status = df["status"].astype(str)
+    ran = ~status.isin(NOT_RUN)
+    o_rows = df["design"] == _ORACLE
+    o_ok = ok[o_rows].set_axis(df.loc[o_rows, "index"])
+    o_ran = ran[o_rows].set_axis(df.loc[o_rows, "index"])
+    out = []
+    for d in designs:
+        if role(d) != "tested":
+            continue
+        sel = df["design"] == d
+        d_ok = ok[sel].set_axis(df.loc[sel, "index"])
+        d_ran = ran[sel].set_axis(df.loc[sel, "index"])
+        common = d_ok.index.intersection(o_ok.index)
+        tried = d_ran.loc[common] & o_ran.loc[common]
+        failed = tried & ~d_ok.loc[common]
+        both = failed & ~o_ok.loc[common]
+        out.append(
+            {
+                "design": d,
+                "members": int(tried.sum()),
+                "failed": int(failed.sum()),
+                "oracle_failed_too": int(both.sum()),
+                "oracle_succeeded": int((failed & o_ok.loc[common]).sum()),
+                "oracle_failed_design_succeeded": int(
+                    (tried & d_ok.loc[common] & ~o_ok.loc[common]).sum()
+                ),
+            }
+        )
     return out
 
 
@@ -442,6 +498,12 @@ def _design_sentence(info: dict[str, Any], d: str) -> str:
     div = info["outcomes"][d]["diverged"]
     if div:
         text += f"; {div} of its runs ({pct(div / r['runs'])}) diverged"
+    check = next((c for c in info.get("oracle_check", []) if c["design"] == d), None)
+    if check is not None and check["failed"]:
+        text += (
+            f"; the oracle (knows the failure; same hardware and filters) failed on "
+            f"{check['oracle_failed_too']} of the {check['failed']} members it failed"
+        )
     hard = _hardest_model(info, d)
     if hard is not None:
         text += f"; it did worst under {hard['model']} failures ({pct(hard['rate'])})"
@@ -453,6 +515,7 @@ def _design_sentence(info: dict[str, Any], d: str) -> str:
 _DESIGN_COLOURS = {
     FLOOR: "#7f8c99",
     _ORACLE: "#6a1b9a",
+    "oracle-plain": "#b39ddb",
     "nominal-inverse": "#e07b00",
     "fixed-gain": "#2a9d8f",
 }
@@ -750,7 +813,7 @@ def _design_table(info: dict[str, Any], unit: str) -> str:
         rows.append(
             [
                 f"<td><b>{html.escape(d)}</b></td>",
-                f"<td>{html.escape(_ROLE_WORDS[role(d)])}</td>",
+                f"<td>{html.escape(_ORACLE_WORDS.get(d) or _ROLE_WORDS[role(d)])}</td>",
                 f'<td class="num"><b>{pct(r["rate"])}</b> ({r["successes"]}/{r["runs"]})</td>',
                 f'<td class="ci">{_ci_text(r)}</td>',
                 f'<td class="num">{o["error too large"] + o["failed another criterion"]}</td>',
@@ -777,7 +840,10 @@ def _design_table(info: dict[str, Any], unit: str) -> str:
 def _comparison_html(info: dict[str, Any], unit: str) -> str:
     comps = info.get("comparison", [])
     if not comps:
-        return '<p class="meta">No baseline was run, so no design is compared with one.</p>'
+        return (
+            '<p class="meta">No baseline was run, so no design is compared with one.</p>'
+            + _oracle_html(info)
+        )
     parts = []
     for c in comps:
         d, b = c["design"], c["baseline"]
@@ -833,9 +899,34 @@ def _comparison_html(info: dict[str, Any], unit: str) -> str:
         "highest success rate; on a tie (0&nbsp;% for both, say), the one that tracked on the "
         "most members (completed within the error threshold), then the one that completed the "
         "most runs without diverging, then the lower median final error. The frozen run is only "
-        "a floor, the oracle (knows the failure) a bound."
+        "a floor, the oracle (knows the failure) a bound; oracle-plain (thesis gains, no "
+        "command filter) too."
     )
-    return "".join(parts) + f'<p class="meta">{note}</p>'
+    return "".join(parts) + _oracle_html(info) + f'<p class="meta">{note}</p>'
+
+
+def _oracle_html(info: dict[str, Any]) -> str:
+    """The oracle check of :func:`_oracle_check` in words (empty without an oracle run)."""
+    lines = []
+    for c in info.get("oracle_check", []):
+        d = html.escape(c["design"])
+        if not c["failed"]:
+            lines.append(f"{d} failed on no member the oracle was run on.")
+            continue
+        lines.append(
+            f"Of the {c['failed']} members {d} failed, the oracle failed on "
+            f"<b>{c['oracle_failed_too']}</b> too (evidence that these draws are infeasible "
+            f"on their hardware) and succeeded on {c['oracle_succeeded']} (feasible: {d} lost "
+            f"them); the oracle failed on {c['oracle_failed_design_succeeded']} members {d} "
+            "succeeded on."
+        )
+    if not lines:
+        return ""
+    return (
+        "<p>The oracle knows the failure and runs under the same hardware and the same "
+        "designer's model (command filter, smoothing, measurement filters) as "
+        "constraint-aware: " + " ".join(lines) + "</p>"
+    )
 
 
 _STOP_WORDS = {
