@@ -21,6 +21,7 @@ from adaptive_ftc.campaigns import (
     load_campaign,
     read_results,
     run_campaign,
+    summary,
 )
 from adaptive_ftc.campaigns.spec import EXAMPLES
 from adaptive_ftc.campaigns.summary import headline, role, success_tables
@@ -170,6 +171,9 @@ def test_the_page_says_where_the_oracle_fails_too():
     text = headline(info)
     assert "oracle (knows the failure; same hardware and filters) failed on 2 of the 4" in text
     assert "oracle-plain succeeded" not in text and "oracle succeeded" not in text
+    page = summary._comparison_html(info, "rad")
+    assert "Of the 4 members constraint-aware failed, the oracle failed on <b>2</b> too" in page
+    assert "succeeded on 2 (feasible" in page
     # without an oracle run, no such sentence
     no_oracle = success_tables(df[df["design"] != "oracle"], 1e-3)
     assert no_oracle["oracle_check"] == [] and "oracle (knows" not in headline(no_oracle)

@@ -925,7 +925,7 @@ def _oracle_html(info: dict[str, Any]) -> str:
     return (
         "<p>The oracle knows the failure and runs under the same hardware and the same "
         "designer's model (command filter, smoothing, measurement filters) as "
-        "constraint-aware: " + " ".join(lines) + "</p>"
+        "constraint-aware. " + " ".join(lines) + "</p>"
     )
 
 
