@@ -13,7 +13,9 @@ fault tolerance would fly) and :func:`oracle` inverts the model *with the true f
 interval (a bound, not a fair competitor: claims never compare with it, reports show it).
 
 Campaigns compare them under the design names ``"fixed-gain"``, ``"nominal-inverse"`` and
-``"oracle"``::
+``"oracle"`` (a campaign's ``"oracle"`` is :func:`oracle` of the member's constraint-aware loop,
+under the same designer's model; ``"oracle-plain"`` the thesis-gain one with no command filter:
+:data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`)::
 
     designs = ["adaptive", "fixed-gain", "nominal-inverse", "oracle", "frozen"]
 

@@ -500,10 +500,17 @@ def _design_sentence(info: dict[str, Any], d: str) -> str:
         text += f"; {div} of its runs ({pct(div / r['runs'])}) diverged"
     check = next((c for c in info.get("oracle_check", []) if c["design"] == d), None)
     if check is not None and check["failed"]:
-        text += (
-            f"; the oracle (knows the failure; same hardware and filters) failed on "
-            f"{check['oracle_failed_too']} of the {check['failed']} members it failed"
-        )
+        o = info["per_design"][_ORACLE]
+        if o["rate"] < r["rate"]:
+            text += (
+                f"; the oracle (knows the failure; same hardware and filters) succeeded less "
+                f"often ({pct(o['rate'])}), so it is no yardstick for {d} here"
+            )
+        else:
+            text += (
+                f"; the oracle (knows the failure; same hardware and filters) failed on "
+                f"{check['oracle_failed_too']} of the {check['failed']} members it failed"
+            )
     hard = _hardest_model(info, d)
     if hard is not None:
         text += f"; it did worst under {hard['model']} failures ({pct(hard['rate'])})"
@@ -922,6 +929,18 @@ def _oracle_html(info: dict[str, Any]) -> str:
         )
     if not lines:
         return ""
+    o = info["per_design"][_ORACLE]
+    worse = [
+        html.escape(c["design"])
+        for c in info["oracle_check"]
+        if o["rate"] < info["per_design"][c["design"]]["rate"]
+    ]
+    if worse:
+        lines.append(
+            f"The oracle succeeded less often ({pct(o['rate'])}) than {', '.join(worse)}: "
+            "it lacks parts of that law (a fixed feedback, a per-output smoothing), so where "
+            "it fails is no evidence of infeasibility here."
+        )
     return (
         "<p>The oracle knows the failure and runs under the same hardware and the same "
         "designer's model (command filter, smoothing, measurement filters) as "
