@@ -914,32 +914,31 @@ def _comparison_html(info: dict[str, Any], unit: str) -> str:
 
 def _oracle_html(info: dict[str, Any]) -> str:
     """The oracle check of :func:`_oracle_check` in words (empty without an oracle run)."""
-    lines = []
-    for c in info.get("oracle_check", []):
+    checks = info.get("oracle_check", [])
+    if not checks:
+        return ""
+    o = info["per_design"][_ORACLE]
+    lines, worse = [], []
+    for c in checks:
         d = html.escape(c["design"])
+        weaker = o["rate"] < info["per_design"][c["design"]]["rate"]
+        if weaker:
+            worse.append(d)
         if not c["failed"]:
             lines.append(f"{d} failed on no member the oracle was run on.")
             continue
+        why = "" if weaker else " (evidence that these draws are infeasible on their hardware)"
         lines.append(
             f"Of the {c['failed']} members {d} failed, the oracle failed on "
-            f"<b>{c['oracle_failed_too']}</b> too (evidence that these draws are infeasible "
-            f"on their hardware) and succeeded on {c['oracle_succeeded']} (feasible: {d} lost "
-            f"them); the oracle failed on {c['oracle_failed_design_succeeded']} members {d} "
-            "succeeded on."
+            f"<b>{c['oracle_failed_too']}</b> too{why} and succeeded on "
+            f"{c['oracle_succeeded']} (feasible: {d} lost them); the oracle failed on "
+            f"{c['oracle_failed_design_succeeded']} members {d} succeeded on."
         )
-    if not lines:
-        return ""
-    o = info["per_design"][_ORACLE]
-    worse = [
-        html.escape(c["design"])
-        for c in info["oracle_check"]
-        if o["rate"] < info["per_design"][c["design"]]["rate"]
-    ]
     if worse:
         lines.append(
-            f"The oracle succeeded less often ({pct(o['rate'])}) than {', '.join(worse)}: "
-            "it lacks parts of that law (a fixed feedback, a per-output smoothing), so where "
-            "it fails is no evidence of infeasibility here."
+            f"The oracle succeeded less often ({pct(o['rate'])}) than {', '.join(worse)}: it "
+            "lacks parts of that law (its own feedback or smoothing, say), so where it fails "
+            "is no evidence of infeasibility here."
         )
     return (
         "<p>The oracle knows the failure and runs under the same hardware and the same "
