@@ -186,6 +186,7 @@ def test_the_page_says_where_the_oracle_fails_too():
     weak_page = summary._comparison_html(weak, "rad")
     assert "so where it fails is no evidence of infeasibility" in weak_page
     assert "evidence that these draws are infeasible" not in weak_page
+    assert "failed on <b>1</b> too and succeeded on none;" in weak_page
     assert "no evidence of infeasibility" not in page
     # without an oracle run, no such sentence
     no_oracle = success_tables(df[df["design"] != "oracle"], 1e-3)

@@ -928,10 +928,11 @@ def _oracle_html(info: dict[str, Any]) -> str:
             lines.append(f"{d} failed on no member the oracle was run on.")
             continue
         why = "" if weaker else " (evidence that these draws are infeasible on their hardware)"
+        won = c["oracle_succeeded"]
+        lost = f"succeeded on {won} (feasible: {d} lost them)" if won else "succeeded on none"
         lines.append(
             f"Of the {c['failed']} members {d} failed, the oracle failed on "
-            f"<b>{c['oracle_failed_too']}</b> too{why} and succeeded on "
-            f"{c['oracle_succeeded']} (feasible: {d} lost them); the oracle failed on "
+            f"<b>{c['oracle_failed_too']}</b> too{why} and {lost}; the oracle failed on "
             f"{c['oracle_failed_design_succeeded']} members {d} succeeded on."
         )
     if worse:
