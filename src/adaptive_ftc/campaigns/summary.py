@@ -937,9 +937,10 @@ def _oracle_html(info: dict[str, Any]) -> str:
         )
     if worse:
         lines.append(
-            f"The oracle succeeded less often ({pct(o['rate'])}) than {', '.join(worse)}: it "
-            "lacks parts of that law (its own feedback or smoothing, say), so where it fails "
-            "is no evidence of infeasibility here."
+            f"The oracle succeeded less often ({pct(o['rate'])}) than {', '.join(worse)}: "
+            "under this hardware its structure (feedback linearisation with the law's "
+            "smoothing) is weaker than that law, so where it fails is no evidence of "
+            "infeasibility here."
         )
     return (
         "<p>The oracle knows the failure and runs under the same hardware and the same "
