@@ -48,6 +48,12 @@ def add_parser(
     c.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
     c.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
     c.add_argument("--max-chunks", type=int, default=None, help="stop after N new chunks")
+    c.add_argument(
+        "--lanes",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="members in SIMD lanes: where they pay (auto, default), always, never; same table",
+    )
     c.add_argument("--design", action="append", help="replay only this design (repeatable)")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     return c
@@ -78,6 +84,7 @@ def _run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=not args.quiet,
             max_chunks=args.max_chunks,
+            lanes={"auto": "auto", "on": True, "off": False}[args.lanes],
         )
     except KeyboardInterrupt:
         print(
