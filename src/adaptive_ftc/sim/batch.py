@@ -310,18 +310,24 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             del groups[key]
             submit(job)
 
-    def fill() -> None:
-        """Take members until ``in_flight`` are out or the source is dry."""
-        while len(slots) < in_flight:
+    def fill(upto: int) -> bool:
+        """Take members until ``upto`` are out (False: the source is dry)."""
+        while len(slots) < upto:
             loop = next(source, None)
             if loop is None:
-                return
+                return False
             take(loop)
+        return True
 
     try:
-        fill()
+        fill(in_flight)
         while slots:
             job, k = slots[0]
+            # the open group of the next result: members of other structures between its own
+            # may keep it from filling within ``in_flight``; take up to as many again
+            while not job.futures and len(job.members) < width and fill(len(slots) + 1):
+                if len(slots) >= 2 * in_flight:
+                    break
             if not job.futures:  # an open group whose first member is next: it goes as it is
                 key = job.members[0][1].asm.source
                 if groups.get(key) is job:
@@ -329,7 +335,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
                 submit(job)
             result = job.result(k)
             slots.popleft()
-            fill()  # the next members start before the caller takes this result
+            fill(in_flight)  # the next members start before the caller takes this result
             _tick(bar)
             yield result
     finally:
