@@ -254,7 +254,11 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
 
     solver = solver or SolverOptions()
     width = lane_engine.LANE_WIDTH
-    in_flight = max(window or 0, 2 * jobs * width)
+    # members out (in flight or waiting): the window, as without lanes; enough for a lane
+    # group per thread and the next one (2 * jobs * width) once lanes run, unless the
+    # caller's own window says otherwise ("auto") -- with lanes=True at least that many
+    grow = strict or window is None
+    in_flight = max(window or 0, 2 * jobs * width) if strict else (window or 4 * jobs)
     bar = _bar(loops, progress)
     source = iter(loops)
     slots: deque = deque()  # per member not yet yielded, in input order: (job, place in it)
@@ -277,6 +281,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
 
     def take(loop) -> None:
         """Place ``loop``: in the open lane group of its structure, or a job of its own."""
+        nonlocal in_flight
         why = lane_engine.ineligible(loop, solver)
         cl = None
         if why is None:
@@ -298,6 +303,8 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
         key = cl.asm.source
         if not strict and key not in verdicts:
             verdicts[key] = lane_engine.auto_uses_lanes(cl, expected, kernels, lean)
+            if verdicts[key] and grow:
+                in_flight = max(in_flight, 2 * jobs * width)
         if not strict and not verdicts[key]:
             job = _Job([(loop, cl)], lanes=False)
             submit(job)
@@ -325,8 +332,8 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             job, k = slots[0]
             # the open group of the next result: members of other structures between its own
             # may keep it from filling within ``in_flight``; take up to as many again
-            while not job.futures and len(job.members) < width and fill(len(slots) + 1):
-                if len(slots) >= 2 * in_flight:
+            while grow and not job.futures and len(job.members) < width:
+                if len(slots) >= 2 * in_flight or not fill(len(slots) + 1):
                     break
             if not job.futures:  # an open group whose first member is next: it goes as it is
                 key = job.members[0][1].asm.source
