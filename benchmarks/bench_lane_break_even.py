@@ -20,7 +20,7 @@ that cache in a fresh process (numba's cache and the once-per-process self-check
 break-even counts are compile (or load) time over the saving per member.
 
 Run: ``python benchmarks/bench_lane_break_even.py [--members 32] [--rounds 2]``
-(``--no-compile`` skips the compile and load measurements).
+(``--no-compile`` skips the compile and load measurements, ``--compile-only`` the others).
 """
 
 from __future__ import annotations
@@ -69,7 +69,8 @@ def cpu_per_member(loops, solver, lean: bool, lanes: bool) -> float:
 
 def first_group_seconds(loops, solver, folder: str) -> float:
     """CPU seconds of the first lane group of ``loops`` with the lane module's cache in
-    ``folder`` (compile or load), less a warm group's."""
+    ``folder`` (compile or load), less a warm group's; with the lean signals' pass (a
+    campaign compiles it too)."""
     from adaptive_ftc.sim.lanes import LANE_WIDTH, integrate_lanes
 
     built = [CompiledLoop.build(loop, solver) for loop in loops[:LANE_WIDTH]]
@@ -77,12 +78,12 @@ def first_group_seconds(loops, solver, folder: str) -> float:
     codegen.cache_dir = lambda: Path(folder)  # type: ignore[assignment]
     try:
         t = time.process_time()
-        integrate_lanes(built)
+        integrate_lanes(built, lean=True)
         first = time.process_time() - t
     finally:
         codegen.cache_dir = own  # type: ignore[assignment]
     t = time.process_time()
-    integrate_lanes(built)
+    integrate_lanes(built, lean=True)
     return first - (time.process_time() - t)
 
 
@@ -112,6 +113,7 @@ def main() -> int:
     ap.add_argument("--members", type=int, default=32)
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--no-compile", action="store_true")
+    ap.add_argument("--compile-only", action="store_true")
     ap.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
@@ -121,7 +123,7 @@ def main() -> int:
     print(f"load before: {os.getloadavg()[0]:.2f}")
     n = args.members - args.members % 8 or 8  # full lane groups
     saving = {}
-    for name, (loops, solver, lean) in workloads(n).items():
+    for name, (loops, solver, lean) in () if args.compile_only else workloads(n).items():
         cpu_per_member(loops[:8], solver, lean, True)  # compile or load both paths first
         cpu_per_member(loops[:8], solver, lean, False)
         single, lanes = [], []
@@ -144,7 +146,7 @@ def main() -> int:
                 f"{method}: lane module cold compile {cold:5.1f} s CPU, load from cache "
                 f"{warm:4.2f} s CPU"
             )
-            for name in names:
+            for name in names if saving else ():
                 if saving[name] > 0:
                     print(
                         f"  {name}: break-even {cold / saving[name]:7.0f} members to repay the "

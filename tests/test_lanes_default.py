@@ -105,6 +105,20 @@ def test_a_compiled_lane_module_or_a_large_batch_turns_lanes_on(base, monkeypatc
         assert lanes.auto_uses_lanes(cl, 1)
 
 
+def test_rk4_members_recorded_every_step_stay_one_at_a_time(base, monkeypatch):
+    """RK4 lanes write their records per lane: with a record every step they are slower
+    than one at a time, so "auto" keeps such members on the single path, however many and
+    whether or not the lane module is compiled (lanes=True still runs them in lanes)."""
+    _state(monkeypatch, "loaded")
+    steps = lanes.RK4_RECORD_STEPS
+    every = CompiledLoop.build(base, replace(RK4, record_dt=RK4.dt * (steps - 1)))
+    sparse = CompiledLoop.build(base, replace(RK4, record_dt=RK4.dt * steps))
+    assert not lanes.auto_uses_lanes(every, 10**9)
+    assert lanes.auto_uses_lanes(sparse, 1)
+    dopri5 = CompiledLoop.build(base, SolverOptions(method="dopri5", record_dt=1e-3))
+    assert lanes.auto_uses_lanes(dopri5, 1)  # DOPRI5 records from its dense output
+
+
 def test_a_group_runs_in_lanes_only_when_full_enough(base, monkeypatch, groups):
     """AUTO_GROUP_MIN members or more: one lane group; fewer: one at a time. lanes=True runs
     any group in lanes."""

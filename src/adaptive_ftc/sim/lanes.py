@@ -612,9 +612,11 @@ _announced: set[str] = set()
 _modules_lock = threading.Lock()
 _LANE_IMPORTS = ["adaptive_ftc.sim.lanes", "adaptive_ftc.sim.mathlib"]
 
-#: CPU seconds to compile a lane module with libm's kernels, once per structure and machine
-#: (the line printed before it; ``benchmarks/bench_lane_break_even.py``, docs/performance.md)
-COMPILE_SECONDS = {"rk4": 20.0, "dopri5": 35.0}
+#: CPU seconds to compile a lane module with libm's kernels, its lean signals' pass included,
+#: once per structure and machine (the line printed before it): 9.8 s (RK4) and 13.8 s
+#: (DOPRI5) measured by ``benchmarks/bench_lane_break_even.py`` (docs/performance.md); the
+#: wall time is that on a quiet machine, two to three times it on a busy one
+COMPILE_SECONDS = {"rk4": 10.0, "dopri5": 15.0}
 
 
 def _module_key(asm, width: int, kernels: str, method: str) -> str:
@@ -1019,21 +1021,27 @@ def lane_groups(loops: Sequence, solver, width: int = LANE_WIDTH):
 #: members of hypersonic-direct-s1 (docs/performance.md, "Lane engine: the default"). A
 #: structure whose lane module is loaded or in the disk cache runs in lanes at any count.
 AUTO_COMPILE_MIN = {
-    ("rk4", False): 1_000,  # records every 10 ms: 20-21 ms saved per member
-    ("rk4", True): 1_000,
-    ("dopri5", False): 8_000,  # records every 10 ms: 5 ms saved per member
-    ("dopri5", True): 40_000,  # a campaign's (records every 1 ms): about 1 ms saved
+    ("rk4", False): 500,  # records every 10 steps: 21-22 ms saved per member
+    ("rk4", True): 500,
+    ("dopri5", False): 3_000,  # records every 10 ms: 4.5-5 ms saved per member
+    ("dopri5", True): 10_000,  # a campaign's (records every 1 ms): 1-4 ms saved per member
 }
+
+#: RK4 lanes write their records per lane (strided): with a record every step (1 ms records
+#: at dt 1 ms, a campaign that judges the control activity) they cost 1.26x the members one
+#: at a time (lean signals); with one every 10 steps, 0.68x. "auto" runs RK4 members in
+#: lanes only when their records are at least this many steps apart.
+RK4_RECORD_STEPS = 10
 
 #: the members a lane group needs to beat running them one at a time (a group of fewer than
 #: ``LANE_WIDTH`` costs what a full one costs: its padding lanes compute too), per (method,
 #: lean signals): the smallest ``n > LANE_WIDTH * r``, ``r`` the measured lane / single CPU
 #: time per member; a smaller group's members run one at a time
 AUTO_GROUP_MIN = {
-    ("rk4", False): 6,  # r = 0.67
+    ("rk4", False): 6,  # r = 0.67-0.68
     ("rk4", True): 6,
-    ("dopri5", False): 7,  # r = 0.75
-    ("dopri5", True): 8,  # r = 0.97
+    ("dopri5", False): 7,  # r = 0.75-0.78
+    ("dopri5", True): 8,  # r = 0.88-0.97
 }
 
 
@@ -1042,8 +1050,13 @@ def auto_uses_lanes(cl, expected: int | None, kernels: str = "libm", lean: bool 
     :class:`~adaptive_ftc.sim.engine.CompiledLoop` of them): lanes when its lane module is
     loaded or in the disk cache (:func:`lane_module_state`), or when ``expected`` (the
     members of that structure the caller expects; ``None``: not known) repays compiling it
-    (:data:`AUTO_COMPILE_MIN`). Each lane group still needs :data:`AUTO_GROUP_MIN` members."""
+    (:data:`AUTO_COMPILE_MIN`); never for RK4 members recorded more often than every
+    :data:`RK4_RECORD_STEPS` steps. Each lane group still needs :data:`AUTO_GROUP_MIN`
+    members."""
     method = cl.solver.method
+    solver = cl.solver
+    if method == "rk4" and solver.record_dt < RK4_RECORD_STEPS * solver.dt * (1.0 - 1e-9):
+        return False  # records too dense for RK4 lanes to pay (RK4_RECORD_STEPS)
     if lane_module_state(cl.loop, cl.asm, LANE_WIDTH, kernels, method) != "absent":
         return True
     return expected is not None and expected >= AUTO_COMPILE_MIN[(method, bool(lean))]
