@@ -255,3 +255,25 @@ def test_a_campaign_by_default_equals_lanes_false_bit_for_bit(tmp_path, monkeypa
     adaptive = b[b["design"] == "adaptive"]
     assert {"completed", "diverged"} <= set(adaptive["status"])
     assert a.drop(columns=timing).equals(b.drop(columns=timing))
+
+
+@pytest.mark.parametrize(("flag", "lanes_arg"), [(None, "auto"), ("off", False), ("on", True)])
+def test_aftc_campaign_lanes_flag_reaches_the_runner(tmp_path, monkeypatch, flag, lanes_arg):
+    """``aftc campaign --lanes auto|on|off`` passes "auto" (the default), True or False."""
+    from types import SimpleNamespace
+
+    from adaptive_ftc.campaigns import runner
+    from adaptive_ftc.cli import main as aftc
+
+    seen = {}
+
+    def fake_run(spec, out, **kwargs):
+        seen.update(kwargs)
+        return SimpleNamespace(
+            runs_done_now=0, runs_resumed=0, runs_total=1, wall_time_s=0.0, complete=False, out=out
+        )
+
+    monkeypatch.setattr(runner, "run_campaign", fake_run)  # the command imports it on use
+    argv = ["campaign", "hypersonic-loe", "--out", str(tmp_path / "o"), "--quiet"]
+    assert aftc(argv + ([] if flag is None else ["--lanes", flag])) == 0
+    assert seen["lanes"] == lanes_arg

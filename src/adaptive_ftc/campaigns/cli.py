@@ -24,6 +24,10 @@ _EPILOG = """exit status:
 """
 
 
+#: ``--lanes``: run_campaign's ``lanes``
+_LANES: dict[str, bool | str] = {"auto": "auto", "on": True, "off": False}
+
+
 def add_parser(
     subparsers, formatter_class: type[argparse.HelpFormatter] = argparse.HelpFormatter
 ) -> argparse.ArgumentParser:
@@ -84,7 +88,7 @@ def _run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=not args.quiet,
             max_chunks=args.max_chunks,
-            lanes={"auto": "auto", "on": True, "off": False}[args.lanes],
+            lanes=_LANES[args.lanes],
         )
     except KeyboardInterrupt:
         print(

@@ -300,6 +300,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             submit(job)
             slots.append((job, 0))
             return
+        assert cl is not None  # built: it is eligible
         key = cl.asm.source
         if not strict and key not in verdicts:
             verdicts[key] = lane_engine.auto_uses_lanes(cl, expected, kernels, lean)
