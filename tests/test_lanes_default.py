@@ -156,6 +156,24 @@ def test_interleaved_members_fill_whole_groups_in_input_order(base, monkeypatch,
         np.testing.assert_array_equal(x1, x2)
 
 
+def test_a_lane_group_the_engine_refuses_runs_one_at_a_time_under_auto(base, monkeypatch):
+    """The default must not break a batch that lanes=False runs: a lane group that the lane
+    engine refuses (here every one) warns and runs its members alone; lanes=True raises."""
+    _state(monkeypatch, "loaded")
+
+    def refuse(compiled, *args, **kwargs):
+        raise ConfigurationError("The lane form disagrees (a stand-in).")
+
+    monkeypatch.setattr(lanes, "integrate_lanes", refuse)
+    loops = _members(base)
+    with pytest.warns(RuntimeWarning, match="stand-in.*one at a time"):
+        got = _quiet(simulate_many, loops, RK4, jobs=2)
+    for a, b in zip(got, _quiet(simulate_many, loops, RK4, jobs=2, lanes=False), strict=True):
+        assert_same_run(a, b)
+    with pytest.raises(ConfigurationError, match="stand-in"):
+        _quiet(simulate_many, loops, RK4, jobs=2, lanes=True)
+
+
 def test_expected_members_is_checked(base):
     with pytest.raises(ConfigurationError, match="expected_members"):
         simulate_many([base], RK4, expected_members=-1)

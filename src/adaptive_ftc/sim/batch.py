@@ -273,7 +273,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             job.lanes = len(members) >= lane_engine.auto_group_min(method, lean)
         if job.lanes:
             built = [cl for _, cl in members]
-            job.futures = [pool.submit(_run_group, built, reduce, kernels, lean)]
+            job.futures = [pool.submit(_run_group, built, reduce, kernels, lean, not strict)]
         else:
             job.futures = [
                 pool.submit(_run, loop, solver, reduce, lean, cl) for loop, cl in members
@@ -303,7 +303,10 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
         assert cl is not None  # built: it is eligible
         key = cl.asm.source
         if not strict and key not in verdicts:
-            verdicts[key] = lane_engine.auto_uses_lanes(cl, expected, kernels, lean)
+            try:
+                verdicts[key] = lane_engine.auto_uses_lanes(cl, expected, kernels, lean)
+            except ConfigurationError:  # no lane module for it after all: one at a time
+                verdicts[key] = False
             if verdicts[key] and grow:
                 in_flight = max(in_flight, 2 * jobs * width)
         if not strict and not verdicts[key]:
@@ -352,14 +355,30 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             bar.close()
 
 
-def _run_group(built: list, reduce: Callable | None, kernels: str, lean: bool = False) -> list:
+def _run_group(
+    built: list, reduce: Callable | None, kernels: str, lean: bool = False, fallback: bool = False
+) -> list:
     """One lane group (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure, at
-    most ``LANE_WIDTH``): each member's result (reduced) in order."""
+    most ``LANE_WIDTH``): each member's result (reduced) in order. ``fallback`` (``"auto"``):
+    a lane group the lane engine refuses (a :class:`ConfigurationError`, e.g. its lane form
+    disagreeing with the single run's) warns and runs its members one at a time instead."""
     from adaptive_ftc.sim import lanes as lane_engine  # looked up per call: benches count it
     from adaptive_ftc.sim.engine import finish_run
 
-    # lean: the lanes' own signals pass over the records (stage 3)
-    runs = lane_engine.integrate_lanes(built, kernels=kernels, lean=lean)
+    try:
+        # lean: the lanes' own signals pass over the records (stage 3)
+        runs = lane_engine.integrate_lanes(built, kernels=kernels, lean=lean)
+    except ConfigurationError as exc:
+        if not fallback:
+            raise
+        import warnings
+
+        warnings.warn(
+            f"{exc} lanes='auto' runs these members one at a time instead (same results).",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        runs = [cl.integrate() for cl in built]
     out = []
     for cl, run in zip(built, runs, strict=True):
         result = finish_run(cl, run, lean=lean)
