@@ -103,9 +103,10 @@ def iter_simulate(
     they pay, every other member one per thread, the same results either way. A structure's
     members run in lanes when its lane module is already compiled (loaded, or in the disk
     cache) or when ``expected_members`` repays compiling it
-    (:data:`~adaptive_ftc.sim.lanes.AUTO_COMPILE_MIN`: about 1,000 RK4 or 8,000 DOPRI5
-    members of 120 s; a one-line message on stderr announces the compile, 20-35 s of CPU
-    once per machine), and each lane group holds enough members to beat one at a time
+    (:data:`~adaptive_ftc.sim.lanes.AUTO_COMPILE_MIN`: 500 RK4, 3,000 DOPRI5 or, with
+    ``lean_signals``, 10,000 DOPRI5 members; a one-line message on stderr announces the
+    compile, 10-15 s of CPU once per machine; never for RK4 members recorded more often than
+    every 10 steps), and each lane group holds enough members to beat one at a time
     (:data:`~adaptive_ftc.sim.lanes.AUTO_GROUP_MIN`: 6 to 8 of 8; a smaller group's members
     run one at a time). ``False``: one member per thread. ``True``: every member in lanes
     (any group size, compiling when needed), a :class:`ConfigurationError` naming why for

@@ -648,7 +648,7 @@ def lane_module_state(
 ) -> str:
     """Where the lane module of ``loop``'s structure (``asm``: its assembled single run) is:
     ``"loaded"`` in this process, ``"cached"`` compiled in the disk cache (loading it takes
-    0.2-0.3 s), or ``"absent"`` (its first use compiles it: :data:`COMPILE_SECONDS`)."""
+    0.05-0.3 s), or ``"absent"`` (its first use compiles it: :data:`COMPILE_SECONDS`)."""
     key = _module_key(asm, width, kernels, method)
     with _modules_lock:
         if key in _modules:
