@@ -37,6 +37,11 @@ the lanes' own signals' pass over the records (the module's ``commands`` and ``l
 tracking error, commands and applied commands of every record of every lane, bit for bit each
 member's lean single run's), so the records are not gone over one member at a time.
 
+``lanes="auto"``, the default of ``iter_simulate``, ``simulate_many`` and campaigns, runs
+members here where it pays (:func:`auto_uses_lanes`: the lane module compiled already, or
+enough members of the structure to repay compiling it; lane groups full enough,
+:data:`AUTO_GROUP_MIN`; RK4 only with records 10 or more steps apart), with the same results.
+
 ``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` (and, stage 1c, the
 reference's ``sin`` and ``cos``) for the call-free ones of :mod:`adaptive_ftc.sim.lane_kernels`,
 which vectorise too; with RK4 it also pastes the rhs into the five stages and allows fused
