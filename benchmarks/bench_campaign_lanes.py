@@ -1,23 +1,22 @@
-"""Campaign throughput with the lane engine (issue 29, stages 2 and 3): bench_campaign.py's
-campaign (hypersonic-direct-s1, 120 s runs, the base scenario's DOPRI5 rtol 1e-6 / atol 1e-9)
-run by ``run_campaign`` as it is (members one per thread) and with its members in SIMD lanes
-(``iter_simulate(..., lanes="auto")``, patched into the campaign runner here: the runner does
-not pass ``lanes`` yet), interleaved, in the same process. The patched runner passes
-``lean_signals=True`` as the real one does (its keywords go through), so the lane groups take
-the lanes' own signals pass (stage 3); the bench counts the lane groups that did.
+"""Campaign throughput with the lane engine (issue 29, stages 2 and 3, and the default):
+bench_campaign.py's campaign (hypersonic-direct-s1, 120 s runs, the base scenario's DOPRI5
+rtol 1e-6 / atol 1e-9) run by ``run_campaign`` with its members one at a time
+(``lanes=False``) and with its default, ``lanes="auto"`` (the lane module compiled or loaded
+in the warm-up, so "auto" runs the members in SIMD lanes: lane groups of 8, a chunk's last
+few members one at a time), interleaved, in the same process. The campaign passes
+``lean_signals=True``, so the lane groups take the lanes' own signals pass (stage 3); the
+bench counts the lane groups that did.
 
 Run: ``python benchmarks/bench_campaign_lanes.py [--runs 200] [--jobs 1] [--rounds 2]``.
 
 Prints per round the wall and CPU time of each and their ratio, checks that both results
-tables are equal (every metric of every member), and the lane occupancy of the DOPRI5
-groups (a group runs until its slowest member). The first lane group of a structure compiles
+tables are equal (every metric of every member). The first lane group of a structure compiles
 its lane module (timed apart, "cold" only when the cache is empty).
 """
 
 from __future__ import annotations
 
 import argparse
-import functools
 import sys
 import tempfile
 import time
@@ -27,12 +26,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_campaign import spec_data  # noqa: E402
 
-import adaptive_ftc.campaigns.runner as runner  # noqa: E402
 import adaptive_ftc.sim.lanes as lane_engine  # noqa: E402
 from adaptive_ftc.campaigns import load_campaign, run_campaign  # noqa: E402
 from adaptive_ftc.campaigns.store import read_results  # noqa: E402
 from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
-from adaptive_ftc.sim.batch import iter_simulate  # noqa: E402
 
 LEAN_GROUPS = [0, 0]  # lane groups run, and those with the lanes' lean signals pass
 _integrate_lanes = lane_engine.integrate_lanes
@@ -44,20 +41,14 @@ def _counted(compiled, *args, **kw):
     return _integrate_lanes(compiled, *args, **kw)
 
 
-lane_engine.integrate_lanes = _counted  # batch._run_chunk imports it from there on each call
+lane_engine.integrate_lanes = _counted  # batch._run_group looks it up there on each call
 
 
-def timed(spec, out: Path, jobs: int, lanes: bool) -> tuple[float, float]:
+def timed(spec, out: Path, jobs: int, lanes: bool | str) -> tuple[float, float]:
     """Wall and CPU seconds of one run_campaign (summary page not written)."""
-    runner.iter_simulate = (  # type: ignore[attr-defined]
-        functools.partial(iter_simulate, lanes="auto") if lanes else iter_simulate
-    )
-    try:
-        wall, cpu = time.perf_counter(), time.process_time()
-        run_campaign(spec, out, jobs=jobs, progress=False, summary=False)
-        return time.perf_counter() - wall, time.process_time() - cpu
-    finally:
-        runner.iter_simulate = iter_simulate  # type: ignore[attr-defined]
+    wall, cpu = time.perf_counter(), time.process_time()
+    run_campaign(spec, out, jobs=jobs, progress=False, summary=False, lanes=lanes)
+    return time.perf_counter() - wall, time.process_time() - cpu
 
 
 def main() -> int:
@@ -83,7 +74,7 @@ def main() -> int:
         print(f"  warm-up, lane module:            {time.perf_counter() - t:7.2f} s")
         for k in range(args.rounds):
             w0, c0 = timed(spec, root / f"single{k}", args.jobs, False)
-            w1, c1 = timed(spec, root / f"lanes{k}", args.jobs, True)
+            w1, c1 = timed(spec, root / f"lanes{k}", args.jobs, "auto")
             print(
                 f"  round {k}: one at a time {w0:6.2f} s wall {c0:6.2f} s CPU; lanes {w1:6.2f} s "
                 f"wall {c1:6.2f} s CPU; lanes / one at a time: wall {w1 / w0:.3f}, "

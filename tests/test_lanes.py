@@ -129,10 +129,14 @@ def test_a_lane_bad_from_its_initial_state(base):
     assert lanes[1].status == "diverged" and lanes[0].status == "completed"
 
 
-def test_iter_simulate_with_lanes_keeps_order_and_falls_back(base):
+def test_iter_simulate_with_lanes_keeps_order_and_falls_back(base, monkeypatch):
     """lanes='auto': eligible members in lanes, the others (a failure pattern that is not
     affine; a regressor of another structure) one at a time; results in input order, reduced
     per member, equal to the single runs."""
+    from adaptive_ftc.sim import lanes
+
+    # "auto"'s policy would run a group of 5 RK4 members one at a time (AUTO_GROUP_MIN)
+    monkeypatch.setitem(lanes.AUTO_GROUP_MIN, ("rk4", False), 2)
     pattern = (Stuck(actuator=2, onset=0.5, value="0.1 + 0.05*cos(0.5*t)"),)
     loops = _members(base)[:5]
     loops.insert(2, replace(base, failures=pattern))  # not affine: one at a time

@@ -183,6 +183,8 @@ def test_iter_simulate_takes_dopri5_members_in_lanes(base, monkeypatch):
         return integrate(compiled, *args, **kwargs)
 
     monkeypatch.setattr(lane_engine, "integrate_lanes", counting)
+    # "auto"'s policy would run a group of 4 DOPRI5 members one at a time (AUTO_GROUP_MIN)
+    monkeypatch.setitem(lane_engine.AUTO_GROUP_MIN, ("dopri5", False), 2)
     pattern = (Stuck(actuator=2, onset=0.5, value="0.1 + 0.05*cos(0.5*t)"),)
     loops = _members(base)[:4]
     loops.insert(2, replace(base, failures=pattern))

@@ -24,6 +24,10 @@ _EPILOG = """exit status:
 """
 
 
+#: ``--lanes``: run_campaign's ``lanes``
+_LANES: dict[str, bool | str] = {"auto": "auto", "on": True, "off": False}
+
+
 def add_parser(
     subparsers, formatter_class: type[argparse.HelpFormatter] = argparse.HelpFormatter
 ) -> argparse.ArgumentParser:
@@ -48,6 +52,12 @@ def add_parser(
     c.add_argument("--jobs", type=int, default=None, help="threads (default: all cores)")
     c.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
     c.add_argument("--max-chunks", type=int, default=None, help="stop after N new chunks")
+    c.add_argument(
+        "--lanes",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="members in SIMD lanes: where they pay (auto, default), always, never; same table",
+    )
     c.add_argument("--design", action="append", help="replay only this design (repeatable)")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     return c
@@ -78,6 +88,7 @@ def _run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=not args.quiet,
             max_chunks=args.max_chunks,
+            lanes=_LANES[args.lanes],
         )
     except KeyboardInterrupt:
         print(

@@ -143,11 +143,15 @@ def outcome(
     return row
 
 
-def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict[str, Any]]:
+def run_chunk(
+    spec: CampaignSpec, chunk: int, jobs: int | None = 1, *, lanes: bool | str = "auto"
+) -> list[dict[str, Any]]:
     """Simulate one chunk (every design of members ``chunk*size ..``); rows in (index, design)
     order. Only metrics rows are kept, never the trajectories: each run's outcome is computed
     in the thread that simulated it (:func:`iter_simulate` with ``reduce``), while the other
-    threads run the next ones."""
+    threads run the next ones. ``lanes``: as for :func:`iter_simulate` (``"auto"``: members
+    in SIMD lanes where they pay, the campaign's runs counted as the members each structure
+    will have; the same rows either way)."""
     lo = chunk * spec.chunk_size
     hi = min(spec.runs, lo + spec.chunk_size)
     members: list[Member] = []
@@ -177,7 +181,15 @@ def run_chunk(spec: CampaignSpec, chunk: int, jobs: int | None = 1) -> list[dict
         # the row reads the errors, commands and applied commands only (lean_signals: the
         # other signals, the plant's control gain among them, are not computed)
         outcomes = list(
-            iter_simulate(loops(), spec.solver, jobs=jobs, reduce=reduce, lean_signals=True)
+            iter_simulate(
+                loops(),
+                spec.solver,
+                jobs=jobs,
+                reduce=reduce,
+                lean_signals=True,
+                lanes=lanes,
+                expected_members=spec.runs,  # one loop per design: runs of each structure
+            )
         )
     rows = []
     k = 0
@@ -210,6 +222,7 @@ def run_campaign(
     progress: bool = True,
     max_chunks: int | None = None,
     summary: bool = True,
+    lanes: bool | str = "auto",
 ) -> CampaignRun:
     """Run (or resume) a campaign into the folder ``out``.
 
@@ -234,6 +247,12 @@ def run_campaign(
         Stop after this many new chunks (the rest is left for a later resume).
     summary
         Write the summary when the campaign is complete.
+    lanes
+        Members in SIMD lanes (:func:`~adaptive_ftc.sim.batch.iter_simulate`'s ``lanes``):
+        ``"auto"`` (default) where they pay (the lane module of the members' structure is
+        compiled already, or the campaign's runs repay compiling it), ``False`` never,
+        ``True`` always. The table is the same bit for bit; on a Dask cluster each worker
+        decides for itself (its own disk cache).
 
     Examples
     --------
@@ -288,9 +307,10 @@ def run_campaign(
         if scheduler is not None:
             from adaptive_ftc.campaigns.dask import run_chunks_dask
 
-            source = run_chunks_dask(spec, list(pending), scheduler, run_chunk)
+            chunk_runner = functools.partial(run_chunk, lanes=lanes)
+            source = run_chunks_dask(spec, list(pending), scheduler, chunk_runner)
         else:
-            source = ((c, run_chunk(spec, c, jobs)) for c in pending)
+            source = ((c, run_chunk(spec, c, jobs, lanes=lanes)) for c in pending)
         now = 0
         for c, rows in source:
             store.write_part(store.to_table(rows, spec), out, c)

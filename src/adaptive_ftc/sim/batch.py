@@ -29,16 +29,18 @@ def simulate_many(
     *,
     jobs: int | None = None,
     progress: bool = False,
-    lanes: bool | str = False,
+    lanes: bool | str = "auto",
     lane_kernels: str = "libm",
+    expected_members: int | None = None,
 ) -> list[SimResult]:
     """Simulate many closed loops in parallel (e.g. a Monte Carlo campaign).
 
     The fixed-step path runs in the compiled kernel without the GIL, so threads give real
     parallelism; results come back in input order and are identical to sequential runs.
     Every result is kept (a 120 s run at ``record_dt = 0.01`` holds about 4 MB): for
-    thousands of runs, :func:`iter_simulate` streams them instead. ``lanes``: as for
-    :func:`iter_simulate` (members in SIMD lanes, ``sim/lanes.py``).
+    thousands of runs, :func:`iter_simulate` streams them instead. ``lanes``,
+    ``lane_kernels``, ``expected_members``: as for :func:`iter_simulate` (members in SIMD
+    lanes, ``sim/lanes.py``; by default where they pay, with the same results).
 
     Examples
     --------
@@ -60,6 +62,7 @@ def simulate_many(
             progress=progress,
             lanes=lanes,
             lane_kernels=lane_kernels,
+            expected_members=expected_members,
         )
     )
 
@@ -72,9 +75,10 @@ def iter_simulate(
     window: int | None = None,
     progress: bool = False,
     reduce: Callable[[SimResult], Any] | None = None,
-    lanes: bool | str = False,
+    lanes: bool | str = "auto",
     lane_kernels: str = "libm",
     lean_signals: bool = False,
+    expected_members: int | None = None,
 ) -> Iterator[Any]:
     """Simulate closed loops in parallel and yield their results one by one, in input order.
 
@@ -95,17 +99,28 @@ def iter_simulate(
     ``lanes``: run members in SIMD lanes (:mod:`adaptive_ftc.sim.lanes`: ``LANE_WIDTH`` = 8
     members of one structure per compiled call, each member's result equal to its own
     :func:`simulate` bit for bit; fixed-step RK4 or DOPRI5 and the loops
-    :func:`~adaptive_ftc.sim.lanes.ineligible` accepts). ``False`` (default): one member per
-    thread. ``"auto"``: consecutive eligible members of one structure in lanes, every other
-    member one at a time. ``True``:
-    as ``"auto"``, but a :class:`ConfigurationError` naming why for a loop that cannot run in
-    lanes. With lanes the threads take groups of up to 8 consecutive members, and up to
-    ``max(window, 2 * jobs * 8)`` members are in flight. The lane module of a structure
-    compiles once (10-30 s; cached on disk like the loop modules). ``lane_kernels``:
-    ``"libm"`` (default: bit-identical to single runs) or ``"vector"`` (stage 1b, RK4 only:
-    call-free ``exp``, ``tanh``, ``sin``, ``cos`` that vectorise, the rhs pasted into the
-    stages and fused multiply-adds: faster, its lane module compiles about 5x longer, about
-    1e-14 of the signal scale from the single runs).
+    :func:`~adaptive_ftc.sim.lanes.ineligible` accepts). ``"auto"`` (default): lanes where
+    they pay, every other member one per thread, the same results either way. A structure's
+    members run in lanes when its lane module is already compiled (loaded, or in the disk
+    cache) or when ``expected_members`` repays compiling it
+    (:data:`~adaptive_ftc.sim.lanes.AUTO_COMPILE_MIN`: 500 RK4, 3,000 DOPRI5 or, with
+    ``lean_signals``, 10,000 DOPRI5 members; a one-line message on stderr announces the
+    compile, 10-15 s of CPU once per machine; never for RK4 members recorded more often than
+    every 10 steps), and each lane group holds enough members to beat one at a time
+    (:data:`~adaptive_ftc.sim.lanes.AUTO_GROUP_MIN`: 6 to 8 of 8; a smaller group's members
+    run one at a time). ``False``: one member per thread. ``True``: every member in lanes
+    (any group size, compiling when needed), a :class:`ConfigurationError` naming why for
+    a loop that cannot run in lanes. Members join the lane group of their structure in
+    input order (a group goes to the threads when full, or when its first member's result is
+    next), so members of other structures or ineligible ones in between do not split
+    groups; up to ``max(window, 2 * jobs * 8)`` members are in flight. ``expected_members``:
+    how many members of one structure the caller will run in all (a campaign: its runs);
+    default ``len(loops)`` when ``loops`` has a length, else not known (then only compiled
+    lane modules are used). ``lane_kernels``: ``"libm"`` (default: bit-identical to single
+    runs) or ``"vector"`` (stage 1b, RK4 only: call-free ``exp``, ``tanh``, ``sin``,
+    ``cos`` that vectorise, the rhs pasted into the stages and fused multiply-adds: faster,
+    its lane module compiles about 5x longer, about 1e-14 of the signal scale from the
+    single runs).
 
     Examples
     --------
@@ -123,10 +138,20 @@ def iter_simulate(
         isinstance(window, bool) or not isinstance(window, int) or window < 1
     ):
         raise ConfigurationError(f"`window` must be a positive integer; got {window!r}.")
+    if expected_members is not None and (
+        isinstance(expected_members, bool)
+        or not isinstance(expected_members, int)
+        or expected_members < 0
+    ):
+        raise ConfigurationError(
+            f"`expected_members` must be a non-negative integer or None; got {expected_members!r}."
+        )
     if lanes is not False:
         from adaptive_ftc.sim.lanes import _kernels
 
         kernels = _kernels(lane_kernels)
+        if expected_members is None and isinstance(loops, Sized):
+            expected_members = len(loops)
         yield from _iter_lanes(
             loops,
             solver,
@@ -137,6 +162,7 @@ def iter_simulate(
             strict=lanes is True,
             kernels=kernels,
             lean=lean_signals,
+            expected=expected_members,
         )
         return
     window = 4 * jobs if window is None else window
@@ -185,88 +211,177 @@ def _tick(bar: Any) -> None:
 
 
 def _run(
-    loop: ClosedLoop, solver: SolverOptions | None, reduce: Callable | None, lean: bool = False
+    loop: ClosedLoop,
+    solver: SolverOptions | None,
+    reduce: Callable | None,
+    lean: bool = False,
+    compiled: Any = None,
 ) -> Any:
-    """One run of a batch, reduced in the same thread when asked."""
-    result = simulate(loop, solver, lean_signals=lean)
+    """One run of a batch, reduced in the same thread when asked (``compiled``: the loop's
+    :class:`~adaptive_ftc.sim.engine.CompiledLoop` when the lane path built it already)."""
+    if compiled is None:
+        result = simulate(loop, solver, lean_signals=lean)
+    else:
+        from adaptive_ftc.sim.engine import finish_run
+
+        result = finish_run(compiled, compiled.integrate(), stacklevel=3, lean=lean)
     return result if reduce is None else reduce(result)
 
 
-def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean=False):
-    """:func:`iter_simulate` with lanes: chunks of up to ``LANE_WIDTH`` consecutive members per
-    thread job (:func:`_run_chunk`), results yielded per member in input order."""
-    from adaptive_ftc.sim.lanes import LANE_WIDTH, _refusal, ineligible
+class _Job:
+    """Members submitted together: a lane group (one future, results in its members' order)
+    or one member (one future per member)."""
 
-    width = LANE_WIDTH
-    in_flight = max(window or 0, 2 * jobs * width)
+    def __init__(self, members: list, lanes: bool) -> None:
+        self.members = members  # (loop, CompiledLoop or None)
+        self.lanes = lanes
+        self.futures: list = []
+
+    def result(self, k: int) -> Any:
+        if self.lanes:
+            return self.futures[0].result()[k]
+        return self.futures[k].result()
+
+
+def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean, expected):
+    """:func:`iter_simulate` with lanes: each eligible member joins the open lane group of its
+    structure (submitted to the threads when it holds ``LANE_WIDTH`` members, or when its
+    first member is the next result to yield); with ``"auto"`` (``strict`` false) a structure
+    whose lane module does not pay (:func:`~adaptive_ftc.sim.lanes.auto_uses_lanes`) and a
+    group smaller than :func:`~adaptive_ftc.sim.lanes.auto_group_min` run one member per
+    thread job, as every member that cannot run in lanes does. Results in input order."""
+    from adaptive_ftc.sim import lanes as lane_engine
+    from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions
+
+    solver = solver or SolverOptions()
+    width = lane_engine.LANE_WIDTH
+    # members out (in flight or waiting): the window, as without lanes; enough for a lane
+    # group per thread and the next one (2 * jobs * width) once lanes run, unless the
+    # caller's own window says otherwise ("auto") -- with lanes=True at least that many
+    grow = strict or window is None
+    in_flight = max(window or 0, 2 * jobs * width) if strict else (window or 4 * jobs)
     bar = _bar(loops, progress)
     source = iter(loops)
-
-    def chunk() -> list:
-        out = []
-        for loop in source:
-            if strict:
-                why = ineligible(loop, solver)
-                if why is not None:
-                    raise ConfigurationError(_refusal(loop, why))
-            out.append(loop)
-            if len(out) == width:
-                break
-        return out
-
-    pending: deque = deque()
-    members = 0  # submitted and not yet yielded
+    slots: deque = deque()  # per member not yet yielded, in input order: (job, place in it)
+    groups: dict[str, _Job] = {}  # the open lane group of each structure
+    verdicts: dict[str, bool] = {}  # "auto": does this structure run in lanes?
     pool = ThreadPoolExecutor(max_workers=jobs)
 
-    def fill() -> None:
-        """Submit chunks until ``in_flight`` members are out or the source is dry."""
-        nonlocal members
-        while members < in_flight:
-            part = chunk()
-            if not part:
-                return
-            pending.append(pool.submit(_run_chunk, part, solver, reduce, strict, kernels, lean))
-            members += len(part)
+    def submit(job: _Job) -> None:
+        members = job.members
+        if job.lanes and not strict:
+            method = members[0][1].solver.method
+            job.lanes = len(members) >= lane_engine.auto_group_min(method, lean)
+        if job.lanes:
+            built = [cl for _, cl in members]
+            job.futures = [pool.submit(_run_group, built, reduce, kernels, lean, not strict)]
+        else:
+            job.futures = [
+                pool.submit(_run, loop, solver, reduce, lean, cl) for loop, cl in members
+            ]
+
+    def take(loop) -> None:
+        """Place ``loop``: in the open lane group of its structure, or a job of its own."""
+        nonlocal in_flight
+        why = lane_engine.ineligible(loop, solver)
+        cl = None
+        if why is None:
+            try:
+                cl = CompiledLoop.build(loop, solver)
+            except Exception:
+                if strict:
+                    raise
+                why = "its loop cannot be built"  # its own run raises why, in its turn
+            else:
+                why = lane_engine._ineligible_numbers(cl.asm)
+        if why is not None:
+            if strict:
+                raise ConfigurationError(lane_engine._refusal(loop, why))
+            job = _Job([(loop, cl)], lanes=False)
+            submit(job)
+            slots.append((job, 0))
+            return
+        assert cl is not None  # built: it is eligible
+        key = cl.asm.source
+        if not strict and key not in verdicts:
+            try:
+                verdicts[key] = lane_engine.auto_uses_lanes(cl, expected, kernels, lean)
+            except ConfigurationError:  # no lane module for it after all: one at a time
+                verdicts[key] = False
+            if verdicts[key] and grow:
+                in_flight = max(in_flight, 2 * jobs * width)
+        if not strict and not verdicts[key]:
+            job = _Job([(loop, cl)], lanes=False)
+            submit(job)
+            slots.append((job, 0))
+            return
+        job = groups.setdefault(key, _Job([], lanes=True))
+        slots.append((job, len(job.members)))
+        job.members.append((loop, cl))
+        if len(job.members) == width:
+            del groups[key]
+            submit(job)
+
+    def fill(upto: int) -> bool:
+        """Take members until ``upto`` are out (False: the source is dry)."""
+        while len(slots) < upto:
+            loop = next(source, None)
+            if loop is None:
+                return False
+            take(loop)
+        return True
 
     try:
-        fill()
-        while pending:
-            results = pending.popleft().result()
-            members -= len(results)
-            fill()  # the next chunks start before the caller takes these results
-            for result in results:
-                _tick(bar)
-                yield result
+        fill(in_flight)
+        while slots:
+            job, k = slots[0]
+            # the open group of the next result: members of other structures between its own
+            # may keep it from filling within ``in_flight``; take up to as many again
+            while grow and not job.futures and len(job.members) < width:
+                if len(slots) >= 2 * in_flight or not fill(len(slots) + 1):
+                    break
+            if not job.futures:  # an open group whose first member is next: it goes as it is
+                key = job.members[0][1].asm.source
+                if groups.get(key) is job:
+                    del groups[key]
+                submit(job)
+            result = job.result(k)
+            slots.popleft()
+            fill(in_flight)  # the next members start before the caller takes this result
+            _tick(bar)
+            yield result
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
             bar.close()
 
 
-def _run_chunk(
-    loops: list, solver, reduce: Callable | None, strict: bool, kernels: str, lean: bool = False
+def _run_group(
+    built: list, reduce: Callable | None, kernels: str, lean: bool = False, fallback: bool = False
 ) -> list:
-    """Consecutive members: those of one eligible structure in a lane group (two or more, or
-    any with ``strict``), the others one at a time; results (reduced) in input order."""
-    from adaptive_ftc.sim.engine import SolverOptions, finish_run
-    from adaptive_ftc.sim.lanes import _refusal, integrate_lanes, lane_groups
+    """One lane group (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure, at
+    most ``LANE_WIDTH``): each member's result (reduced) in order. ``fallback`` (``"auto"``):
+    a lane group the lane engine refuses (a :class:`ConfigurationError`, e.g. its lane form
+    disagreeing with the single run's) warns and runs its members one at a time instead."""
+    from adaptive_ftc.sim import lanes as lane_engine  # looked up per call: benches count it
+    from adaptive_ftc.sim.engine import finish_run
 
-    solver = solver or SolverOptions()
-    groups, built = lane_groups(loops, solver)
-    out: list[Any] = [None] * len(loops)
-    for kind, idx in groups:
-        if kind == "lanes" and (len(idx) > 1 or strict):
-            # lean: the lanes' own signals pass over the records (stage 3)
-            runs = integrate_lanes([built[k] for k in idx], kernels=kernels, lean=lean)
-            for k, run in zip(idx, runs, strict=True):
-                result = finish_run(built[k], run, lean=lean)  # type: ignore[arg-type]
-                out[k] = result if reduce is None else reduce(result)
-            continue
-        for k in idx:
-            if strict and k not in built:
-                from adaptive_ftc.sim.lanes import ineligible_reason
+    try:
+        # lean: the lanes' own signals pass over the records (stage 3)
+        runs = lane_engine.integrate_lanes(built, kernels=kernels, lean=lean)
+    except ConfigurationError as exc:
+        if not fallback:
+            raise
+        import warnings
 
-                why = ineligible_reason(loops[k], solver) or "no lane group"
-                raise ConfigurationError(_refusal(loops[k], why))
-            out[k] = _run(loops[k], solver, reduce, lean)
+        warnings.warn(
+            f"{exc} lanes='auto' runs these members one at a time instead (same results).",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        runs = [cl.integrate() for cl in built]
+    out = []
+    for cl, run in zip(built, runs, strict=True):
+        result = finish_run(cl, run, lean=lean)
+        out.append(result if reduce is None else reduce(result))
     return out

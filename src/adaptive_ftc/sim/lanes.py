@@ -37,6 +37,11 @@ the lanes' own signals' pass over the records (the module's ``commands`` and ``l
 tracking error, commands and applied commands of every record of every lane, bit for bit each
 member's lean single run's), so the records are not gone over one member at a time.
 
+``lanes="auto"``, the default of ``iter_simulate``, ``simulate_many`` and campaigns, runs
+members here where it pays (:func:`auto_uses_lanes`: the lane module compiled already, or
+enough members of the structure to repay compiling it; lane groups full enough,
+:data:`AUTO_GROUP_MIN`; RK4 only with records 10 or more steps apart), with the same results.
+
 ``kernels="vector"`` (stage 1b, opt-in) swaps libm's ``exp`` and ``tanh`` (and, stage 1c, the
 reference's ``sin`` and ``cos``) for the call-free ones of :mod:`adaptive_ftc.sim.lane_kernels`,
 which vectorise too; with RK4 it also pastes the rhs into the five stages and allows fused
@@ -49,6 +54,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -606,22 +612,86 @@ from adaptive_ftc.sim.lane_kernels import vcos, vexp, vsin, vtanh
 
 # ----------------------------------------------------------------------------- modules
 _modules: dict[str, tuple[object, _Plan]] = {}
+_plans: dict[str, _Plan] = {}
+_announced: set[str] = set()
 _modules_lock = threading.Lock()
 _LANE_IMPORTS = ["adaptive_ftc.sim.lanes", "adaptive_ftc.sim.mathlib"]
+
+#: CPU seconds to compile a lane module with libm's kernels, its lean signals' pass included,
+#: once per structure and machine (the line printed before it): 9.8 s (RK4) and 13.8 s
+#: (DOPRI5) measured by ``benchmarks/bench_lane_break_even.py`` (docs/performance.md); the
+#: wall time is that on a quiet machine, two to three times it on a busy one
+COMPILE_SECONDS = {"rk4": 10.0, "dopri5": 15.0}
+
+
+def _module_key(asm, width: int, kernels: str, method: str) -> str:
+    return f"{width} {kernels} {method}\n{asm.source}"
+
+
+def _imports(kernels: str, method: str) -> list[str]:
+    """The modules a lane module imports (their source is part of its cache key)."""
+    imports = _LANE_IMPORTS + (["adaptive_ftc.sim.lane_kernels"] if kernels == "vector" else [])
+    if method == "dopri5":  # its tableau is imported from the single run's integrators
+        imports = [*imports, "adaptive_ftc.sim.templates.adaptive"]
+    return imports
+
+
+def _plan_of(loop, asm, width: int, kernels: str, method: str) -> _Plan:
+    """:func:`_plan`, once per structure, width, kernels and method in this process."""
+    key = _module_key(asm, width, kernels, method)
+    with _modules_lock:
+        plan = _plans.get(key)
+    if plan is None:
+        plan = _plan(loop, asm, width, _kernels(kernels), method)
+        with _modules_lock:
+            _plans[key] = plan
+    return plan
+
+
+def lane_module_state(
+    loop, asm, width: int = LANE_WIDTH, kernels: str = "libm", method: str = "rk4"
+) -> str:
+    """Where the lane module of ``loop``'s structure (``asm``: its assembled single run) is:
+    ``"loaded"`` in this process, ``"cached"`` compiled in the disk cache (loading it takes
+    0.05-0.3 s), or ``"absent"`` (its first use compiles it: :data:`COMPILE_SECONDS`)."""
+    key = _module_key(asm, width, kernels, method)
+    with _modules_lock:
+        if key in _modules:
+            return "loaded"
+    plan = _plan_of(loop, asm, width, kernels, method)
+    cached = codegen.is_cached(plan.text, _imports(kernels, method), kind="lanes")
+    return "cached" if cached else "absent"
+
+
+def compile_message(loop, width: int, kernels: str, method: str) -> str:
+    """The line printed before a lane module compiles (the single path's ``compiling ...``
+    line of the command-line tools, for the lane engine)."""
+    seconds = COMPILE_SECONDS[method] * (5.0 if kernels == "vector" else 1.0)
+    return (
+        f"compiling the SIMD lane module of {loop.plant.name!r} + 'direct' ({method}, {width} "
+        f"lanes, {kernels} kernels; first use on this machine only, ~{seconds:.0f} s of CPU; "
+        "later runs load it from the cache)..."
+    )
 
 
 def lane_module(loop, asm, width: int = LANE_WIDTH, kernels: str = "libm", method: str = "rk4"):
     """The compiled lane module of ``loop``'s structure and its plan (generated once per
-    structure, width and method, cached on disk like the loop modules)."""
-    key = f"{width} {kernels} {method}\n{asm.source}"
+    structure, width and method, cached on disk like the loop modules). A module that is not
+    in the disk cache yet is announced on stderr (:func:`compile_message`) before it compiles
+    (numba compiles it at its first call, next)."""
+    key = _module_key(asm, width, kernels, method)
     with _modules_lock:
         found = _modules.get(key)
     if found is not None:
         return found
-    plan = _plan(loop, asm, width, _kernels(kernels), method)
-    imports = _LANE_IMPORTS + (["adaptive_ftc.sim.lane_kernels"] if kernels == "vector" else [])
-    if method == "dopri5":  # its tableau is imported from the single run's integrators
-        imports = [*imports, "adaptive_ftc.sim.templates.adaptive"]
+    plan = _plan_of(loop, asm, width, kernels, method)
+    imports = _imports(kernels, method)
+    if not codegen.is_cached(plan.text, imports, kind="lanes"):
+        with _modules_lock:
+            first = key not in _announced
+            _announced.add(key)
+        if first:
+            print(compile_message(loop, width, kernels, method), file=sys.stderr, flush=True)
     module = codegen.load_module(plan.text, imports=imports, kind="lanes")
     with _modules_lock:
         _modules[key] = (module, plan)
@@ -946,3 +1016,58 @@ def lane_groups(loops: Sequence, solver, width: int = LANE_WIDTH):
         for s in range(0, len(idx), width):
             out.append(("lanes", idx[s : s + width]))
     return out, built
+
+
+# ----------------------------------------------------------------------------- lanes="auto"
+#: ``lanes="auto"`` (the default of :func:`~adaptive_ftc.sim.batch.iter_simulate`,
+#: ``simulate_many`` and campaigns), per (method, lean signals): the members of one structure
+#: that repay a cold compile of its lane module (:data:`COMPILE_SECONDS` over the CPU time
+#: lanes save per member), measured by ``benchmarks/bench_lane_break_even.py`` on 120 s
+#: members of hypersonic-direct-s1 (docs/performance.md, "Lane engine: the default"). A
+#: structure whose lane module is loaded or in the disk cache runs in lanes at any count.
+AUTO_COMPILE_MIN = {
+    ("rk4", False): 500,  # records every 10 steps: 21-22 ms saved per member
+    ("rk4", True): 500,
+    ("dopri5", False): 3_000,  # records every 10 ms: 4.5-5 ms saved per member
+    ("dopri5", True): 10_000,  # a campaign's (records every 1 ms): 1-4 ms saved per member
+}
+
+#: RK4 lanes write their records per lane (strided): with a record every step (1 ms records
+#: at dt 1 ms, a campaign that judges the control activity) they cost 1.26x the members one
+#: at a time (lean signals); with one every 10 steps, 0.68x. "auto" runs RK4 members in
+#: lanes only when their records are at least this many steps apart.
+RK4_RECORD_STEPS = 10
+
+#: the members a lane group needs to beat running them one at a time (a group of fewer than
+#: ``LANE_WIDTH`` costs what a full one costs: its padding lanes compute too), per (method,
+#: lean signals): the smallest ``n > LANE_WIDTH * r``, ``r`` the measured lane / single CPU
+#: time per member; a smaller group's members run one at a time
+AUTO_GROUP_MIN = {
+    ("rk4", False): 6,  # r = 0.67-0.68
+    ("rk4", True): 6,
+    ("dopri5", False): 7,  # r = 0.75-0.78
+    ("dopri5", True): 8,  # r = 0.88-0.97
+}
+
+
+def auto_uses_lanes(cl, expected: int | None, kernels: str = "libm", lean: bool = False) -> bool:
+    """``lanes="auto"``'s verdict for the members of ``cl``'s structure (``cl``: one eligible
+    :class:`~adaptive_ftc.sim.engine.CompiledLoop` of them): lanes when its lane module is
+    loaded or in the disk cache (:func:`lane_module_state`), or when ``expected`` (the
+    members of that structure the caller expects; ``None``: not known) repays compiling it
+    (:data:`AUTO_COMPILE_MIN`); never for RK4 members recorded more often than every
+    :data:`RK4_RECORD_STEPS` steps. Each lane group still needs :data:`AUTO_GROUP_MIN`
+    members."""
+    method = cl.solver.method
+    solver = cl.solver
+    if method == "rk4" and solver.record_dt < RK4_RECORD_STEPS * solver.dt * (1.0 - 1e-9):
+        return False  # records too dense for RK4 lanes to pay (RK4_RECORD_STEPS)
+    if lane_module_state(cl.loop, cl.asm, LANE_WIDTH, kernels, method) != "absent":
+        return True
+    return expected is not None and expected >= AUTO_COMPILE_MIN[(method, bool(lean))]
+
+
+def auto_group_min(method: str, lean: bool = False) -> int:
+    """The members a lane group of ``method`` needs under ``lanes="auto"``
+    (:data:`AUTO_GROUP_MIN`)."""
+    return AUTO_GROUP_MIN[(method, bool(lean))]
