@@ -359,6 +359,13 @@ PLACE_UNDELAYED = False
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
 
 
+#: the placed feedback's lead: the PID's output passes ``(lag s + 1) / (tau s + 1)``, which
+#: cancels the declared actuator lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and
+#: the gains are placed behind ``tau`` instead of ``lag`` (1 = no lead).
+LEAD_MAX = 1.0
+LEAD_SAMPLE = 1.0
+
+
 def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Numerator and denominator of the order-3 Padé approximant of ``exp(-s delay)``."""
     c = (1.0, 0.5, 0.1, 1.0 / 120.0)
@@ -475,6 +482,9 @@ class Configuration(NamedTuple):
     feedback_e: float = 0.0
     #: gain of the fixed feedback on ``int e`` (a state per output; 0 = none)
     feedback_i: float = 0.0
+    #: the fixed feedback's lead ``(lag s + 1) / (tau s + 1)``: ``(lag, tau)`` (``()`` =
+    #: none; a state per output)
+    feedback_lead: tuple = ()
 
     @property
     def filtered(self) -> bool:
@@ -906,6 +916,9 @@ class ConstraintAware:
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
         # the undelivered command out of the adaptation); back-calculation otherwise
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
+        lead = ()
+        if placed is not None and self.feedback is None and self.lead_lag < self.lag:
+            lead = (float(self.lag), self.lead_lag)
         return Configuration(
             scale,
             lam_factor,
@@ -923,6 +936,7 @@ class ConstraintAware:
             feedback,
             feedback_e=feedback_e,
             feedback_i=feedback_i,
+            feedback_lead=lead if feedback or feedback_e else (),
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -962,10 +976,16 @@ class ConstraintAware:
         return placed_feedback(
             float(self.open_loop[0]),
             float(self.open_loop[1]),
-            float(self.lag),
+            self.lead_lag,
             delay,
             tuple(FEEDBACK_GAIN_SCALES),
         )
+
+    @property
+    def lead_lag(self) -> float:
+        """The lag the placed feedback sees behind its lead: ``max(lag / LEAD_MAX,
+        LEAD_SAMPLE T)``, at most the declared ``lag``."""
+        return float(min(self.lag, max(self.lag / LEAD_MAX, LEAD_SAMPLE * self.sample_time)))
 
     def feedback_gains(
         self, input_gain: float, b_max: float = 1.0, lam: float = 1.0, omega_m: float = math.inf
@@ -1154,7 +1174,9 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_m = at_q + (p if cfg.prefiltered else 0)
     at_f = at_m + (nx if cfg.has_measurement_filters else 0)
     at_i = at_f + (p if cfg.filtered else 0)
-    end = at_i + (p if cfg.feedback_i != 0 else 0)
+    at_l = at_i + (p if cfg.feedback_i != 0 else 0)
+    lead = bool(cfg.feedback_lead) and (cfg.feedback != 0 or cfg.feedback_e != 0)
+    end = at_l + (p if lead else 0)
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1165,6 +1187,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
     if cfg.feedback_i != 0:
         g.adaptive_names += [f"feedback_integral{i + 1}" for i in range(p)]
+    if lead:
+        g.adaptive_names += [f"feedback_lead{i + 1}" for i in range(p)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -1208,16 +1232,27 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.consts.extend([cfg.feedback, cfg.feedback_e])
         fd, fe = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
         control.append("    # constraint-aware: fixed feedback on e' and e")
-        control += [
-            f"    u0[{i}] += {fd} * sig[{nx + p + i}] + {fe} * sig[{nx + i}]" for i in range(p)
-        ]
+        fb = [f"{fd} * sig[{nx + p + i}] + {fe} * sig[{nx + i}]" for i in range(p)]
+        if not lead:
+            control += [f"    u0[{i}] += {fb[i]}" for i in range(p)]
         if cfg.feedback_i != 0:
             g.consts.append(cfg.feedback_i)
             fi = f"c[{len(g.consts) - 1}]"
             for i in range(p):
+                control.append(f"    dY[{at_i + i}] = sig[{nx + i}]")
+                if lead:
+                    fb[i] += f" + {fi} * Y[{at_i + i}]"
+                else:
+                    control.append(f"    u0[{i}] += {fi} * Y[{at_i + i}]")
+        if lead:  # (lag s + 1) / (tau s + 1): out = r fb - (r - 1) z, z' = (fb - z) / tau
+            lag_l, tau_l = cfg.feedback_lead
+            g.consts.extend([lag_l / tau_l, tau_l])
+            lr, lt = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
+            for i in range(p):
                 control += [
-                    f"    dY[{at_i + i}] = sig[{nx + i}]",
-                    f"    u0[{i}] += {fi} * Y[{at_i + i}]",
+                    f"    fb{i} = {fb[i]}",
+                    f"    dY[{at_l + i}] = (fb{i} - Y[{at_l + i}]) / {lt}",
+                    f"    u0[{i}] += {lr} * fb{i} - ({lr} - 1.0) * Y[{at_l + i}]",
                 ]
     if not cfg.feedback_filtered:  # the MIMO floor after the command filter
         control += _floor_lines(cfg, g, nx, p)
