@@ -362,7 +362,7 @@ FEEDBACK_KI_RANGE = (1e-3, 0.3)
 #: the placed feedback's lead: the PID's output passes ``(lag s + 1) / (tau s + 1)``, which
 #: cancels the declared actuator lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and
 #: the gains are placed behind ``tau`` instead of ``lag`` (1 = no lead).
-LEAD_MAX = 1.0
+LEAD_MAX = 3.0
 LEAD_SAMPLE = 1.0
 
 
