@@ -104,7 +104,10 @@ design, not another design) it derives, by the rules below, one configuration
    cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
    law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``); only
    behind a declared lag or sample time (``PLACE_UNDELAYED``: noise alone keeps the
-   proportional path below). The
+   proportional path below). Behind a declared lag the PID's output passes a lead ``(lag s +
+   1) / (tau s + 1)`` that cancels the lag down to ``tau`` (``LEAD_MAX``, ``LEAD_SAMPLE``; a
+   model-based lag compensation, e.g. Åström & Murray, *Feedback Systems*, 2008, §11.4), and
+   the gains are placed behind ``tau``. The
    thesis law's ``u0 = Pi^T theta``
    is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
    rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
@@ -359,10 +362,19 @@ PLACE_UNDELAYED = False
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
 
 
-#: the placed feedback's lead: the PID's output passes ``(lag s + 1) / (tau s + 1)``, which
-#: cancels the declared actuator lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and
-#: the gains are placed behind ``tau`` instead of ``lag`` (1 = no lead).
+#: the placed feedback's lead (issue 25, wing rock, session 13): the PID's output passes
+#: ``(lag s + 1) / (tau s + 1)`` (a state per output), which cancels the declared actuator
+#: lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and the gains are placed behind
+#: ``tau`` instead of ``lag`` (:attr:`ConstraintAware.lead_lag`; 1 = no lead). Behind 35-50
+#: ms the robust placement (input gain 0.65-1) had little decay left (-0.1 to -3.9 1/s;
+#: -0.1 to -1.2 at 50 Hz: the failure's transient and a noise-driven slow mode were still in
+#: the final window); behind the lead -3.6 (50 Hz) to -8.9 1/s. Measured on the wingrock-hardware campaign
+#: (constraint-aware only, 500 members): 455 -> 499 (every member with a lag of 20 ms or
+#: more succeeds); the high-frequency gain of the PID rises by ``lag / tau`` (at most 3), the
+#: successful members' fast content stays at most 6.1e-3 rad (threshold 0.185; 7.5e-3 before).
 LEAD_MAX = 3.0
+#: ... and ``tau >= LEAD_SAMPLE T``: the lead is a state of the law, integrated by forward
+#: Euler at the sample time (``T / tau <= 1``: no sign flip from one sample to the next).
 LEAD_SAMPLE = 1.0
 
 
