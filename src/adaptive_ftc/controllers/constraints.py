@@ -368,10 +368,11 @@ FEEDBACK_KI_RANGE = (1e-3, 0.3)
 #: ``tau`` instead of ``lag`` (:attr:`ConstraintAware.lead_lag`; 1 = no lead). Behind 35-50
 #: ms the robust placement (input gain 0.65-1) had little decay left (-0.1 to -3.9 1/s;
 #: -0.1 to -1.2 at 50 Hz: the failure's transient and a noise-driven slow mode were still in
-#: the final window); behind the lead -3.6 (50 Hz) to -8.9 1/s. Measured on the wingrock-hardware campaign
-#: (constraint-aware only, 500 members): 455 -> 499 (every member with a lag of 20 ms or
-#: more succeeds); the high-frequency gain of the PID rises by ``lag / tau`` (at most 3), the
-#: successful members' fast content stays at most 6.1e-3 rad (threshold 0.185; 7.5e-3 before).
+#: the final window); behind the lead -3.6 (50 Hz) to -8.9 1/s. Measured on the
+#: wingrock-hardware campaign (constraint-aware only, 500 members): 455 -> 499 (every member
+#: with a lag of 20 ms or more succeeds); the high-frequency gain of the PID rises by
+#: ``lag / tau`` (at most 3), the successful members' fast content stays at most 6.1e-3 rad
+#: (threshold 0.185; 7.5e-3 before).
 LEAD_MAX = 3.0
 #: ... and ``tau >= LEAD_SAMPLE T``: the lead is a state of the law, integrated by forward
 #: Euler at the sample time (``T / tau <= 1``: no sign flip from one sample to the next).
@@ -928,7 +929,7 @@ class ConstraintAware:
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
         # the undelivered command out of the adaptation); back-calculation otherwise
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
-        lead = ()
+        lead: tuple[float, ...] = ()
         if placed is not None and self.feedback is None and self.lead_lag < self.lag:
             lead = (float(self.lag), self.lead_lag)
         return Configuration(
@@ -974,10 +975,10 @@ class ConstraintAware:
         self, b_max: float = 1.0, omega_m: float = math.inf
     ) -> tuple[float, float, float, float] | None:
         """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
-        declared lag, half a sample of hold and the measurement prefilter ``1/omega_m`` as
-        delay) where :meth:`fast_unstable` and the plant's linearisation
-        (:attr:`open_loop`) is known and the model declares a lag or a sample time
-        (``PLACE_UNDELAYED``); else ``None``."""
+        declared lag behind the feedback's lead, :attr:`lead_lag`, half a sample of hold and
+        the measurement prefilter ``1/omega_m`` as delay) where :meth:`fast_unstable` and
+        the plant's linearisation (:attr:`open_loop`) is known and the model declares a lag
+        or a sample time (``PLACE_UNDELAYED``); else ``None``."""
         if self.open_loop is None or not self.fast_unstable(b_max):
             return None
         if not (PLACE_UNDELAYED or self.lag > 0 or self.sample_time > 0):
@@ -1007,11 +1008,11 @@ class ConstraintAware:
 
         Where :meth:`fast_unstable` and the plant's linearisation is known
         (:attr:`open_loop`), placed on the designer's linear model (:func:`placed_feedback`:
-        the declared lag, half a sample of hold and the measurement prefilter ``1/omega_m``
-        as delay). A designer's ``feedback`` (1/s) is a proportional path on ``s = e' + lam
-        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation
-        or without a declared lag or sample time (``PLACE_UNDELAYED``), the rule's
-        ``C_FEEDBACK p_u`` on ``s``."""
+        the declared lag behind the lead, :attr:`lead_lag`, half a sample of hold and the
+        measurement prefilter ``1/omega_m`` as delay). A designer's ``feedback`` (1/s) is a
+        proportional path on ``s = e' + lam e`` at that loop gain instead (``lam`` as the
+        law runs it); without the linearisation or without a declared lag or sample time
+        (``PLACE_UNDELAYED``), the rule's ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if not b > 0:
             return 0.0, 0.0, 0.0
