@@ -8,6 +8,7 @@ decay left."""
 
 from __future__ import annotations
 
+import shutil
 import warnings
 from dataclasses import replace
 
@@ -98,3 +99,25 @@ def test_the_lead_holds_the_roll_behind_45_ms_at_50_hz(monkeypatch):
     assert _hold(0.045, 0.02) < 1e-4
     monkeypatch.setattr(constraints, "LEAD_MAX", 1.0)
     assert _hold(0.045, 0.02) > 1e-3
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
+def test_the_exported_c_controller_runs_the_lead_as_the_simulation(tmp_path):
+    from adaptive_ftc.export.sil import verify
+
+    sc = load_scenario("wingrock-direct-s1")
+    loop = replace(
+        sc.loop,
+        actuators=Actuators(tau=0.045, rate=50.0, lower=-6.0, upper=6.0),
+        sample_time=0.01,
+    )
+    ca = ConstraintAware.from_loop(loop)
+    loop = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+    assert loop.controller.bound(loop).configuration().feedback_lead == pytest.approx(
+        (0.045, 0.015)
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        report = verify(loop, t_final=4.0, workdir=tmp_path)
+    assert report.samples > 100
+    assert report.command <= 1e-12 and report.plant_state <= 1e-12, report
