@@ -372,7 +372,8 @@ FEEDBACK_KI_RANGE = (1e-3, 0.3)
 #: wingrock-hardware campaign (constraint-aware only, 500 members): 455 -> 499 (every member
 #: with a lag of 20 ms or more succeeds); the high-frequency gain of the PID rises by
 #: ``lag / tau`` (at most 3), the successful members' fast content stays at most 6.1e-3 rad
-#: (threshold 0.185; 7.5e-3 before).
+#: (threshold 0.185; 7.5e-3 before). On the 45 members that failed and 60 that succeeded:
+#: ``LEAD_MAX`` 2: 103 of 105 (one of the 60 limit-cycles at its rate limit), 3 and 4: 104.
 LEAD_MAX = 3.0
 #: ... and ``tau >= LEAD_SAMPLE T``: the lead is a state of the law, integrated by forward
 #: Euler at the sample time (``T / tau <= 1``: no sign flip from one sample to the next).
