@@ -329,7 +329,7 @@ class AdaptiveController(ABC):
         cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
         if (cfg.feedback or cfg.feedback_e or cfg.feedback_i) and not self.regressors_for(g.p):
             # a baseline's own law (the oracle) has no fixed feedback beside it
-            cfg = cfg._replace(feedback=0.0, feedback_e=0.0, feedback_i=0.0)
+            cfg = cfg._replace(feedback=0.0, feedback_e=0.0, feedback_i=0.0, feedback_lead=())
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         cfg = self.sampled_configuration(cfg, g)

@@ -104,7 +104,10 @@ design, not another design) it derives, by the rules below, one configuration
    cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
    law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``); only
    behind a declared lag or sample time (``PLACE_UNDELAYED``: noise alone keeps the
-   proportional path below). The
+   proportional path below). Behind a declared lag the PID's output passes a lead ``(lag s +
+   1) / (tau s + 1)`` that cancels the lag down to ``tau`` (``LEAD_MAX``, ``LEAD_SAMPLE``; a
+   model-based lag compensation, e.g. Åström & Murray, *Feedback Systems*, 2008, §11.4), and
+   the gains are placed behind ``tau``. The
    thesis law's ``u0 = Pi^T theta``
    is all adaptive: slowed to the hardware it cannot hold the wing rock (unstable at 30
    rad/s), and a raw fuzzy basis vanishes once the state leaves it; a proportional path on
@@ -359,6 +362,24 @@ PLACE_UNDELAYED = False
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
 
 
+#: the placed feedback's lead (issue 25, wing rock, session 13): the PID's output passes
+#: ``(lag s + 1) / (tau s + 1)`` (a state per output), which cancels the declared actuator
+#: lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and the gains are placed behind
+#: ``tau`` instead of ``lag`` (:attr:`ConstraintAware.lead_lag`; 1 = no lead). Behind 35-50
+#: ms the robust placement (input gain 0.65-1) had little decay left (-0.1 to -3.9 1/s;
+#: -0.1 to -1.2 at 50 Hz: the failure's transient and a noise-driven slow mode were still in
+#: the final window); behind the lead -3.6 (50 Hz) to -8.9 1/s. Measured on the
+#: wingrock-hardware campaign (constraint-aware only, 500 members): 455 -> 499 (every member
+#: with a lag of 20 ms or more succeeds); the high-frequency gain of the PID rises by
+#: ``lag / tau`` (at most 3), the successful members' fast content stays at most 6.1e-3 rad
+#: (threshold 0.185; 7.5e-3 before). On the 45 members that failed and 60 that succeeded:
+#: ``LEAD_MAX`` 2: 103 of 105 (one of the 60 limit-cycles at its rate limit), 3 and 4: 104.
+LEAD_MAX = 3.0
+#: ... and ``tau >= LEAD_SAMPLE T``: the lead is a state of the law, integrated by forward
+#: Euler at the sample time (``T / tau <= 1``: no sign flip from one sample to the next).
+LEAD_SAMPLE = 1.0
+
+
 def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Numerator and denominator of the order-3 Padé approximant of ``exp(-s delay)``."""
     c = (1.0, 0.5, 0.1, 1.0 / 120.0)
@@ -475,6 +496,9 @@ class Configuration(NamedTuple):
     feedback_e: float = 0.0
     #: gain of the fixed feedback on ``int e`` (a state per output; 0 = none)
     feedback_i: float = 0.0
+    #: the fixed feedback's lead ``(lag s + 1) / (tau s + 1)``: ``(lag, tau)`` (``()`` =
+    #: none; a state per output)
+    feedback_lead: tuple = ()
 
     @property
     def filtered(self) -> bool:
@@ -906,6 +930,9 @@ class ConstraintAware:
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
         # the undelivered command out of the adaptation); back-calculation otherwise
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
+        lead: tuple[float, ...] = ()
+        if placed is not None and self.feedback is None and self.lead_lag < self.lag:
+            lead = (float(self.lag), self.lead_lag)
         return Configuration(
             scale,
             lam_factor,
@@ -923,6 +950,7 @@ class ConstraintAware:
             feedback,
             feedback_e=feedback_e,
             feedback_i=feedback_i,
+            feedback_lead=lead if feedback or feedback_e else (),
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -948,10 +976,10 @@ class ConstraintAware:
         self, b_max: float = 1.0, omega_m: float = math.inf
     ) -> tuple[float, float, float, float] | None:
         """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
-        declared lag, half a sample of hold and the measurement prefilter ``1/omega_m`` as
-        delay) where :meth:`fast_unstable` and the plant's linearisation
-        (:attr:`open_loop`) is known and the model declares a lag or a sample time
-        (``PLACE_UNDELAYED``); else ``None``."""
+        declared lag behind the feedback's lead, :attr:`lead_lag`, half a sample of hold and
+        the measurement prefilter ``1/omega_m`` as delay) where :meth:`fast_unstable` and
+        the plant's linearisation (:attr:`open_loop`) is known and the model declares a lag
+        or a sample time (``PLACE_UNDELAYED``); else ``None``."""
         if self.open_loop is None or not self.fast_unstable(b_max):
             return None
         if not (PLACE_UNDELAYED or self.lag > 0 or self.sample_time > 0):
@@ -962,10 +990,16 @@ class ConstraintAware:
         return placed_feedback(
             float(self.open_loop[0]),
             float(self.open_loop[1]),
-            float(self.lag),
+            self.lead_lag,
             delay,
             tuple(FEEDBACK_GAIN_SCALES),
         )
+
+    @property
+    def lead_lag(self) -> float:
+        """The lag the placed feedback sees behind its lead: ``max(lag / LEAD_MAX,
+        LEAD_SAMPLE T)``, at most the declared ``lag``."""
+        return float(min(self.lag, max(self.lag / LEAD_MAX, LEAD_SAMPLE * self.sample_time)))
 
     def feedback_gains(
         self, input_gain: float, b_max: float = 1.0, lam: float = 1.0, omega_m: float = math.inf
@@ -975,11 +1009,11 @@ class ConstraintAware:
 
         Where :meth:`fast_unstable` and the plant's linearisation is known
         (:attr:`open_loop`), placed on the designer's linear model (:func:`placed_feedback`:
-        the declared lag, half a sample of hold and the measurement prefilter ``1/omega_m``
-        as delay). A designer's ``feedback`` (1/s) is a proportional path on ``s = e' + lam
-        e`` at that loop gain instead (``lam`` as the law runs it); without the linearisation
-        or without a declared lag or sample time (``PLACE_UNDELAYED``), the rule's
-        ``C_FEEDBACK p_u`` on ``s``."""
+        the declared lag behind the lead, :attr:`lead_lag`, half a sample of hold and the
+        measurement prefilter ``1/omega_m`` as delay). A designer's ``feedback`` (1/s) is a
+        proportional path on ``s = e' + lam e`` at that loop gain instead (``lam`` as the
+        law runs it); without the linearisation or without a declared lag or sample time
+        (``PLACE_UNDELAYED``), the rule's ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if not b > 0:
             return 0.0, 0.0, 0.0
@@ -1154,7 +1188,9 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_m = at_q + (p if cfg.prefiltered else 0)
     at_f = at_m + (nx if cfg.has_measurement_filters else 0)
     at_i = at_f + (p if cfg.filtered else 0)
-    end = at_i + (p if cfg.feedback_i != 0 else 0)
+    at_l = at_i + (p if cfg.feedback_i != 0 else 0)
+    lead = bool(cfg.feedback_lead) and (cfg.feedback != 0 or cfg.feedback_e != 0)
+    end = at_l + (p if lead else 0)
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1165,6 +1201,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
     if cfg.feedback_i != 0:
         g.adaptive_names += [f"feedback_integral{i + 1}" for i in range(p)]
+    if lead:
+        g.adaptive_names += [f"feedback_lead{i + 1}" for i in range(p)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -1208,16 +1246,27 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.consts.extend([cfg.feedback, cfg.feedback_e])
         fd, fe = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
         control.append("    # constraint-aware: fixed feedback on e' and e")
-        control += [
-            f"    u0[{i}] += {fd} * sig[{nx + p + i}] + {fe} * sig[{nx + i}]" for i in range(p)
-        ]
+        fb = [f"{fd} * sig[{nx + p + i}] + {fe} * sig[{nx + i}]" for i in range(p)]
+        if not lead:
+            control += [f"    u0[{i}] += {fb[i]}" for i in range(p)]
         if cfg.feedback_i != 0:
             g.consts.append(cfg.feedback_i)
             fi = f"c[{len(g.consts) - 1}]"
             for i in range(p):
+                control.append(f"    dY[{at_i + i}] = sig[{nx + i}]")
+                if lead:
+                    fb[i] += f" + {fi} * Y[{at_i + i}]"
+                else:
+                    control.append(f"    u0[{i}] += {fi} * Y[{at_i + i}]")
+        if lead:  # (lag s + 1) / (tau s + 1): out = r fb - (r - 1) z, z' = (fb - z) / tau
+            lag_l, tau_l = cfg.feedback_lead
+            g.consts.extend([lag_l / tau_l, tau_l])
+            lr, lt = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
+            for i in range(p):
                 control += [
-                    f"    dY[{at_i + i}] = sig[{nx + i}]",
-                    f"    u0[{i}] += {fi} * Y[{at_i + i}]",
+                    f"    fb{i} = {fb[i]}",
+                    f"    dY[{at_l + i}] = (fb{i} - Y[{at_l + i}]) / {lt}",
+                    f"    u0[{i}] += {lr} * fb{i} - ({lr} - 1.0) * Y[{at_l + i}]",
                 ]
     if not cfg.feedback_filtered:  # the MIMO floor after the command filter
         control += _floor_lines(cfg, g, nx, p)
