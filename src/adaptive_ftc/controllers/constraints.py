@@ -362,7 +362,7 @@ PLACE_UNDELAYED = False
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
 
 
-#: the placed feedback's lead (issue 25, wing rock, session 13): the PID's output passes
+#: the placed feedback's lead (issue 25, wing rock, session 12): the PID's output passes
 #: ``(lag s + 1) / (tau s + 1)`` (a state per output), which cancels the declared actuator
 #: lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and the gains are placed behind
 #: ``tau`` instead of ``lag`` (:attr:`ConstraintAware.lead_lag`; 1 = no lead). Behind 35-50
