@@ -1,5 +1,5 @@
 """The lead of the wing rock's placed feedback (issue 25, docs/hardware.md "Wing rock §2.4",
-session 13): the PID's output passes ``(lag s + 1) / (tau s + 1)``, which cancels the
+session 12): the PID's output passes ``(lag s + 1) / (tau s + 1)``, which cancels the
 declared actuator lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and the gains are
 placed behind ``tau``. Truths: the closed-loop poles of the linear model with the lead and the
 true lag (state space, apart from the placement's polynomial arithmetic), and short runs of

@@ -100,7 +100,7 @@ def test_adaptation_slowed_below_the_placed_loop_is_quiet(monkeypatch):
     """Behind 17.6 ms at 200 Hz (campaign member 10) the adaptive law at the hardware's loop
     rate on top of the placed loop limit-cycles at 10 Hz (4.7e-3 rad); slowed below the
     placed loop's slowest mode the roll is held (5e-8). The session-11 rule: with the
-    placed feedback's lead (session 13, ``LEAD_MAX``) the placed loop is faster and both hold
+    placed feedback's lead (session 12, ``LEAD_MAX``) the placed loop is faster and both hold
     (6e-8 at the hardware's loop rate), so the lead is off here."""
     monkeypatch.setattr(constraints, "LEAD_MAX", 1.0)
     assert _hold(0.0176, 0.005, 90.7) < 1e-5
