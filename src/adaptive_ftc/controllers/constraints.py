@@ -295,6 +295,7 @@ C_MARGIN = 0.9
 #: more ``|theta|^2`` to cross zero; acceptable there on 4 of the 13 cases (round 3: 5;
 #: docs/hardware.md).
 RHO_FACTOR = 1.25
+C_HEDGE_TIGHT = 0.03
 
 
 #: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's
@@ -636,6 +637,7 @@ class ConstraintAware:
     loop_gain: float | None = None
     min_loop_gain: float | None = None
     b_max: float | None = None
+    b_min: float | None = None
     derivative_lag: float | None = None
     noise_rate: float = 1000.0
     gain_growth: float | None = None
@@ -662,6 +664,8 @@ class ConstraintAware:
             _number(owner, "min_loop_gain", self.min_loop_gain, allow_inf=False)
         if self.b_max is not None:
             _number(owner, "b_max", self.b_max, allow_inf=False, positive=True)
+        if self.b_min is not None:
+            _number(owner, "b_min", self.b_min, allow_inf=False, positive=True)
         if self.bandwidth is not None:
             _number(owner, "bandwidth", self.bandwidth, allow_inf=False, positive=True)
         if self.derivative_lag is not None:
@@ -872,11 +876,14 @@ class ConstraintAware:
         lam_factor = 1.0
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         rmin = min(scale, slope_scale)
+        # a rate limit close to binding at the loop rate (a failure transient of A_RATE at
+        # the loop rate runs into it)
+        rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
+        rate_tight = rate_bound < C_TIGHT * w
         if rmin < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
-            # a rate limit close to binding at the loop rate, or a travel limit
-            rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
-            tight = math.isfinite(self.travel) or rate_bound < C_TIGHT * w
+            # a tight rate limit, or a travel limit
+            tight = math.isfinite(self.travel) or rate_tight
             c_lam = C_LAM_LIMITED if tight else C_LAM
             lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / rmin, top)
             if self.min_loop_gain is not None and self.min_loop_gain > 0:
@@ -901,6 +908,12 @@ class ConstraintAware:
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
+        omega_h = C_HEDGE * w
+        if rate_tight and self.b_min is not None:
+            # the failure transient is the rate limit's: the filter lets the least-allocated
+            # actuator move at its full rate (the others' limiters clip), and xi returns slower
+            u_rate = C_MARGIN * self.rate / max(min(abs(self.b_min), b), 1e-300)
+            omega_h = C_HEDGE_TIGHT * w
         hedge = self.input_gain if self.input_gain is not None else float(input_gain)
         hedge = hedge if limited else 0.0
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
@@ -917,7 +930,7 @@ class ConstraintAware:
             omega_m,
             k_aw,
             hedge,
-            C_HEDGE * w,
+            omega_h,
             self.theta_max,
             slope_scale,
             feedback,
