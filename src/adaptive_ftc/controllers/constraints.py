@@ -57,7 +57,11 @@ design, not another design) it derives, by the rules below, one configuration
    travel limits: the law's command ``u0c`` passes through
    ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the allocation, with ``U`` and
    ``R`` the designer's travel and rate times ``C_MARGIN`` divided by ``max |b_j|`` (so no
-   actuator is commanded past its limits) and ``w_f = C_FILTER w_max``.
+   actuator is commanded past its limits) and ``w_f = C_FILTER w_max``; where the rate
+   limit is tight (a failure transient at the loop rate runs into it, ``C_TIGHT``), ``R`` is
+   the rate divided by the *smallest* allocation gain ``b_min`` instead: the actuator left
+   after the most-allocated one is lost moves at its full rate (the others' own rate
+   limiters clip their commands; round 6).
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
@@ -66,7 +70,8 @@ design, not another design) it derives, by the rules below, one configuration
    u0 + u0'/w_f`` what the filter delivers: only the part of the command the limits did not
    deliver (not the filter's linear lag, which left a steady error) drives ``xi``, so the
    adaptation does not learn the saturation; ``xi`` returns slowly (``w_h = C_HEDGE
-   w_max``), at a rate the actuator can follow. Measured: this is what ends the
+   w_max``, ``C_HEDGE_TIGHT w_max`` where the rate limit is tight), at a rate the actuator
+   can follow. Measured: this is what ends the
    rate-limiter oscillation of the hypersonic loop at 2 rad/s (it diverged at 43 s with the
    back-calculation below). With ``input_gain = 0``: **anti-windup by back-calculation on
    the estimates** (Åström & Rundqwist, ACC 1989): ``theta' += -k_aw Pi (u0c -
@@ -132,12 +137,14 @@ Guarantees (which holds for which combination):
   of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
   bounded signals for small enough unmodelled dynamics), not a proof for each case.
 - *rate / travel limits*: the command filter makes every commanded actuator respect the
-  designer's limits (a hard guarantee on the command); with the compensated error the
+  designer's limits (a hard guarantee on the command; under a tight rate limit, on the
+  least-allocated actuator's rate only: the others' commands may move faster than their
+  limiters, which clip them); with the compensated error the
   adaptation sees only the error the delivered command is responsible for (Farrell et al.
   2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
   bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
-  §2.3 loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure,
-  which a linear controller that knows the failure holds; §4.4 is acceptable at 0.5 rad/s).
+  §2.3 and §4.4 loops are acceptable at 2 and 0.5 rad/s; before round 6, §2.3 diverged at
+  0.5 rad/s 2.2 s after the 80 s bias failure).
 - *noise*: the lower bandwidth (and, where the std bound binds, the prefilters) bound the
   noise in the command (linear filtering), with sigma-modification keeping the estimates
   bounded; no dead-zone.
@@ -295,6 +302,18 @@ C_MARGIN = 0.9
 #: more ``|theta|^2`` to cross zero; acceptable there on 4 of the 13 cases (round 3: 5;
 #: docs/hardware.md).
 RHO_FACTOR = 1.25
+#: ... and ``C_HEDGE_TIGHT`` where the rate limit is tight (``C_MARGIN rate_u0 / A_RATE <
+#: C_TIGHT w``: a failure transient at the loop rate runs into it), where the command filter
+#: also lets the least-allocated actuator move at its full rate (``ConstraintAware.b_min``).
+#: Round 6 (issue 25), measured on hypersonic-direct-s1 behind 0.5 rad/s elevators: with
+#: ``u0``'s rate sized for elevator 2 (gain 2; stuck from 40 s) elevator 1 moved at 0.225 of
+#: its 0.5 rad/s and the loop diverged 2.2 s after the 80 s bias failure; at its full rate
+#: and ``xi`` returning at ``C_HEDGE w`` (2 1/s) the loop rode the rate limit in a growing
+#: oscillation (``s - xi`` within 0.02 rad while ``s`` reached 4: the law regulates the
+#: compensated error by moving ``u0c``, which moves ``xi``, and does not see ``s``) and
+#: diverged at 86.4 s; ``xi`` returning at 0.02 / 0.03 / 0.04 / 0.05 / 0.06 ``w`` holds it
+#: (4.3-4.5e-4 rad, target 8.7e-4), 0.07 diverges at 90 s. hypersonic-sign-s1-rho0pos at
+#: 2 rad/s with the full rate needs it too (0.1: diverges at 3.5 s; 0.03 / 0.05: 1.2e-5 rad).
 C_HEDGE_TIGHT = 0.03
 
 
@@ -585,6 +604,12 @@ class ConstraintAware:
     noise_rate
         The rate (Hz) at which the sensors draw their noise (``Sensors.rate``; each sample
         held until the next): with ``noise``, its density. Not a constraint alone.
+    b_min
+        The smallest nonzero ``|R_ij|`` of the allocation; ``None``: the loop's, when compiled
+        (single-output designs; ``b_max`` where unset). Where the rate limit is tight, the
+        command filter's rate is ``C_MARGIN rate / b_min`` (the least-allocated actuator at
+        its full rate: what is left after the most-allocated one is lost; the others' own
+        limiters clip) instead of ``C_MARGIN rate / b_max``. Not a constraint.
     derivative_lag
         Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
         ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
