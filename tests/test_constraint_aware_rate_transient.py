@@ -39,7 +39,7 @@ def _loop(rate: float, t1: float = 40.0, t2: float = 80.0, t_final: float = 120.
 
 
 def test_a_tight_rate_limit_lets_the_least_allocated_elevator_use_its_rate():
-    """0.5 rad/s, allocation (1, 2): tight (22.5 x 0.25 ... the A_RATE bound 5.6 < 2 x 20);
+    """0.5 rad/s, allocation (1, 2): tight (``0.9 x 0.5 / 2 / A_RATE`` = 5.6 < 2 x 20);
     ``u0``'s rate is elevator 1's 0.45 rad/s, not elevator 2's 0.225, and ``xi`` returns at
     ``C_HEDGE_TIGHT w``. At 10 rad/s (not tight) both are the rule's before round 6."""
     _, loop = _loop(0.5)
