@@ -213,10 +213,6 @@ class AdaptiveController(ABC):
         if ca.b_max is None:
             R = np.asarray(loop.R, dtype=float)
             updates["b_max"] = float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0
-        if ca.b_min is None and self.single_output:
-            R = np.abs(np.asarray(loop.R, dtype=float))
-            if R.size and np.any(R > 0):
-                updates["b_min"] = float(R[R > 0].min())
         if ca.input_gain is None:
             updates["input_gain"] = self.nominal_input_gain(loop)
         if ca.gain_growth is None:
