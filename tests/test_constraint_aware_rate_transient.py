@@ -77,6 +77,8 @@ def test_a_half_rad_s_elevator_holds_the_direct_design_through_the_bias_failure(
     sel = r.time >= 60.0
     pos = np.asarray(r.actuator_position, dtype=float)
     for j in range(pos.shape[1]):
+        # the commands are the actuators' own filters (named in the order of the states)
+        assert np.array_equal(r.adaptive_state(f"actuator_filter{j + 1}"), r.u_cmd[:, j])
         rate = np.abs(np.gradient(pos[:, j], r.time))
         assert float(np.mean(rate[sel] >= 0.98 * 0.5)) <= 0.05
         cmd_rate = np.abs(np.diff(r.u_cmd[:, j]) / np.diff(r.time))

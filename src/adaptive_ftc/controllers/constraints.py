@@ -1210,7 +1210,6 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_a = end
     if weights is not None:
         end += g.m
-        g.adaptive_names += [f"actuator_filter{j + 1}" for j in range(g.m)]
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1221,6 +1220,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"command_filter{i + 1}" for i in range(p)]
     if cfg.feedback_i != 0:
         g.adaptive_names += [f"feedback_integral{i + 1}" for i in range(p)]
+    if weights is not None:
+        g.adaptive_names += [f"actuator_filter{j + 1}" for j in range(g.m)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
