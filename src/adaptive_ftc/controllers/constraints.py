@@ -57,7 +57,16 @@ design, not another design) it derives, by the rules below, one configuration
    travel limits: the law's command ``u0c`` passes through
    ``u0' = clip(w_f (clip(u0c, -U, U) - u0), -R, R)`` before the allocation, with ``U`` and
    ``R`` the designer's travel and rate times ``C_MARGIN`` divided by ``max |b_j|`` (so no
-   actuator is commanded past its limits) and ``w_f = C_FILTER w_max``.
+   actuator is commanded past its limits) and ``w_f = C_FILTER w_max``. Where the rate
+   limit is **tight** (a failure transient at the loop rate runs into it: ``C_MARGIN rate_u0
+   / A_RATE < C_TIGHT w_max``), a single-output design without an allocator filters each
+   actuator's command on its own instead (round 6): ``u_j' = clip(w_f (R_j clip(u0c, -U, U)
+   - u_j), -C_MARGIN rate, C_MARGIN rate)``, so every actuator moves at up to its own rate
+   (with the common filter, the least-allocated actuator moved at ``max |b_j|/|R_j|`` times
+   less: the one left when the most-allocated actuator is lost), and the compensated error
+   hedges what they deliver together, ``u0_reachable = sum_j G_j (u_j + u_j'/w_f) / sum_j
+   G_j R_j`` with ``G_j`` the plant's nominal input gains at ``t0`` (pseudo-control hedging
+   with an actuator model, Johnson & Calise 2003).
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
@@ -135,12 +144,13 @@ Guarantees (which holds for which combination):
   of adaptive control with unmodelled dynamics (Ioannou & Sun §8.5, sigma-modification:
   bounded signals for small enough unmodelled dynamics), not a proof for each case.
 - *rate / travel limits*: the command filter makes every commanded actuator respect the
-  designer's limits (a hard guarantee on the command); with the compensated error the
+  designer's limits (a hard guarantee on the command; per actuator under a tight rate
+  limit); with the compensated error the
   adaptation sees only the error the delivered command is responsible for (Farrell et al.
   2009: bounded compensated errors, the gap ``xi`` bounded while the limits are active a
   bounded time); stability of the limited loop is not guaranteed (measured: the hypersonic
-  §2.3 loop is acceptable at 2 rad/s and diverges at 0.5 rad/s, at the 80 s bias failure,
-  which a linear controller that knows the failure holds; §4.4 is acceptable at 0.5 rad/s).
+  §2.3 and §4.4 loops are acceptable at 2 and 0.5 rad/s; before round 6's per-actuator
+  filters, §2.3 diverged at 0.5 rad/s 2.2 s after the 80 s bias failure).
 - *noise*: the lower bandwidth (and, where the std bound binds, the prefilters) bound the
   noise in the command (linear filtering), with sigma-modification keeping the estimates
   bounded; no dead-zone.
@@ -236,6 +246,17 @@ C_LAM_LIMITED = 0.125
 #: ideal peak rate, 30.5 rad/s: 343 against 15, where raising ``lam`` is what meets the
 #: target, 3.8e-4 against 1.15e-3 without).
 C_TIGHT = 2.0
+#: (round 6) ... and there, with rate limits, each actuator of a single-output design gets its
+#: own command filter at its own rate (:attr:`Configuration.actuator_rate`). Measured on
+#: hypersonic-direct-s1 behind 0.5 rad/s elevators (allocation (1, 2)): the common filter's
+#: rate, ``0.9 x 0.5 / 2``, held elevator 1 to 0.225 rad/s after elevator 2 stuck at 40 s,
+#: and the loop diverged 2.2 s after the 80 s bias failure (no elevator ever at its own rate
+#: limit); the common filter at elevator 1's rate (``/ min |R_j|``) holds it only with ``xi``
+#: returning 3x slower and loses hypersonic-sign-s2-rho0neg at 2 rad/s (its elevator 2,
+#: commanded past its rate, saturates unhedged); per-actuator filters hold both (4.3e-4 and
+#: 9.7e-7 rad) at the shared ``C_HEDGE``. Gated on the tight test so that the loops whose
+#: rate limit does not meet the failure transients (every member of the shipped campaigns,
+#: the catalogue) keep the common filter and their trajectories.
 #: ... and at most ``C_LAM_GAIN`` times the smallest scaled proportional loop gain
 #: (:attr:`ConstraintAware.min_loop_gain`), never below the thesis's ``lam``.
 C_LAM_GAIN = 0.8
@@ -499,6 +520,11 @@ class Configuration(NamedTuple):
     #: the fixed feedback's lead ``(lag s + 1) / (tau s + 1)``: ``(lag, tau)`` (``()`` =
     #: none; a state per output)
     feedback_lead: tuple = ()
+    #: rate bound of each actuator's own command filter (inf = none: the allocation of the
+    #: common filter's ``u0``); where finite (a tight rate limit), a single-output design
+    #: without an allocator passes every actuator's command through its own filter at this
+    #: rate, and the compensated error hedges what they deliver (:func:`emit`)
+    actuator_rate: float = math.inf
 
     @property
     def filtered(self) -> bool:
@@ -896,11 +922,14 @@ class ConstraintAware:
         lam_factor = 1.0
         limited = math.isfinite(self.rate) or math.isfinite(self.travel)
         rmin = min(scale, slope_scale)
+        # a rate limit close to binding at the loop rate (a failure transient of A_RATE at
+        # the loop rate runs into it)
+        rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
+        rate_tight = rate_bound < C_TIGHT * w
         if rmin < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
-            # a rate limit close to binding at the loop rate, or a travel limit
-            rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
-            tight = math.isfinite(self.travel) or rate_bound < C_TIGHT * w
+            # a tight rate limit, or a travel limit
+            tight = math.isfinite(self.travel) or rate_tight
             c_lam = C_LAM_LIMITED if tight else C_LAM
             lam_factor = min(max(1.0, c_lam * w / lam), 1.0 / rmin, top)
             if self.min_loop_gain is not None and self.min_loop_gain > 0:
@@ -925,6 +954,10 @@ class ConstraintAware:
         b = max(abs(b_max), 1e-300)
         u_max = C_MARGIN * self.travel / b
         u_rate = C_MARGIN * self.rate / b
+        # a tight rate limit: each actuator's command through its own filter at its own rate
+        # (single-output designs without an allocator; constraints.emit), hedged by what they
+        # deliver
+        actuator_rate = C_MARGIN * self.rate if limited and rate_tight else math.inf
         hedge = self.input_gain if self.input_gain is not None else float(input_gain)
         hedge = hedge if limited else 0.0
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
@@ -951,6 +984,7 @@ class ConstraintAware:
             feedback_e=feedback_e,
             feedback_i=feedback_i,
             feedback_lead=lead if feedback or feedback_e else (),
+            actuator_rate=actuator_rate,
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -1160,6 +1194,21 @@ def _floor_lines(cfg: Configuration, g, nx: int, p: int) -> list[str]:
     ]
 
 
+def _delivery_weights(g) -> list[float] | None:
+    """``G_j / sum_k G_k R_k`` over the actuators, ``G`` the plant's input gains of the first
+    output at ``t0`` (the designer's nominal model): the weights with which each actuator's
+    command counts in the delivered ``u0``; ``None`` where they cannot be formed."""
+    loop = g.loop
+    G = np.asarray(loop.plant.input_gains(loop.t0, np.asarray(loop.initial_state, float)))
+    R = np.atleast_2d(np.asarray(loop.R, dtype=float))
+    if G.shape != R.shape or G.shape[0] != 1 or not np.all(np.isfinite(G)):
+        return None
+    total = float(np.sum(G[0] * R[0]))
+    if not abs(total) > 0:
+        return None
+    return [float(v) / total for v in G[0]]
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -1191,6 +1240,12 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_l = at_i + (p if cfg.feedback_i != 0 else 0)
     lead = bool(cfg.feedback_lead) and (cfg.feedback != 0 or cfg.feedback_e != 0)
     end = at_l + (p if lead else 0)
+    weights = None
+    if hedged and math.isfinite(cfg.actuator_rate) and p == 1 and g.loop.allocator is None:
+        weights = _delivery_weights(g)
+    at_a = end
+    if weights is not None:
+        end += g.m
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1203,6 +1258,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"feedback_integral{i + 1}" for i in range(p)]
     if lead:
         g.adaptive_names += [f"feedback_lead{i + 1}" for i in range(p)]
+    if weights is not None:
+        g.adaptive_names += [f"actuator_filter{j + 1}" for j in range(g.m)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -1242,6 +1299,20 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                 f"    u0[{i}] = Y[{f}]",
                 f"    dY[{f}] = command_filter(uc{i}, Y[{f}], {wf}, {umax}, {urate})",
             ]
+    if weights is not None:  # each actuator's own command filter (its rate)
+        a0 = len(g.consts)
+        g.consts.extend(float(v) for v in np.ravel(g.loop.R))
+        g.consts.extend(weights)
+        g.consts.append(cfg.actuator_rate)
+        m = g.m
+        ar = f"c[{a0 + 2 * m}]"
+        control += [
+            "    # constraint-aware: each actuator's command through its own rate-limited filter",
+            f"    for jj in range({m}):",
+            f"        tj = c[{a0} + jj] * min(max(uc0, -{umax}), {umax})",
+            f"        dY[{at_a} + jj] = min(max({wf} * (tj - Y[{at_a} + jj]), -{ar}), {ar})",
+        ]
+        g.allocate_lines = [f"        acc = Y[{at_a} + j]  # constraint-aware: its own filter"]
     if cfg.feedback != 0 or cfg.feedback_e != 0:  # fixed feedback on the measured errors
         g.consts.extend([cfg.feedback, cfg.feedback_e])
         fd, fe = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
@@ -1275,9 +1346,17 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")
         for i in range(p):
             h = at_h + i
+            reach = f"(Y[{at_f + i}] + dY[{at_f + i}] / {wf})"
+            if weights is not None:  # what the actuators' filters deliver, gain-weighted
+                pre += [
+                    "    ud0 = 0.0",
+                    f"    for jj in range({g.m}):",
+                    f"        ud0 += c[{a0 + g.m} + jj] * (Y[{at_a} + jj]"
+                    f" + dY[{at_a} + jj] / {wf})",
+                ]
+                reach = "ud0"
             pre += [
-                f"    dY[{h}] = -{wh} * Y[{h}] + {hg}{sign} * (uc{i} - (Y[{at_f + i}]"
-                f" + dY[{at_f + i}] / {wf}))",
+                f"    dY[{h}] = -{wh} * Y[{h}] + {hg}{sign} * (uc{i} - {reach})",
                 f"    q[{i}] = hedged_q(q[{i}], sig[{nx + 2 * p + i}], Y[{h}], dY[{h}],"
                 f" c[K + {i}], c[K0 + {i}], c[EPS0])",
             ]

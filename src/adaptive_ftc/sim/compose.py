@@ -137,6 +137,9 @@ class Generator:
     #: the last controller states that keep running while adaptation is frozen (filters of
     #: the constraint-aware option)
     free_running: int = 0
+    #: lines of the constraint-aware option inside the allocation's loop over the actuators
+    #: (after ``acc = sum_i R_ij u0_i``; ``j`` the actuator)
+    allocate_lines: list[str] = field(default_factory=list)
 
     # sizes fixed by the plant
     @property

@@ -21,11 +21,13 @@ class ConstraintAware(Part):
         self.control: list[str] = []
         self.pre: list[str] = []
         self.post: list[str] = []
+        self.allocate: list[str] = []
         if ctrl.constraint_aware is not None:  # its states after the design's own
             control, pre, post, self.measure = ctrl.emit_constraint_aware(
                 g, b.blocks, b.states.size
             )
             self.control, self.pre, self.post = map(gains_per_use, (control, pre, post))
+            self.allocate = list(g.allocate_lines)
         b.states.claim("constraint_aware", len(g.y0_extra) - n0, controller=True)
 
     def rhs(self, b: Build) -> dict[str, list[str]]:
@@ -34,4 +36,5 @@ class ConstraintAware(Part):
             "control": self.control,
             "adapt_pre": self.pre,
             "adapt_post": self.post,
+            **({"allocate": self.allocate} if self.allocate else {}),
         }
