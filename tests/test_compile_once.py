@@ -1,10 +1,13 @@
-"""A first run compiles each integrator helper once: no second copy for a literal argument.
+"""A first run compiles each integrator helper once, and no entry wrapper it does not need.
 
 numba types a variable assigned a literal ``0`` as ``Literal[int](0)`` where it is first
 passed to a compiled (not inlined) function, and compiles that function for it as well as for
 ``int64``: the adaptive integrators' step loop (``_steps_dopri5``) was compiled twice on every
-first run, about 2 s of CPU (benchmarks/bench_compile_events.py). Checked in a fresh process
-with empty caches (the code must compile here, not load from disk).
+first run, about 2 s of CPU (benchmarks/bench_compile_events.py). The helpers that only
+compiled code calls compile without numba's Python and C entry wrappers (the code that
+unboxes each argument from Python objects and boxes the result: nothing calls it, and a first
+run would lower and optimise it for every helper). Checked in a fresh process with empty
+caches (the code must compile here, not load from disk).
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 
@@ -39,18 +44,55 @@ sc = load_scenario("hypersonic-direct-s1")
 res = simulate(replace(sc.loop, t_final=1.0), replace(sc.solver, method="dopri5"))
 assert res.status == "completed", res.status
 print("COUNTS " + json.dumps(counts))
+
+# which compiled functions have a Python entry point (numba's wrapper symbol)
+from adaptive_ftc.sim.compose import integrators
+
+mod = integrators()
+wrapped = {}
+for name in ("integrate_dopri5", "_steps_dopri5", "_h_start", "_work", "_records_at", "rhs",
+             "leaves_envelope"):
+    for cres in getattr(mod, name).overloads.values():
+        wrapped[name] = bool(cres.library.get_pointer_to_function(
+            cres.fndesc.llvm_cpython_wrapper_name))
+# the plant's control gain (a module of its own per plant), called by address only
+import sys
+
+for modname, gain in list(sys.modules.items()):
+    if modname.startswith("adaptive_ftc_gain_"):
+        for cres in gain.control_gain.overloads.values():
+            wrapped["control_gain"] = bool(cres.library.get_pointer_to_function(
+                cres.fndesc.llvm_cpython_wrapper_name))
+print("WRAPPED " + json.dumps(wrapped))
 """
 
 
-def test_adaptive_step_loop_compiles_once(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory) -> str:
+    """The child's output: one fresh process with empty caches (compiling takes a while)."""
+    tmp = tmp_path_factory.mktemp("first-run")
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
-    env["ADAPTIVE_FTC_CACHE_DIR"] = str(tmp_path / "loops")
-    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba")
+    env["ADAPTIVE_FTC_CACHE_DIR"] = str(Path(tmp) / "loops")
+    env["NUMBA_CACHE_DIR"] = str(Path(tmp) / "numba")
     env.pop("NUMBA_DISABLE_JIT", None)
-    out = subprocess.run(
+    return subprocess.run(
         [sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True, check=True
     ).stdout
-    counts = json.loads(out.split("COUNTS ", 1)[1])
+
+
+def _printed(tag: str, out: str) -> dict:
+    return json.loads(out.split(f"{tag} ", 1)[1].splitlines()[0])
+
+
+def test_adaptive_step_loop_compiles_once(first_run: str) -> None:
+    counts = _printed("COUNTS", first_run)
     assert counts["_steps_dopri5"] == 1, counts
     assert counts["_records_at"] == 1, counts
+
+
+def test_helpers_only_compiled_code_calls_have_no_python_entry(first_run: str) -> None:
+    wrapped = _printed("WRAPPED", first_run)
+    assert wrapped.pop("integrate_dopri5") is True  # the entry point Python calls has one
+    assert len(wrapped) == 7, wrapped  # each helper compiled in this run
+    assert not any(wrapped.values()), wrapped

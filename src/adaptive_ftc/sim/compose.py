@@ -279,7 +279,7 @@ class Assembled:
 # the plant's part of the recorded signals (one module per plant, _gain_module_source): the
 # shared ``signals`` (templates/record.py) calls it by address once per recorded row, after
 # the loop's ``rhs`` (which left u in W)
-_CONTROL_GAIN = f'''@hot
+_CONTROL_GAIN = f'''@hot_inner
 def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
     """sum_j g_j R_0j df_j/du: the true control gain of output 1 along the allocation (g_j:
     the rate of output 1 per unit command of actuator j; df_j/du: its failure's slope)."""
@@ -329,6 +329,12 @@ from numba.core.config import DISABLE_JIT
 jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))
 hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))
 inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")
+# inner, hot_inner: functions only compiled code calls (never Python): numba builds no Python
+# or C entry wrapper for them (less to lower and optimise on a first run; from Python: fails)
+_INNER = dict(cache=CACHE, nogil=True, error_model="numpy")
+_INNER.update(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+inner = at_loop_level(njit(**_INNER))
+hot_inner = at_loop_level(njit(_nrt=False, **_INNER))
 filtered_error = inl(filtered_error)
 
 {constants}
@@ -337,20 +343,20 @@ filtered_error = inl(filtered_error)
 if not DISABLE_JIT:
     # hot, not inl: pasted into an integrator that counts references (the adaptive-step ones
     # allocate), the arrays passed would be counted at every call (measured: DOPRI5 30 % slower)
-    @hot
+    @hot_inner
     def rhs(t, Y, ph, D, W, dY):
         """The loop's right-hand side, compiled in the loop's own module (``ph``: the
         interval of this call, the loop's interval ``ph + D.i[I_PH0]``)."""
         call_rhs(D.i[I_RHS], t, Y, ph + D.i[I_PH0], D, W, dY)
 
-    @hot
+    @hot_inner
     def jump(t, Y, ph, D, W):
         """The loop's state update at the start of interval ``ph`` (address 0: a continuous
         loop, which has none, or a caller that runs the updates itself)."""
         if D.i[I_JUMP] != 0:
             call_jump(D.i[I_JUMP], t, Y, ph + D.i[I_PH0], D, W)
 
-    @hot
+    @hot_inner
     def control_gain(t, Y, ph, D, W, unit, x0dot, x1dot):
         """The loop's control gain at a recorded row (for signals)."""
         return call_gain(D.i[I_GAIN], t, Y, ph, D, W, unit, x0dot, x1dot)
@@ -368,7 +374,7 @@ else:  # NUMBA_DISABLE_JIT=1: the same calls, in Python, to the loop's Python fu
         return python_function(D.i[I_GAIN])(t, Y, ph, D, W, unit, x0dot, x1dot)
 
 
-@hot
+@hot_inner
 def leaves_envelope(Y, D):
     """Index of the first plant state outside the plant's envelope, else -1."""
     at = D.i[I_ENV]
@@ -661,6 +667,10 @@ def _module_header(g: Generator, title: str, *, laws: bool) -> tuple[list[str], 
         "# both compile at the loops' LLVM level (adaptive_ftc.sim.optlevel: -O2)",
         'jit = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy"))',
         'hot = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", _nrt=False))',
+        "# hot_inner: a hot function only compiled code calls (by its address): no Python or C",
+        "# entry wrapper is built for it (less to compile on a first run)",
+        'hot_inner = at_loop_level(njit(cache=CACHE, nogil=True, error_model="numpy", '
+        "_nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True))",
         "# inl: small helpers and the parts' functions, pasted by numba into every caller (no",
         "# call, no compilation of their own): loops run 7-12 % faster and compile sooner",
         'inl = njit(nogil=True, error_model="numpy", _nrt=False, inline="always")',

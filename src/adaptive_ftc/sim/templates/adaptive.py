@@ -111,6 +111,12 @@ jit = numba.njit(nogil=True, error_model="numpy")
 hot = numba.njit(nogil=True, error_model="numpy", _nrt=False)  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
 #: the step functions: inlined into the interval loop by numba (``inline="always"``)
 inl = numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always")  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
+#: the helpers that only compiled code calls (``_steps``, ``_h_start``, ``_work``,
+#: ``_records_at``): numba builds no Python or C entry wrapper for them (less to lower and
+#: optimise on a first run; a call from Python fails)
+_NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+inner = numba.njit(nogil=True, error_model="numpy", **_NO_WRAPPERS)  # type: ignore[call-overload]  # numba's stubs omit these options
+hot_inner = numba.njit(nogil=True, error_model="numpy", _nrt=False, **_NO_WRAPPERS)  # type: ignore[call-overload]  # numba's stubs omit these options
 
 #: the docstring of every entry point after its first line
 _ENTRY_DOC = """    Returns ``(n_recorded, status, t_stop, bad_index)``; the arguments, statuses and
@@ -244,6 +250,8 @@ def bind(rhs, make_work, jit=None, name: str = "adaptive_ftc_bound_integrators",
         jit=jit if jit is not None else numba.njit(nogil=True, error_model="numpy"),
         hot=numba.njit(nogil=True, error_model="numpy", _nrt=False),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
         inl=numba.njit(nogil=True, error_model="numpy", _nrt=False, inline="always"),  # type: ignore[call-overload]  # numba's stubs omit its private _nrt option
+        inner=inner,
+        hot_inner=hot_inner,
     )
     exec(compile(template_text(), f"<{name}>", "exec"), mod.__dict__)  # noqa: S102
     return mod
@@ -388,7 +396,7 @@ def _err_max(e, y0, y1, rtol, atol):
     return m
 
 
-@jit
+@inner
 def _h_start(t, Y, f0, ph, D, W, rtol, atol, h_max, span, order, y1, f1):
     """Initial step size (Hairer, Norsett & Wanner I, II.4); one rhs evaluation."""
     n = Y.size
@@ -588,7 +596,7 @@ class Work(NamedTuple):
     pw: np.ndarray  # its product with J; the dense output's slope check
 
 
-@jit
+@inner
 def _work(y0, stages):
     """The scratch arrays of one run from ``y0``; ``stages`` rows for Rodas5P's stages."""
     n = y0.size
@@ -987,7 +995,7 @@ def _nonstiff_test(hh, w, n_stiff, n_nonstiff):
 
 
 # ============================================================================ the driver
-@jit
+@inner
 def _records_at(upto, ph, t_rec, r, Y, out_Y, out_phase):
     """The records ``t_rec[r] <= upto`` (at the start of interval ``ph``, or at the end of the
     run) take the state ``Y``; returns the new ``r``."""
@@ -1039,7 +1047,7 @@ def _solve(y0, t_breaks, t_rec, D, W, rtol, atol, h_max, bound, stop, out_Y, out
     return _records_at(upto, nph - 1, t_rec, r, w.Y, out_Y, out_phase), 0, t_end, -1
 
 
-@hot
+@hot_inner
 def _steps(
     a, b, ph, last_phase, D, W, rtol, atol, h_max, bound, stop,
     t_rec, r, out_Y, out_phase, stats, w, stiff, nstep,
