@@ -1,5 +1,5 @@
 """The wing rock's fixed feedback without a declared delay (issue 25, docs/hardware.md "Wing
-rock §2.4", session 12): the feedback is placed (:func:`placed_feedback`, the adaptive law
+rock §2.4", session 11): the feedback is placed (:func:`placed_feedback`, the adaptive law
 slowed below it) only where the designer's model declares an actuator lag (a rate limiter's
 own linear band included) or a sample time; under noise alone the proportional path on ``s``
 at ``C_FEEDBACK p_u`` stays, and the §2.3 law recovers from an aileron's recovery within the
