@@ -475,6 +475,12 @@ class Configuration(NamedTuple):
     feedback_e: float = 0.0
     #: gain of the fixed feedback on ``int e`` (a state per output; 0 = none)
     feedback_i: float = 0.0
+    #: the nominal model's feedforward along the reference, ``u0 += u_ff(t + lead)`` with
+    #: ``G(x_r) u_ff = y_r'' - f(x_r)`` (``x_r`` the state on the reference; before the command
+    #: filter; the constraint-aware MIMO law with a floor,
+    #: :meth:`MimoDirectAdaptive.floor_configuration`); ``-1`` = none, else the lead (s) that
+    #: the reference is read ahead by
+    feedforward: float = -1.0
 
     @property
     def filtered(self) -> bool:
@@ -1126,6 +1132,56 @@ def _floor_lines(cfg: Configuration, g, nx: int, p: int) -> list[str]:
     ]
 
 
+def _feedforward_lines(cfg: Configuration, g) -> list[str]:
+    """The nominal feedforward's lines (``Configuration.feedforward``): the healthy plant's
+    model at the state on the reference read ``lead`` ahead, ``x_r`` (outputs and rates from
+    the reference), solved for ``G(x_r) u_ff = y_r'' - f(x_r)`` along the allocation and added
+    to ``u0``; none without one. ``uf`` and ``xdot`` serve as scratch (both are written again
+    after the command), the work buffer ``wb`` holds ``[G | v | f | reference | x_r]``."""
+    if cfg.feedforward < 0:
+        return []
+    from adaptive_ftc.controllers.nominal import solve_guarded
+
+    plant = g.loop.plant
+    nx, p, m = g.nx, g.p, g.m
+    pos, vel = tuple(plant.position_index), tuple(plant.velocity_index)
+    if nx != 2 * p or sorted(pos + vel) != list(range(nx)):
+        raise ConfigurationError(
+            "The nominal feedforward needs a plant whose state is its outputs and their rates "
+            f"(position_index and velocity_index covering all {nx} states); "
+            f"{type(plant).__name__} has {pos} and {vel}. Leave `feedforward` at -1 for it."
+        )
+    g.use("nominal_solve", solve_guarded)
+    f_at, r_at = p * p + p, p * p + 2 * p
+    x_at = r_at + 3 * p
+    g.n_w = max(g.n_w, x_at + nx)
+    g.consts.append(float(cfg.feedforward))
+    lead = f"c[{len(g.consts) - 1}]"
+    lines = [
+        "    # constraint-aware: the nominal model's feedforward along the reference read ahead",
+        f"    reference(t + {lead}, c, wb[{r_at}:{x_at}])",
+    ]
+    for i in range(p):
+        lines += [
+            f"    wb[{x_at + pos[i]}] = wb[{r_at + 3 * i}]",
+            f"    wb[{x_at + vel[i]}] = wb[{r_at + 3 * i + 1}]",
+        ]
+    lines += [
+        f"    for kk in range(-1, {p}):",
+        f"        for j in range({m}):",
+        f"            uf[j] = 0.0 if kk < 0 else c[RMAT + kk * {m} + j]",
+        f"        plant_dynamics(t, wb[{x_at}:{x_at + nx}], uf, plant_params(D), xdot)",
+        "        if kk < 0:",
+        *[f"            wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
+        "        else:",
+        *[f"            wb[{i * p} + kk] = xdot[{vel[i]}] - wb[{f_at + i}]" for i in range(p)],
+        *[f"    wb[{p * p + i}] = wb[{r_at + 3 * i + 2}] - wb[{f_at + i}]" for i in range(p)],
+        f"    nominal_solve(wb, 0, {p}, 1e-9, uf)",
+        *[f"    u0[{i}] += uf[{i}]" for i in range(p)],
+    ]
+    return lines
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -1183,6 +1239,7 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
+    control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)
     if cfg.filtered:

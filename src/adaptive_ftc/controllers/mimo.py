@@ -99,6 +99,14 @@ C_FLOOR_DELAY = 0.8
 C_FLOOR_INSIDE = True
 
 
+#: a loop with a floor (:meth:`MimoDirectAdaptive.output_floor`) also gets the healthy
+#: model's feedforward along the reference (``Configuration.feedforward``)
+C_FEEDFORWARD = True
+#: ... read ahead by ``C_FEEDFORWARD_LEAD`` times the declared lags (actuator lag, half a
+#: sample of hold, the command filter's ``1/omega_f``)
+C_FEEDFORWARD_LEAD = 1.0
+
+
 class MimoGains(NamedTuple):
     """Adaptation gains of (3.37)."""
 
@@ -348,9 +356,15 @@ class MimoDirectAdaptive(AdaptiveController):
         gains = tuple(r / b[i] if r > 0 and b[i] > 0 else 0.0 for i, r in enumerate(rates))
         ca = self.constraint_aware
         inside = cfg.filtered and not (ca.lag > 0 and cfg.omega_f >= 1.0 / ca.lag)
-        return cfg._replace(
+        cfg = cfg._replace(
             output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE)
         )
+        if not C_FEEDFORWARD:
+            return cfg
+        lead = ca.lag + 0.5 * ca.sample_time
+        if cfg.filtered and cfg.step <= 0:
+            lead += 1.0 / cfg.omega_f
+        return cfg._replace(feedforward=C_FEEDFORWARD_LEAD * lead)
 
     def admitted_rate(self) -> float:
         """The loop rate ``w`` the designer's model admits (:meth:`ConstraintAware.omega_max`
