@@ -306,6 +306,24 @@ RHO_FACTOR = 1.25
 #: 121 -> 122 of 123.
 C_FLOOR_SAMPLE = 0.4
 
+#: a loop with a floor whose noise's std bound ``C_NOISE / noise`` binds (issue 25's
+#: manipulator noise case, 0.01 rad and 0.1 rad/s of joint noise: ``w`` = 1.5 1/s, which
+#: lost the arm after the failures, 157 rad) sees its measurements through a first-order
+#: prefilter at ``C_FLOOR_MEASURE w`` (at most ``C_EULER / T``), and runs at
+#: :attr:`ConstraintAware.floor_noise_rate` (the prefiltered noise's bound,
+#: ``C_NOISE_FLOOR``) where that is faster. Measured on that case with the loop rate forced
+#: (error of the worse joint / fast content, targets 5e-2 rad / 0.36 N m): ``w`` = 8 with the
+#: prefilter at 2w 0.11 / 0.12, at 4w 0.088 / 0.16; ``w`` = 12: 0.056 / 0.18 and 0.042 /
+#: 0.24; ``w`` = 16: 0.037 / 0.25 (2w) and 0.030 / 0.29 (3w); ``w`` = 20: 0.028 / 0.34 and
+#: 0.019 / 0.43; without the prefilter ``w`` = 4 already has 1.2 N m of fast content. Only
+#: with the reference feedforward (``mimo.C_FEEDFORWARD``): the prefilter's lag in the loop
+#: lost the arm or limit-cycled members before it (``floor_delay``). 0: no prefilter.
+C_FLOOR_MEASURE = 2.0
+#: ... the prefiltered noise of ``s`` times the loop rate (rad/s^2) the floor's proportional
+#: path may carry: 0.2 gives ``w`` = 15.8 1/s on that case (0.15, the shared ``C_NOISE``:
+#: 13.1)
+C_NOISE_FLOOR = 0.2
+
 
 #: the fixed proportional feedback's loop rate, in multiples of the plant's fastest unstable
 #: open-loop mode ``p_u`` (``|lambda|`` of the linearised plant at ``t0``): "respect the
@@ -790,6 +808,7 @@ class ConstraintAware:
         # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
         # filter's own floor (1/omega_f >= lag, T/C_EULER)
         delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        w_hw = w
         if self.floor_delay is not None:
             # a loop with a fixed feedback floor (the MIMO law, MimoDirectAdaptive.bound):
             # its own budget over the actuator's lag, a whole sample and the s' lag
@@ -807,7 +826,10 @@ class ConstraintAware:
             if delay > 0:
                 w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
         if self.noise > 0 and self.floor_delay is not None:
-            return min(w, C_NOISE / self.noise), False
+            # the std bound, or, where faster, the loop seeing its measurements through the
+            # prefilter (MimoDirectAdaptive.floor_configuration: where the rate is above
+            # the std bound)
+            return max(min(w, C_NOISE / self.noise), self.floor_prefiltered_rate(w_hw)), False
         if self.noise > 0:
             # the density bound lowers the loop rate only; where the std bound binds, the
             # measurements are prefiltered too (configure)
@@ -815,6 +837,44 @@ class ConstraintAware:
             if C_NOISE / self.noise < w:
                 return C_NOISE / self.noise, True
         return w, False
+
+    def floor_prefiltered_rate(self, w_hw: float) -> float:
+        """The loop rate (1/s) a loop with a floor (``floor_delay`` set) admits when it sees
+        its measurements through a first-order prefilter at ``C_FLOOR_MEASURE w`` (at most
+        ``C_EULER / T``): ``w_hw`` (the cap, lag, sample and rate bounds) and the floor's
+        delay budget with the prefilter's lag counted, ``w (lag + T + tau_d + T/C_EULER) <=
+        budget - 1/C_FLOOR_MEASURE``, the sample bound ``C_FLOOR_SAMPLE / T`` and
+        :attr:`floor_noise_rate`; 0 where no prefilter is admitted (``C_FLOOR_MEASURE`` = 0,
+        no noise, no floor). The rule takes it where it is faster than the std bound ``C_NOISE
+        / noise`` without a prefilter: issue 25's manipulator noise case (no delay but the
+        ``s'`` estimate's 10 ms: 15.8 1/s against 1.5), not a campaign member with a rate
+        limit (its budget, ``0.8 - 1/2``, over at least the ``s'`` estimate's 10 ms: at most
+        30 1/s, the std bound of the campaign's largest noise, 5e-3 rad)."""
+        if not (self.noise > 0 and self.floor_delay is not None and C_FLOOR_MEASURE > 0):
+            return 0.0
+        w = min(w_hw, self.floor_noise_rate)
+        budget = (self.floor_delay if self.limited else C_DELAY) - 1.0 / C_FLOOR_MEASURE
+        delay = self.lag + self.sample_time + self.s_lag
+        if self.sample_time > 0:
+            delay += self.sample_time / C_EULER
+            w = min(w, C_FLOOR_SAMPLE / self.sample_time)
+        if delay > 0:
+            w = min(w, max(budget, 0.0) / delay)
+        return float(w)
+
+    @property
+    def floor_noise_rate(self) -> float:
+        """The loop rate (1/s) a loop with a floor admits where it sees its measurements
+        through a first-order prefilter at ``C_FLOOR_MEASURE w`` (``floor_delay`` set, the
+        noise's std bound binding): the prefiltered noise of ``s`` has the std ``n_d
+        sqrt(C_FLOOR_MEASURE w / 4)`` (``n_d``: :attr:`noise_density`; a first-order filter
+        at ``a`` rad/s passes ``a/4`` Hz of white noise), and its proportional path ``w``
+        times it is held to ``C_NOISE_FLOOR``: ``w = (C_NOISE_FLOOR / (n_d
+        sqrt(C_FLOOR_MEASURE / 4)))^(2/3)``; ``inf`` without noise."""
+        if not self.noise > 0:
+            return math.inf
+        n = self.noise_density * math.sqrt(C_FLOOR_MEASURE / 4.0)
+        return (C_NOISE_FLOOR / n) ** (2.0 / 3.0)
 
     @property
     def noise_density(self) -> float:

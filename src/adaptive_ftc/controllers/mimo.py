@@ -359,10 +359,21 @@ class MimoDirectAdaptive(AdaptiveController):
         cfg = cfg._replace(
             output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE)
         )
+        if (
+            ca.noise > 0
+            and constraints.C_FLOOR_MEASURE > 0
+            and self.admitted_rate() > constraints.C_NOISE / ca.noise
+        ):
+            # above the noise's std bound (ConstraintAware.omega_max): the law sees its
+            # measurements through the prefilter at C_FLOOR_MEASURE w
+            om = constraints.C_FLOOR_MEASURE * self.admitted_rate()
+            if ca.sample_time > 0:
+                om = min(om, constraints.C_EULER / ca.sample_time)
+            cfg = cfg._replace(omega_m=om)
         if not C_FEEDFORWARD:
             return cfg
         lead = ca.lag + 0.5 * ca.sample_time
-        if cfg.filtered and cfg.step <= 0:
+        if cfg.filtered:
             lead += 1.0 / cfg.omega_f
         return cfg._replace(feedforward=C_FEEDFORWARD_LEAD * lead)
 
