@@ -495,7 +495,7 @@ class Configuration(NamedTuple):
     feedback_i: float = 0.0
     #: the nominal model's feedforward along the reference, ``u0 += u_ff(t + lead)`` with
     #: ``G(x_r) u_ff = y_r'' - f(x_r)`` (``x_r`` the state on the reference; before the command
-    #: filter; the constraint-aware MIMO law with a floor,
+    #: filter; the constraint-aware MIMO law, on its outputs with a floor,
     #: :meth:`MimoDirectAdaptive.floor_configuration`); ``-1`` = none, else the lead (s) that
     #: the reference is read ahead by
     feedforward: float = -1.0
@@ -1196,9 +1196,11 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     """The nominal feedforward's lines (``Configuration.feedforward``): the healthy plant's
     model at the state on the reference read ``lead`` ahead, ``x_r`` (outputs and rates from
     the reference), solved for ``G(x_r) u_ff = y_r'' - f(x_r)`` along the allocation and added
-    to ``u0``; none without one. ``uf`` and ``xdot`` serve as scratch (both are written again
+    to ``u0`` of the outputs with a floor (``output_feedback`` > 0; every output without
+    one); none without one. ``uf`` and ``xdot`` serve as scratch (both are written again
     after the command), the work buffer ``wb`` holds ``[G | v | f | reference | x_r]``."""
-    if cfg.feedforward < 0:
+    floored = [f > 0 for f in cfg.output_feedback] or [True] * g.p
+    if cfg.feedforward < 0 or not any(floored):
         return []
     from adaptive_ftc.controllers.nominal import solve_guarded
 
@@ -1237,7 +1239,7 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
         *[f"            wb[{i * p} + kk] = xdot[{vel[i]}] - wb[{f_at + i}]" for i in range(p)],
         *[f"    wb[{p * p + i}] = wb[{r_at + 3 * i + 2}] - wb[{f_at + i}]" for i in range(p)],
         f"    nominal_solve(wb, 0, {p}, 1e-9, uf)",
-        *[f"    u0[{i}] += uf[{i}]" for i in range(p)],
+        *[f"    u0[{i}] += uf[{i}]" for i in range(p) if floored[i]],
     ]
     return lines
 
