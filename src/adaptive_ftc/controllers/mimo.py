@@ -356,9 +356,7 @@ class MimoDirectAdaptive(AdaptiveController):
         gains = tuple(r / b[i] if r > 0 and b[i] > 0 else 0.0 for i, r in enumerate(rates))
         ca = self.constraint_aware
         inside = cfg.filtered and not (ca.lag > 0 and cfg.omega_f >= 1.0 / ca.lag)
-        cfg = cfg._replace(
-            output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE)
-        )
+        cfg = cfg._replace(output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE))
         if (
             ca.noise > 0
             and constraints.C_FLOOR_MEASURE > 0
