@@ -168,3 +168,21 @@ def test_a_rate_limited_floor_loop_keeps_the_std_bound_and_no_prefilter():
     # without a floor, or without noise: none
     assert replace(ca, floor_delay=None).floor_prefiltered_rate(100.0) == 0.0
     assert replace(ca, noise=0.0).floor_prefiltered_rate(100.0) == 0.0
+
+
+def test_a_controller_exported_to_c_leaves_the_model_feedforward_out(manipulator, tmp_path):
+    from adaptive_ftc.export.c import export_c
+
+    loop = replace(
+        manipulator.loop,
+        actuators=Actuators(tau=0.04, rate=50.0, lower=-12.0, upper=12.0),
+        sample_time=0.01,
+    )
+    with pytest.raises(ValueError, match="model_feedforward=False"):
+        export_c(_aware(loop), tmp_path / "with")
+    ca = replace(ConstraintAware.from_loop(loop), model_feedforward=False)
+    plain = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+    assert plain.controller.bound(plain).configuration().feedforward == -1.0
+    assert export_c(plain, tmp_path / "without").source.is_file()
+    with pytest.raises(ValueError, match="model_feedforward"):
+        ConstraintAware(lag=0.01, model_feedforward=1)

@@ -640,6 +640,12 @@ class ConstraintAware:
         model of the placed feedback); ``None``: measured on the loop
         (:meth:`AdaptiveController.open_loop_rows`). Not a constraint.
 
+    model_feedforward
+        The designer's model includes the plant's equations: the MIMO law with a floor adds
+        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``). False:
+        none (a controller exported to C carries no plant model: ``export_c`` refuses one that
+        uses it). Not a constraint.
+
     Examples
     --------
     >>> ConstraintAware().is_ideal
@@ -667,6 +673,7 @@ class ConstraintAware:
     unstable_rate: float | None = None
     floor_delay: float | None = None
     open_loop: tuple[float, float] | None = None
+    model_feedforward: bool = True
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -699,6 +706,11 @@ class ConstraintAware:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
         if self.floor_delay is not None:
             _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
+        if not isinstance(self.model_feedforward, bool):
+            raise ConfigurationError(
+                "`model_feedforward` of ConstraintAware must be true or false; got "
+                f"{self.model_feedforward!r}."
+            )
         if isinstance(self.open_loop, list):  # a scenario file's array
             object.__setattr__(self, "open_loop", tuple(self.open_loop))
         if self.open_loop is not None:

@@ -368,7 +368,7 @@ class MimoDirectAdaptive(AdaptiveController):
             if ca.sample_time > 0:
                 om = min(om, constraints.C_EULER / ca.sample_time)
             cfg = cfg._replace(omega_m=om)
-        if not C_FEEDFORWARD:
+        if not C_FEEDFORWARD or not ca.model_feedforward:
             return cfg
         lead = ca.lag + 0.5 * ca.sample_time
         if cfg.filtered:
