@@ -99,11 +99,21 @@ C_FLOOR_DELAY = 0.8
 C_FLOOR_INSIDE = True
 
 
-#: a loop with a floor (:meth:`MimoDirectAdaptive.output_floor`) also gets the healthy
-#: model's feedforward along the reference (``Configuration.feedforward``)
+#: the outputs with a floor (:meth:`MimoDirectAdaptive.output_floor`) also get the healthy
+#: model's feedforward along the reference (``Configuration.feedforward``: ``G(x_r) u_ff =
+#: y_r'' - f(x_r)`` on the state on the reference, before the command filter), unless the
+#: designer's model leaves it out (``ConstraintAware.model_feedforward``). The law's basis is
+#: of the errors only, so without it its tracking of the reference is its loop gain there,
+#: which the lags bound: 25 of the 32 manipulator-hardware failures of round 6 tracked at
+#: 0.05-0.09 rad behind 32-50 ms lags; with it all 25 track (0.001-0.040 rad), none of a
+#: control set of 29 succeeding members is lost. The computed-torque feedforward of the
+#: desired trajectory beside an adaptive law: Sadegh & Horowitz, Int. J. Robotics Research
+#: 9(3), 1990; the adaptive augmentation of a baseline, Lavretsky & Wise 2013, ch. 10. Not on
+#: a raised output (no floor): member 139 lost joint 1 with it there.
 C_FEEDFORWARD = True
 #: ... read ahead by ``C_FEEDFORWARD_LEAD`` times the declared lags (actuator lag, half a
-#: sample of hold, the command filter's ``1/omega_f``)
+#: sample of hold, the command filter's ``1/omega_f``): 1-2 % less error than without the
+#: lead behind 40-47 ms (members 11, 52, 144, 358)
 C_FEEDFORWARD_LEAD = 1.0
 
 
