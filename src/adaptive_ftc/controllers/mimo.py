@@ -358,7 +358,11 @@ class MimoDirectAdaptive(AdaptiveController):
     def floor_configuration(self, cfg):
         """``cfg`` with the per-output floor feedback of :meth:`output_floor` (gain
         ``rate_i / b_i``), before the command filter where the filter is not capped by the
-        actuator's lag (``C_FLOOR_INSIDE``)."""
+        actuator's lag (``C_FLOOR_INSIDE``); with the measurement prefilter at
+        ``constraints.C_FLOOR_MEASURE w`` where the rule's loop rate is above the noise's std
+        bound (:meth:`ConstraintAware.floor_prefiltered_rate`); and with the healthy model's
+        feedforward along the reference on the floored outputs (``C_FEEDFORWARD``), the
+        reference read ahead by the declared lags."""
         rates = self.output_floor()
         if not rates:
             return cfg
@@ -369,6 +373,7 @@ class MimoDirectAdaptive(AdaptiveController):
         cfg = cfg._replace(output_feedback=gains, feedback_filtered=bool(inside and C_FLOOR_INSIDE))
         if (
             ca.noise > 0
+            and ca.bandwidth is None  # the rule's rate, not a designer's
             and constraints.C_FLOOR_MEASURE > 0
             and self.admitted_rate() > constraints.C_NOISE / ca.noise
         ):
