@@ -92,15 +92,18 @@ def test_an_output_whose_loop_gain_is_at_the_admitted_rate_is_unchanged():
     ctrl = replace(loop.controller, constraint_aware=ConstraintAware(lag=0.05)).bound(loop)
     assert ctrl.output_raise() == (1.0, 1.0)
     assert ctrl.output_adaptation() == ()
-    # unchanged but for the fixed feedback floor of its local basis (its own rule:
-    # tests/test_constraint_aware_mimo_floor.py)
+    # unchanged but for the fixed feedback floor of its local basis and the reference
+    # feedforward beside it (their own rules: tests/test_constraint_aware_mimo_floor.py,
+    # tests/test_constraint_aware_mimo_feedforward.py)
     cfg = ctrl.configuration()
-    assert cfg.output_feedback
-    assert cfg._replace(output_feedback=()) == AdaptiveController.configuration(ctrl)
+    assert cfg.output_feedback and cfg.feedforward >= 0
+    bare = cfg._replace(output_feedback=(), feedforward=-1.0)
+    assert bare == AdaptiveController.configuration(ctrl)
     noisy = replace(loop.controller, constraint_aware=ConstraintAware(noise=0.1)).bound(loop)
     assert noisy.output_adaptation() == ()
-    cfg = noisy.configuration()
-    assert cfg._replace(output_feedback=()) == AdaptiveController.configuration(noisy)
+    cfg = noisy.configuration()  # ... and the floor's measurement prefilter
+    bare = cfg._replace(output_feedback=(), feedforward=-1.0, omega_m=math.inf)
+    assert bare == AdaptiveController.configuration(noisy)
     src = source_of(replace(loop, controller=ctrl, actuators=Actuators(tau=0.05)))
     assert "D.gains.eta, D.gains.sigma, normaliser" in src.replace("gains(D)", "D.gains")
 

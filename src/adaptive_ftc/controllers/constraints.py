@@ -330,6 +330,24 @@ RHO_FACTOR = 1.25
 #: 121 -> 122 of 123.
 C_FLOOR_SAMPLE = 0.4
 
+#: a loop with a floor whose noise's std bound ``C_NOISE / noise`` binds (issue 25's
+#: manipulator noise case, 0.01 rad and 0.1 rad/s of joint noise: ``w`` = 1.5 1/s, which
+#: lost the arm after the failures, 157 rad) sees its measurements through a first-order
+#: prefilter at ``C_FLOOR_MEASURE w`` (at most ``C_EULER / T``), and runs at
+#: :attr:`ConstraintAware.floor_noise_rate` (the prefiltered noise's bound,
+#: ``C_NOISE_FLOOR``) where that is faster. Measured on that case with the loop rate forced
+#: (error of the worse joint / fast content, targets 5e-2 rad / 0.36 N m): ``w`` = 8 with the
+#: prefilter at 2w 0.11 / 0.12, at 4w 0.088 / 0.16; ``w`` = 12: 0.056 / 0.18 and 0.042 /
+#: 0.24; ``w`` = 16: 0.037 / 0.25 (2w) and 0.030 / 0.29 (3w); ``w`` = 20: 0.028 / 0.34 and
+#: 0.019 / 0.43; without the prefilter ``w`` = 4 already has 1.2 N m of fast content. Only
+#: with the reference feedforward (``mimo.C_FEEDFORWARD``): the prefilter's lag in the loop
+#: lost the arm or limit-cycled members before it (``floor_delay``). 0: no prefilter.
+C_FLOOR_MEASURE = 2.0
+#: ... the prefiltered noise of ``s`` times the loop rate (rad/s^2) the floor's proportional
+#: path may carry: 0.2 gives ``w`` = 15.8 1/s on that case (0.15, the shared ``C_NOISE``:
+#: 13.1)
+C_NOISE_FLOOR = 0.2
+
 
 #: the fixed proportional feedback's loop rate, in multiples of the plant's fastest unstable
 #: open-loop mode ``p_u`` (``|lambda|`` of the linearised plant at ``t0``): "respect the
@@ -525,6 +543,12 @@ class Configuration(NamedTuple):
     #: without an allocator passes every actuator's command through its own filter at this
     #: rate, and the compensated error hedges what they deliver (:func:`emit`)
     actuator_rate: float = math.inf
+    #: the nominal model's feedforward along the reference, ``u0 += u_ff(t + lead)`` with
+    #: ``G(x_r) u_ff = y_r'' - f(x_r)`` (``x_r`` the state on the reference; before the command
+    #: filter; the constraint-aware MIMO law, on its outputs with a floor,
+    #: :meth:`MimoDirectAdaptive.floor_configuration`); ``-1`` = none, else the lead (s) that
+    #: the reference is read ahead by
+    feedforward: float = -1.0
 
     @property
     def filtered(self) -> bool:
@@ -666,6 +690,12 @@ class ConstraintAware:
         model of the placed feedback); ``None``: measured on the loop
         (:meth:`AdaptiveController.open_loop_rows`). Not a constraint.
 
+    model_feedforward
+        The designer's model includes the plant's equations: the MIMO law with a floor adds
+        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``). False:
+        none (a controller exported to C carries no plant model: ``export_c`` refuses one that
+        uses it). Not a constraint.
+
     Examples
     --------
     >>> ConstraintAware().is_ideal
@@ -693,6 +723,7 @@ class ConstraintAware:
     unstable_rate: float | None = None
     floor_delay: float | None = None
     open_loop: tuple[float, float] | None = None
+    model_feedforward: bool = True
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -725,6 +756,11 @@ class ConstraintAware:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
         if self.floor_delay is not None:
             _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
+        if not isinstance(self.model_feedforward, bool):
+            raise ConfigurationError(
+                "`model_feedforward` of ConstraintAware must be true or false; got "
+                f"{self.model_feedforward!r}."
+            )
         if isinstance(self.open_loop, list):  # a scenario file's array
             object.__setattr__(self, "open_loop", tuple(self.open_loop))
         if self.open_loop is not None:
@@ -834,6 +870,7 @@ class ConstraintAware:
         # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
         # filter's own floor (1/omega_f >= lag, T/C_EULER)
         delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        w_hw = w
         if self.floor_delay is not None:
             # a loop with a fixed feedback floor (the MIMO law, MimoDirectAdaptive.bound):
             # its own budget over the actuator's lag, a whole sample and the s' lag
@@ -851,7 +888,10 @@ class ConstraintAware:
             if delay > 0:
                 w = min(w, (C_DELAY_LIMITED - 1.0 / C_FILTER) / delay)
         if self.noise > 0 and self.floor_delay is not None:
-            return min(w, C_NOISE / self.noise), False
+            # the std bound, or, where faster, the loop seeing its measurements through the
+            # prefilter (MimoDirectAdaptive.floor_configuration: where the rate is above
+            # the std bound)
+            return max(min(w, C_NOISE / self.noise), self.floor_prefiltered_rate(w_hw)), False
         if self.noise > 0:
             # the density bound lowers the loop rate only; where the std bound binds, the
             # measurements are prefiltered too (configure)
@@ -859,6 +899,44 @@ class ConstraintAware:
             if C_NOISE / self.noise < w:
                 return C_NOISE / self.noise, True
         return w, False
+
+    def floor_prefiltered_rate(self, w_hw: float) -> float:
+        """The loop rate (1/s) a loop with a floor (``floor_delay`` set) admits when it sees
+        its measurements through a first-order prefilter at ``C_FLOOR_MEASURE w`` (at most
+        ``C_EULER / T``): ``w_hw`` (the cap, lag, sample and rate bounds) and the floor's
+        delay budget with the prefilter's lag counted, ``w (lag + T + tau_d + T/C_EULER) <=
+        budget - 1/C_FLOOR_MEASURE``, the sample bound ``C_FLOOR_SAMPLE / T`` and
+        :attr:`floor_noise_rate`; 0 where no prefilter is admitted (``C_FLOOR_MEASURE`` = 0,
+        no noise, no floor). The rule takes it where it is faster than the std bound ``C_NOISE
+        / noise`` without a prefilter: issue 25's manipulator noise case (no delay but the
+        ``s'`` estimate's 10 ms: 15.8 1/s against 1.5), not a campaign member with a rate
+        limit (its budget, ``0.8 - 1/2``, over at least the ``s'`` estimate's 10 ms: at most
+        30 1/s, the std bound of the campaign's largest noise, 5e-3 rad)."""
+        if not (self.noise > 0 and self.floor_delay is not None and C_FLOOR_MEASURE > 0):
+            return 0.0
+        w = min(w_hw, self.floor_noise_rate)
+        budget = (self.floor_delay if self.limited else C_DELAY) - 1.0 / C_FLOOR_MEASURE
+        delay = self.lag + self.sample_time + self.s_lag
+        if self.sample_time > 0:
+            delay += self.sample_time / C_EULER
+            w = min(w, C_FLOOR_SAMPLE / self.sample_time)
+        if delay > 0:
+            w = min(w, max(budget, 0.0) / delay)
+        return float(w)
+
+    @property
+    def floor_noise_rate(self) -> float:
+        """The loop rate (1/s) a loop with a floor admits where it sees its measurements
+        through a first-order prefilter at ``C_FLOOR_MEASURE w`` (``floor_delay`` set, the
+        noise's std bound binding): the prefiltered noise of ``s`` has the std ``n_d
+        sqrt(C_FLOOR_MEASURE w / 4)`` (``n_d``: :attr:`noise_density`; a first-order filter
+        at ``a`` rad/s passes ``a/4`` Hz of white noise), and its proportional path ``w``
+        times it is held to ``C_NOISE_FLOOR``: ``w = (C_NOISE_FLOOR / (n_d
+        sqrt(C_FLOOR_MEASURE / 4)))^(2/3)``; ``inf`` without noise."""
+        if not self.noise > 0:
+            return math.inf
+        n = self.noise_density * math.sqrt(C_FLOOR_MEASURE / 4.0)
+        return (C_NOISE_FLOOR / n) ** (2.0 / 3.0)
 
     @property
     def noise_density(self) -> float:
@@ -1209,6 +1287,58 @@ def _delivery_weights(g) -> list[float] | None:
     return [float(v) / total for v in G[0]]
 
 
+def _feedforward_lines(cfg: Configuration, g) -> list[str]:
+    """The nominal feedforward's lines (``Configuration.feedforward``): the healthy plant's
+    model at the state on the reference read ``lead`` ahead, ``x_r`` (outputs and rates from
+    the reference), solved for ``G(x_r) u_ff = y_r'' - f(x_r)`` along the allocation and added
+    to ``u0`` of the outputs with a floor (``output_feedback`` > 0; every output without
+    one); none without one. ``uf`` and ``xdot`` serve as scratch (both are written again
+    after the command), the work buffer ``wb`` holds ``[G | v | f | reference | x_r]``."""
+    floored = [f > 0 for f in cfg.output_feedback] or [True] * g.p
+    if cfg.feedforward < 0 or not any(floored):
+        return []
+    from adaptive_ftc.controllers.nominal import solve_guarded
+
+    plant = g.loop.plant
+    nx, p, m = g.nx, g.p, g.m
+    pos, vel = tuple(plant.position_index), tuple(plant.velocity_index)
+    if nx != 2 * p or sorted(pos + vel) != list(range(nx)):
+        raise ConfigurationError(
+            "The nominal feedforward needs a plant whose state is its outputs and their rates "
+            f"(position_index and velocity_index covering all {nx} states); "
+            f"{type(plant).__name__} has {pos} and {vel}. Leave `feedforward` at -1 for it."
+        )
+    g.use("nominal_solve", solve_guarded)
+    f_at, r_at = p * p + p, p * p + 2 * p
+    x_at = r_at + 3 * p
+    g.n_w = max(g.n_w, x_at + nx)
+    g.consts.append(float(cfg.feedforward))
+    lead = f"c[{len(g.consts) - 1}]"
+    lines = [
+        "    # constraint-aware: the nominal model's feedforward along the reference read ahead",
+        f"    reference(t + {lead}, c, wb[{r_at}:{x_at}])",
+    ]
+    for i in range(p):
+        lines += [
+            f"    wb[{x_at + pos[i]}] = wb[{r_at + 3 * i}]",
+            f"    wb[{x_at + vel[i]}] = wb[{r_at + 3 * i + 1}]",
+        ]
+    lines += [
+        f"    for kk in range(-1, {p}):",
+        f"        for j in range({m}):",
+        f"            uf[j] = 0.0 if kk < 0 else c[RMAT + kk * {m} + j]",
+        f"        plant_dynamics(t, wb[{x_at}:{x_at + nx}], uf, plant_params(D), xdot)",
+        "        if kk < 0:",
+        *[f"            wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
+        "        else:",
+        *[f"            wb[{i * p} + kk] = xdot[{vel[i]}] - wb[{f_at + i}]" for i in range(p)],
+        *[f"    wb[{p * p + i}] = wb[{r_at + 3 * i + 2}] - wb[{f_at + i}]" for i in range(p)],
+        f"    nominal_solve(wb, 0, {p}, 1e-9, uf)",
+        *[f"    u0[{i}] += uf[{i}]" for i in range(p) if floored[i]],
+    ]
+    return lines
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -1278,6 +1408,7 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
+    control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)
     if cfg.filtered:

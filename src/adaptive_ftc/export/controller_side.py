@@ -111,7 +111,9 @@ def _drop(st, tainted: set) -> None:
                         f"module, line {getattr(node, 'lineno', '?')}): the controller would "
                         "need the plant's model or its failures, which a deployed controller "
                         "does not have (designs that invert the plant's model, such as the "
-                        "nominal-inverse and oracle baselines, are not exported)."
+                        "nominal-inverse and oracle baselines, are not exported; the "
+                        "constraint-aware MIMO law's reference feedforward uses it too: "
+                        "ConstraintAware(model_feedforward=False) leaves it out)."
                     )
     tainted.update(_assigned(st))
 
