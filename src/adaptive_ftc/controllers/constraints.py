@@ -379,8 +379,21 @@ PLACE_UNDELAYED = False
 
 
 #: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
-#: (:func:`placed_feedback`).
+#: (:func:`placed_feedback`), on 12 log-spaced points ...
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
+#: ... and ``FEEDBACK_KI_EXTEND`` more points above it at the same log spacing (factor 1.68
+#: per point: 0.50, 0.85 ``p^3``), so every gain of the 12 stays on the grid and a loop
+#: whose decay does not gain from a faster integral keeps its gains. Why (issue 25, wing
+#: rock, the 8 cases): the integral pole of the placed loop sits near ``-ki / (kp - a)``;
+#: at 0.3 ``p^3`` it was the loop's slowest mode (-8.0 to -8.5 1/s on the lag 50 ms, 50 Hz
+#: and rate cases, each at the cap) and the 8 s recovery (a 1461 rad/s^2 torque step) was
+#: still decaying in the judged window 8.5-10 s. A failure-blind linear controller that
+#: knows the plant settles that step within the window on each case
+#: (``scripts/linear_reference_wingrock.py``). Raising the interval itself to ``(1e-3,
+#: 1.0)`` moved every grid point and changed gains of members that were not at the cap
+#: (wingrock-hardware member 44, behind 48 ms at 50 Hz with its first aileron stuck, lost:
+#: damping 0.87 -> 0.40 ``p`` at the same decay).
+FEEDBACK_KI_EXTEND = 2
 
 
 #: the placed feedback's lead (issue 25, wing rock, session 12): the PID's output passes
@@ -399,6 +412,15 @@ LEAD_MAX = 3.0
 #: ... and ``tau >= LEAD_SAMPLE T``: the lead is a state of the law, integrated by forward
 #: Euler at the sample time (``T / tau <= 1``: no sign flip from one sample to the next).
 LEAD_SAMPLE = 1.0
+
+
+def _ki_grid() -> np.ndarray:
+    """The placed feedback's integral gains over ``p^3``: 12 log-spaced points on
+    ``FEEDBACK_KI_RANGE`` and ``FEEDBACK_KI_EXTEND`` more above it at the same spacing."""
+    lo, hi = FEEDBACK_KI_RANGE
+    base = np.geomspace(lo, hi, 12)
+    ratio = (hi / lo) ** (1.0 / 11.0)
+    return np.concatenate([base, hi * ratio ** np.arange(1, FEEDBACK_KI_EXTEND + 1)])
 
 
 def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
@@ -441,7 +463,7 @@ def placed_feedback(
     grid = np.meshgrid(
         p2 * np.linspace(0.02, 3.0, n),
         p * np.linspace(-1.0, 6.0, n),
-        p2 * p * np.geomspace(*FEEDBACK_KI_RANGE, 12),
+        p2 * p * _ki_grid(),
         indexing="ij",
     )
     S, Dm, ki = (a.ravel() for a in grid)
