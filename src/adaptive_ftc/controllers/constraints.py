@@ -395,7 +395,9 @@ FEEDBACK_KI_RANGE = (1e-3, 0.3)
 #: (``scripts/linear_reference_wingrock.py``). Raising the interval itself to ``(1e-3,
 #: 1.0)`` moved every grid point and changed gains of members that were not at the cap
 #: (wingrock-hardware member 44, behind 48 ms at 50 Hz with its first aileron stuck, lost:
-#: damping 0.87 -> 0.40 ``p`` at the same decay).
+#: damping 0.87 -> 0.40 ``p`` at the same decay). Measured with the extension (and
+#: ``PLACE_UNDELAYED``): the decay -10.9 / -15.3 / -14.6 1/s on those three cases, and the
+#: 8 cases of §2.3 and §2.4 acceptable (1 of 8 before; docs/hardware.md, "Wing rock §2.4").
 FEEDBACK_KI_EXTEND = 2
 #: ... admitted only where the declared rate limit lets the faster loop move an actuator by
 #: ``FEEDBACK_KI_SWING`` (rad) at its decay rate: ``C_MARGIN rate >= FEEDBACK_KI_SWING
