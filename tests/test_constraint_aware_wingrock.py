@@ -65,9 +65,11 @@ def test_feedback_only_where_the_unstable_mode_is_near_the_loop_rate():
     ca = bound.constraint_aware
     cfg = bound.configuration()
     # placed on the designer's linear model (the plant linearised at t0, the 20 ms lag
-    # behind the feedback's lead: LEAD_MAX)
+    # behind the feedback's lead: LEAD_MAX; no rate limit: its integral grid extended,
+    # FEEDBACK_KI_EXTEND)
     assert ca.lead_lag == pytest.approx(0.02 / constraints.LEAD_MAX)
-    kp, kd, ki, _ = constraints.placed_feedback(*ca.open_loop, ca.lead_lag, 0.0)
+    extend = constraints.FEEDBACK_KI_EXTEND
+    kp, kd, ki, _ = constraints.placed_feedback(*ca.open_loop, ca.lead_lag, 0.0, ki_extend=extend)
     b = ca.input_gain
     assert (cfg.feedback, cfg.feedback_e, cfg.feedback_i) == pytest.approx(
         (kd / b, kp / b, ki / b), rel=1e-12

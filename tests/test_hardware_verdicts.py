@@ -111,7 +111,9 @@ def test_the_table_reports_the_oracle_and_the_target_each_law_was_held_to(capsys
     )
     oracle_row, law_row = rows[1], rows[2]
     assert oracle_row["law"] == "oracle" and oracle_row["verdict"].startswith(hc.INFEASIBLE)
-    assert law_row["target"] == ideal["threshold"] and law_row["verdict"] != "ok"
+    # held to the threshold alone; acceptable since the placed integral's grid was extended
+    # (docs/hardware.md, "Wing rock §2.4"; 7.1e-3 rad before, 2.8e-4 after)
+    assert law_row["target"] == ideal["threshold"] and law_row["verdict"] == "ok"
     assert "INFEASIBLE-BY-ORACLE" in capsys.readouterr().out
 
 

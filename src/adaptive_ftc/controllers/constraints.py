@@ -111,9 +111,10 @@ design, not another design) it derives, by the rules below, one configuration
    plant linearised at ``t0``, :meth:`AdaptiveController.open_loop_rows`, behind the declared
    lag and half a sample of hold) for the largest worst-case decay rate over an input gain
    cut by a third or not (:func:`placed_feedback`, ``FEEDBACK_GAIN_SCALES``); the adaptive
-   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``); only
-   behind a declared lag or sample time (``PLACE_UNDELAYED``: noise alone keeps the
-   proportional path below). Behind a declared lag the PID's output passes a lead ``(lag s +
+   law then runs below the placed loop's slowest mode (``r g <= C_AUGMENT |decay|``), with
+   or without a declared delay (``PLACE_UNDELAYED``); its integral gain on a grid that
+   reaches 0.85 ``p^3`` where the rate limit admits it (``FEEDBACK_KI_EXTEND``,
+   ``FEEDBACK_KI_SWING``). Behind a declared lag the PID's output passes a lead ``(lag s +
    1) / (tau s + 1)`` that cancels the lag down to ``tau`` (``LEAD_MAX``, ``LEAD_SAMPLE``; a
    model-based lag compensation, e.g. Åström & Murray, *Feedback Systems*, 2008, §11.4), and
    the gains are placed behind ``tau``. The
@@ -382,23 +383,50 @@ AUGMENT_FLOOR = 0.01
 FEEDBACK_GAIN_SCALES = (0.65, 1.0)
 
 
-#: the feedback is placed only where the designer's model declares a delay (an actuator lag,
-#: a rate limiter's own linear band ``RATE_ONLY_TAU`` included, or a sample time); without
-#: one (noise alone) the proportional path on ``s`` at ``C_FEEDBACK p_u`` (the session-10
-#: rule) keeps its phase and the adaptive law is not slowed below it. Measured (issue 25's
-#: noise case, 1 % of the reference, wingrock-direct-s1, judged 8.5-10 s after the aileron's
-#: recovery at 8 s): placed, the recovery's transient is still decaying in the window, error
-#: 1.06e-2 rad (target 1.75e-3); proportional 2.0e-4. Not a gain for §2.4 (its capped
-#: compensator does not learn the stuck aileron's torque at this loop rate): the roll is
-#: lost at 0.44 rad (session 10's number), placed 1.0e-2; both fail. The wingrock-hardware
-#: campaign draws a rate limit for every member, so every member declares a delay and the
-#: campaign is unchanged. ``True``: placed without a delay too.
-PLACE_UNDELAYED = False
+#: where the plant is fast unstable the feedback is placed whether or not the designer's model
+#: declares a delay (an actuator lag, a rate limiter's own linear band ``RATE_ONLY_TAU``, a
+#: sample time); ``False``: only behind a declared delay, noise alone keeping the
+#: proportional path on ``s`` at ``C_FEEDBACK p_u`` (session 11's rule) and the unslowed
+#: law. Session 11 placed only behind a delay because the placed loop, its integral capped
+#: at 0.3 ``p^3`` (decay about 8 1/s), did not settle the 8 s recovery of issue 25's noise
+#: case within its 0.5 s (wingrock-direct-s1: placed 1.06e-2 rad against 2.0e-4). With the
+#: integral grid extended (``FEEDBACK_KI_EXTEND``) the placed loop settles it: measured on
+#: the noise case (1 % of the reference, judged 8.5-10 s), §2.3 5.3e-5 rad placed against
+#: 2.0e-4 on the proportional path, §2.4 4.3e-4 against 0.44 (the proportional path has no
+#: integral and §2.4's slowed compensator does not learn the stuck aileron's torque: the
+#: roll is lost at 3 s). The wingrock-hardware campaign draws a rate limit for every member,
+#: so every member declares a delay and the campaign is unchanged by this switch.
+PLACE_UNDELAYED = True
 
 
 #: the placed feedback's integral gain ``ki`` ranges over this interval times ``p^3``
-#: (:func:`placed_feedback`).
+#: (:func:`placed_feedback`), on 12 log-spaced points ...
 FEEDBACK_KI_RANGE = (1e-3, 0.3)
+#: ... and ``FEEDBACK_KI_EXTEND`` more points above it at the same log spacing (factor 1.68
+#: per point: 0.50, 0.85 ``p^3``), so every gain of the 12 stays on the grid and a loop
+#: whose decay does not gain from a faster integral keeps its gains. Why (issue 25, wing
+#: rock, the 8 cases): the integral pole of the placed loop sits near ``-ki / (kp - a)``;
+#: at 0.3 ``p^3`` it was the loop's slowest mode (-8.0 to -8.5 1/s on the lag 50 ms, 50 Hz
+#: and rate cases, each at the cap) and the 8 s recovery (a 1461 rad/s^2 torque step) was
+#: still decaying in the judged window 8.5-10 s. A failure-blind linear controller that
+#: knows the plant settles that step within the window on each case
+#: (``scripts/linear_reference_wingrock.py``). Raising the interval itself to ``(1e-3,
+#: 1.0)`` moved every grid point and changed gains of members that were not at the cap
+#: (wingrock-hardware member 44, behind 48 ms at 50 Hz with its first aileron stuck, lost:
+#: damping 0.87 -> 0.40 ``p`` at the same decay). Measured with the extension (and
+#: ``PLACE_UNDELAYED``): the decay -10.9 / -15.3 / -14.6 1/s on those three cases, and the
+#: 8 cases of §2.3 and §2.4 acceptable (1 of 8 before; docs/hardware.md, "Wing rock §2.4").
+FEEDBACK_KI_EXTEND = 2
+#: ... admitted only where the declared rate limit lets the faster loop move an actuator by
+#: ``FEEDBACK_KI_SWING`` (rad) at its decay rate: ``C_MARGIN rate >= FEEDBACK_KI_SWING
+#: |decay|`` (the extended placement's decay; no rate limit: always). The swing is the
+#: command change a failure's transient asks of an actuator (the wingrock-hardware
+#: campaign's stuck values reach +-2 rad; the cases' recovery 6.1). Measured on the campaign
+#: (constraint-aware only, 500 members): extended everywhere, 381 members' gains changed and
+#: 9 of them (rate limits 10.4-22.8 rad/s, every one at its rate limit 94-99 % of the final
+#: window, a rate-limit oscillation of 0.38-0.52 rad) were lost, 490/500 against 499; with
+#: this gate 217 members change (rate limits 21.9 rad/s and up), none lost.
+FEEDBACK_KI_SWING = 2.0
 
 
 #: the placed feedback's lead (issue 25, wing rock, session 12): the PID's output passes
@@ -419,6 +447,15 @@ LEAD_MAX = 3.0
 LEAD_SAMPLE = 1.0
 
 
+def _ki_grid(extend: int) -> np.ndarray:
+    """The placed feedback's integral gains over ``p^3``: 12 log-spaced points on
+    ``FEEDBACK_KI_RANGE`` and ``extend`` more above it at the same spacing."""
+    lo, hi = FEEDBACK_KI_RANGE
+    base = np.geomspace(lo, hi, 12)
+    ratio = (hi / lo) ** (1.0 / 11.0)
+    return np.concatenate([base, hi * ratio ** np.arange(1, extend + 1)])
+
+
 def _pade3(delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Numerator and denominator of the order-3 Padé approximant of ``exp(-s delay)``."""
     c = (1.0, 0.5, 0.1, 1.0 / 120.0)
@@ -435,6 +472,7 @@ def placed_feedback(
     delay: float,
     scales: tuple[float, ...] = FEEDBACK_GAIN_SCALES,
     n: int = 31,
+    ki_extend: int = 0,
 ) -> tuple[float, float, float, float]:
     """The fixed feedback ``u0 += (kp e + kd e' + ki int e) / b`` placed on the designer's
     linear model: ``y'' = stiffness y + damping y' + beta b u0`` (the plant linearised at
@@ -444,7 +482,8 @@ def placed_feedback(
     the largest real part of its poles) over the input-gain scales ``beta`` in ``scales``, on
     a grid of closed-loop stiffness ``kp - stiffness`` in ``[0.02, 3] p^2``, damping ``kd -
     damping`` in ``[-1, 6] p`` and ``ki`` in ``[1e-3, 0.3] p^3`` (``p^2 = max(|stiffness|,
-    damping^2/4)``).
+    damping^2/4)``), with ``ki_extend`` more ``ki`` points above it at the same log spacing
+    (``FEEDBACK_KI_EXTEND``).
 
     Why (issue 25, wing rock): behind a lag the loop must act where the lag costs little
     phase. The wing rock is a negatively damped oscillator at 30.4 rad/s; a proportional
@@ -459,7 +498,7 @@ def placed_feedback(
     grid = np.meshgrid(
         p2 * np.linspace(0.02, 3.0, n),
         p * np.linspace(-1.0, 6.0, n),
-        p2 * p * np.geomspace(*FEEDBACK_KI_RANGE, 12),
+        p2 * p * _ki_grid(ki_extend),
         indexing="ij",
     )
     S, Dm, ki = (a.ravel() for a in grid)
@@ -1089,9 +1128,11 @@ class ConstraintAware:
     ) -> tuple[float, float, float, float] | None:
         """The placed fixed feedback ``(kp, kd, ki, decay)`` (:func:`placed_feedback` on the
         declared lag behind the feedback's lead, :attr:`lead_lag`, half a sample of hold and
-        the measurement prefilter ``1/omega_m`` as delay) where :meth:`fast_unstable` and
-        the plant's linearisation (:attr:`open_loop`) is known and the model declares a lag
-        or a sample time (``PLACE_UNDELAYED``); else ``None``."""
+        the measurement prefilter ``1/omega_m`` as delay; its integral grid extended,
+        ``FEEDBACK_KI_EXTEND``, where ``C_MARGIN rate >= FEEDBACK_KI_SWING |decay|``) where
+        :meth:`fast_unstable` and the plant's linearisation (:attr:`open_loop`) is known
+        (and, with ``PLACE_UNDELAYED`` off, the model declares a lag or a sample time); else
+        ``None``."""
         if self.open_loop is None or not self.fast_unstable(b_max):
             return None
         if not (PLACE_UNDELAYED or self.lag > 0 or self.sample_time > 0):
@@ -1099,13 +1140,18 @@ class ConstraintAware:
         delay = 0.5 * self.sample_time
         if math.isfinite(omega_m):
             delay += 1.0 / omega_m
-        return placed_feedback(
+        args = (
             float(self.open_loop[0]),
             float(self.open_loop[1]),
             self.lead_lag,
             delay,
             tuple(FEEDBACK_GAIN_SCALES),
         )
+        placed = placed_feedback(*args, ki_extend=int(FEEDBACK_KI_EXTEND))
+        # the faster integral only where the rate limit lets it swing an actuator
+        if C_MARGIN * self.rate < FEEDBACK_KI_SWING * abs(placed[3]):
+            placed = placed_feedback(*args)
+        return placed
 
     @property
     def lead_lag(self) -> float:
@@ -1124,8 +1170,8 @@ class ConstraintAware:
         the declared lag behind the lead, :attr:`lead_lag`, half a sample of hold and the
         measurement prefilter ``1/omega_m`` as delay). A designer's ``feedback`` (1/s) is a
         proportional path on ``s = e' + lam e`` at that loop gain instead (``lam`` as the
-        law runs it); without the linearisation or without a declared lag or sample time
-        (``PLACE_UNDELAYED``), the rule's ``C_FEEDBACK p_u`` on ``s``."""
+        law runs it); without the linearisation (or, with ``PLACE_UNDELAYED`` off, without a
+        declared lag or sample time), the rule's ``C_FEEDBACK p_u`` on ``s``."""
         b = self.input_gain if self.input_gain is not None else input_gain
         if not b > 0:
             return 0.0, 0.0, 0.0
