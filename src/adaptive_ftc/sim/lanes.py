@@ -483,13 +483,25 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
 
 def _vector_reference(body: list[str]) -> list[str]:
     """The rhs ``body`` with the vector kernels' reference (stage 1c): the call-free ``vsin``
-    and ``vcos`` for libm's, computed for every lane at every call instead of per lane whose
-    time moved (the same numbers: a branch per lane would stop the vectoriser)."""
+    and ``vcos`` for libm's, computed for every lane when any lane's time moved instead of per
+    lane whose time moved (the same numbers: a branch per lane would stop the vectoriser, one
+    for the group does not)."""
     at_if = body.index("        if B[REFT * W + w] != t:")
     at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
-    block = [ln[4:] for ln in body[at_if + 1 : at_errors]]
-    out = [*body[: at_if - 1], "        t = B[tt * W + w]", *block, *body[at_errors:]]
-    out[at_if - 2] = "    for w in range(W):  # the reference of every lane (call-free, vectorised)"
+    block = body[at_if + 1 : at_errors]
+    out = [
+        *body[: at_if - 2],
+        # a branch for the group, not per lane: RK4's second stage reuses the first's time
+        # and the next step's first stage the last's, so 2 of the 5 stages compute it
+        "    moved = False",
+        "    for w in range(W):",
+        "        moved |= B[REFT * W + w] != B[tt * W + w]  # (nan at the start: moved)",
+        "    if moved:",
+        "        for w in range(W):  # the reference of every lane (call-free, vectorised)",
+        "            t = B[tt * W + w]",
+        *block,
+        *body[at_errors:],
+    ]
     return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
 
 
