@@ -397,7 +397,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         "            kind = B[(FK + j) * W + w]",
         "            aff = c0 * acc + c1",
         "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
-        "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)",
+        _FAILURE_SELECT,
         "    # the plant",
         *LANE_PLANTS[type(loop.plant).__name__](loop.plant, "y", lambda k: cr(at["plant"] + k), m),
         "    # q = s' + k s + k0 tanh(s/eps0) (2.20), the adaptive law (2.29)",
@@ -471,7 +471,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     )
     if kernels == "vector":
         head = _contract(head) + _VECTOR_IMPORTS
-        body = _vector_reference(body)
+        body = _vector_failures(_vector_reference(body))
     kernel = codegen.template(f"lanes_{method}")
     if kernels == "vector" and method == "rk4":
         kernel = _pasted_stages(kernel)
@@ -503,6 +503,38 @@ def _vector_reference(body: list[str]) -> list[str]:
         *body[at_errors:],
     ]
     return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
+
+
+#: the lanes' failure of actuator j: kind -1 healthy, 0 affine, 1 incipient (one of three)
+_FAILURE_SELECT = (
+    "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)"
+)
+#: the same without a branch (vector kernels): the two formulas with 0/1 weights, the divisor
+#: 1 where the lane's failure is not incipient, so that every term is finite
+_FAILURE_WEIGHTS = [
+    "            den = c1 if kind > 0.0 else 1.0",
+    "            aff = c0 * acc + c1",
+    "            inc = (acc + (min(((t - c0) / den), c2) * ((c3 * acc + c4) - acc)))",
+    "            wh = 1.0 if kind < 0.0 else 0.0",
+    "            wa = 1.0 if kind == 0.0 else 0.0",
+    "            wi = 1.0 if kind > 0.0 else 0.0",
+    "            B[(UF + j) * W + w] = wh * acc + wa * aff + wi * inc",
+]
+
+
+def _vector_failures(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the lanes' failures selected by weights instead of a branch
+    (vector kernels): the branch made LLVM move the incipient formula (with its division) into
+    a block per lane, so the whole failure block ran one lane at a time. The same formulas on
+    the same numbers; a lane's own formula times 1 plus the others times 0 (finite) is its
+    value."""
+    at = body.index(_FAILURE_SELECT)
+    if body[at - 2 : at] != [
+        "            aff = c0 * acc + c1",
+        "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
+    ]:  # pragma: no cover - guards the text above
+        raise ConfigurationError("The lane failure lines changed; report this as a bug.")
+    return [*body[: at - 2], *_FAILURE_WEIGHTS, *body[at + 1 :]]
 
 
 #: the RK4 template's stage: the rhs through its shared compiled copy, rows copied in and out
