@@ -471,7 +471,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     )
     if kernels == "vector":
         head = _contract(head) + _VECTOR_IMPORTS
-        body = _vector_failures(_vector_reference(body))
+        body = _unrolled_u0(_vector_failures(_vector_reference(body)))
     kernel = codegen.template(f"lanes_{method}")
     if kernels == "vector" and method == "rk4":
         kernel = _pasted_stages(kernel)
@@ -535,6 +535,28 @@ def _vector_failures(body: list[str]) -> list[str]:
     ]:  # pragma: no cover - guards the text above
         raise ConfigurationError("The lane failure lines changed; report this as a bug.")
     return [*body[: at - 2], *_FAILURE_WEIGHTS, *body[at + 1 :]]
+
+
+_FOR = re.compile(r"^( *)for (\w+) in range\((\d+)\):$")
+_U0_SUM = "            B[U0 * W + w] += "
+
+
+def _unrolled_u0(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the sum u0 = Pi^T theta written out, one lane loop per term
+    (vector kernels): LLVM unrolled its loop over the terms only in part and vectorised the
+    lane loops with shuffles between the lanes; written out, it is a chain of fused
+    multiply-adds on rows at constant places. The same terms in the same order. (Written
+    out everywhere, the pasted module took over 6 minutes to compile.)"""
+    at = next(k for k, ln in enumerate(body) if ln.startswith(_U0_SUM))
+    m = _FOR.match(body[at - 2])
+    if m is None or body[at - 1] != "        for w in range(W):":  # pragma: no cover
+        raise ConfigurationError("The lane u0 lines changed; report this as a bug.")
+    var, n = m.group(2), int(m.group(3))
+    term = re.compile(rf"\b{var}\b")
+    out = []
+    for value in range(n):
+        out += ["    for w in range(W):", "        " + term.sub(str(value), body[at].strip())]
+    return [*body[: at - 2], *out, *body[at + 1 :]]
 
 
 #: the RK4 template's stage: the rhs through its shared compiled copy, rows copied in and out
