@@ -50,7 +50,8 @@ def test_vsin_vcos_at_special_points():
 
 def test_only_the_vector_lane_module_uses_the_trig_kernels_and_contraction():
     """kernels='vector' (RK4): the reference through vsin/vcos for every lane (no per-lane
-    branch) and fused multiply-adds only; the libm module keeps libm and strict IEEE."""
+    branch; one branch for the group: only when some lane's time moved) and fused
+    multiply-adds only; the libm module keeps libm and strict IEEE."""
     from dataclasses import replace
 
     from adaptive_ftc import SolverOptions, load_scenario
@@ -63,5 +64,6 @@ def test_only_the_vector_lane_module_uses_the_trig_kernels_and_contraction():
     rhs = vec[vec.index("def rhs(") : vec.index("def commands(")]
     assert "vsin(" in rhs and "vcos(" in rhs and "math.sin(" not in rhs
     assert "if B[REFT * W + w] != t:" not in rhs
+    assert rhs.count("if moved:") == 1 and rhs.index("if moved:") < rhs.index("vsin(")
     assert vec.count('fastmath={"contract"}') == 2 and "fastmath=" not in libm
     assert "math.sin(" in libm and "vsin" not in libm

@@ -118,10 +118,13 @@ def _quadrant(x):
 
 @_inl
 def vsin(x):
-    """sin(x) without calls: fdlibm's kernels after a two-part reduction by pi/2 (every
-    quadrant's value computed, one selected); nan for |x| > TRIG_MAX, inf and nan."""
+    """sin(x) without calls: fdlibm's kernels after a two-part reduction by pi/2 (both
+    kernels computed, the quadrant's value selected); nan for |x| > TRIG_MAX, inf and nan."""
     q, sr, cr = _quadrant(x)
-    v = sr if q == 0 else (cr if q == 1 else (-sr if q == 2 else -cr))
+    # quadrant 0: sr, 1: cr, 2: -sr, 3: -cr, as two selects on its bits (a chain of q == k
+    # became a jump table per lane, which stopped the vectoriser)
+    v = cr if (q & 1) != 0 else sr
+    v = -v if (q & 2) != 0 else v
     return v if abs(x) <= TRIG_MAX else np.nan
 
 
@@ -129,5 +132,6 @@ def vsin(x):
 def vcos(x):
     """cos(x) without calls, as :func:`vsin`."""
     q, sr, cr = _quadrant(x)
-    v = cr if q == 0 else (-sr if q == 1 else (-cr if q == 2 else sr))
+    v = sr if (q & 1) != 0 else cr  # quadrant 0: cr, 1: -sr, 2: -cr, 3: sr
+    v = -v if ((q + 1) & 2) != 0 else v
     return v if abs(x) <= TRIG_MAX else np.nan

@@ -403,7 +403,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
         "            kind = B[(FK + j) * W + w]",
         "            aff = c0 * acc + c1",
         "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
-        "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)",
+        _FAILURE_SELECT,
         "    # the plant",
         *LANE_PLANTS[type(loop.plant).__name__](loop.plant, "y", lambda k: cr(at["plant"] + k), m),
         "    # q = s' + k s + k0 tanh(s/eps0) (2.20), the adaptive law (2.29)",
@@ -477,7 +477,7 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
     )
     if kernels == "vector":
         head = _contract(head) + _VECTOR_IMPORTS
-        body = _vector_reference(body)
+        body = _unrolled_u0(_vector_failures(_vector_reference(body)))
     kernel = codegen.template(f"lanes_{method}")
     if kernels == "vector" and method == "rk4":
         kernel = _pasted_stages(kernel)
@@ -489,14 +489,80 @@ def _plan(loop, asm, width: int, kernels: str = "libm", method: str = "rk4") -> 
 
 def _vector_reference(body: list[str]) -> list[str]:
     """The rhs ``body`` with the vector kernels' reference (stage 1c): the call-free ``vsin``
-    and ``vcos`` for libm's, computed for every lane at every call instead of per lane whose
-    time moved (the same numbers: a branch per lane would stop the vectoriser)."""
+    and ``vcos`` for libm's, computed for every lane when any lane's time moved instead of per
+    lane whose time moved (the same numbers: a branch per lane would stop the vectoriser, one
+    for the group does not)."""
     at_if = body.index("        if B[REFT * W + w] != t:")
     at_errors = body.index("    # tracking errors e = y_d - y and filtered error s (2.18)")
-    block = [ln[4:] for ln in body[at_if + 1 : at_errors]]
-    out = [*body[: at_if - 1], "        t = B[tt * W + w]", *block, *body[at_errors:]]
-    out[at_if - 2] = "    for w in range(W):  # the reference of every lane (call-free, vectorised)"
+    block = body[at_if + 1 : at_errors]
+    out = [
+        *body[: at_if - 2],
+        # a branch for the group, not per lane: RK4's second stage reuses the first's time
+        # and the next step's first stage the last's, so 2 of the 5 stages compute it
+        "    moved = False",
+        "    for w in range(W):",
+        "        moved |= B[REFT * W + w] != B[tt * W + w]  # (nan at the start: moved)",
+        "    if moved:",
+        "        for w in range(W):  # the reference of every lane (call-free, vectorised)",
+        "            t = B[tt * W + w]",
+        *block,
+        *body[at_errors:],
+    ]
     return [re.sub(r"\bmath\.(sin|cos)\(", r"v\1(", ln) for ln in out]
+
+
+#: the lanes' failure of actuator j: kind -1 healthy, 0 affine, 1 incipient (one of three)
+_FAILURE_SELECT = (
+    "            B[(UF + j) * W + w] = acc if kind < 0.0 else (aff if kind == 0.0 else inc)"
+)
+#: the same without a branch (vector kernels): the two formulas with 0/1 weights, the divisor
+#: 1 where the lane's failure is not incipient, so that every term is finite
+_FAILURE_WEIGHTS = [
+    "            den = c1 if kind > 0.0 else 1.0",
+    "            aff = c0 * acc + c1",
+    "            inc = (acc + (min(((t - c0) / den), c2) * ((c3 * acc + c4) - acc)))",
+    "            wh = 1.0 if kind < 0.0 else 0.0",
+    "            wa = 1.0 if kind == 0.0 else 0.0",
+    "            wi = 1.0 if kind > 0.0 else 0.0",
+    "            B[(UF + j) * W + w] = wh * acc + wa * aff + wi * inc",
+]
+
+
+def _vector_failures(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the lanes' failures selected by weights instead of a branch
+    (vector kernels): the branch made LLVM move the incipient formula (with its division) into
+    a block per lane, so the whole failure block ran one lane at a time. The same formulas on
+    the same numbers; a lane's own formula times 1 plus the others times 0 (finite) is its
+    value."""
+    at = body.index(_FAILURE_SELECT)
+    if body[at - 2 : at] != [
+        "            aff = c0 * acc + c1",
+        "            inc = (acc + (min(((t - c0) / c1), c2) * ((c3 * acc + c4) - acc)))",
+    ]:  # pragma: no cover - guards the text above
+        raise ConfigurationError("The lane failure lines changed; report this as a bug.")
+    return [*body[: at - 2], *_FAILURE_WEIGHTS, *body[at + 1 :]]
+
+
+_FOR = re.compile(r"^( *)for (\w+) in range\((\d+)\):$")
+_U0_SUM = "            B[U0 * W + w] += "
+
+
+def _unrolled_u0(body: list[str]) -> list[str]:
+    """The rhs ``body`` with the sum u0 = Pi^T theta written out, one lane loop per term
+    (vector kernels): LLVM unrolled its loop over the terms only in part and vectorised the
+    lane loops with shuffles between the lanes; written out, it is a chain of fused
+    multiply-adds on rows at constant places. The same terms in the same order. (Written
+    out everywhere, the pasted module took over 6 minutes to compile.)"""
+    at = next(k for k, ln in enumerate(body) if ln.startswith(_U0_SUM))
+    m = _FOR.match(body[at - 2])
+    if m is None or body[at - 1] != "        for w in range(W):":  # pragma: no cover
+        raise ConfigurationError("The lane u0 lines changed; report this as a bug.")
+    var, n = m.group(2), int(m.group(3))
+    term = re.compile(rf"\b{var}\b")
+    out = []
+    for value in range(n):
+        out += ["    for w in range(W):", "        " + term.sub(str(value), body[at].strip())]
+    return [*body[: at - 2], *out, *body[at + 1 :]]
 
 
 #: the RK4 template's stage: the rhs through its shared compiled copy, rows copied in and out
