@@ -254,7 +254,8 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
     from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions
 
     solver = solver or SolverOptions()
-    width = lane_engine.LANE_WIDTH
+    # members per lane job: a group of LANE_WIDTH (RK4), a queue that refills its lanes (DOPRI5)
+    width = lane_engine.QUEUE_MEMBERS.get(solver.method, lane_engine.LANE_WIDTH)
     # members out (in flight or waiting): the window, as without lanes; enough for a lane
     # group per thread and the next one (2 * jobs * width) once lanes run, unless the
     # caller's own window says otherwise ("auto") -- with lanes=True at least that many
