@@ -125,9 +125,7 @@ def test_refill_matches_the_groups_of_eight_and_the_single_runs(base):
     assert mid.slots - before.slots < after.slots - mid.slots
 
 
-def test_iter_simulate_runs_dopri5_members_in_refilled_queues_with_lean_signals(
-    base, monkeypatch
-):
+def test_iter_simulate_refills_lanes_with_lean_signals(base, monkeypatch):
     """iter_simulate with lanes: DOPRI5 members go in queues of QUEUE_MEMBERS (more than the
     lanes), results in input order; with lean signals the lanes' own pass runs over each
     queue's members in groups of 8, each member's lean result its lean single run's."""

@@ -245,7 +245,9 @@ class _Job:
 
 def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean, expected):
     """:func:`iter_simulate` with lanes: each eligible member joins the open lane group of its
-    structure (submitted to the threads when it holds ``LANE_WIDTH`` members, or when its
+    structure (submitted to the threads when it holds
+    :data:`~adaptive_ftc.sim.lanes.QUEUE_MEMBERS` members: ``LANE_WIDTH`` for RK4, a queue
+    of two groups' worth whose lanes refill for DOPRI5; or when its
     first member is the next result to yield); with ``"auto"`` (``strict`` false) a structure
     whose lane module does not pay (:func:`~adaptive_ftc.sim.lanes.auto_uses_lanes`) and a
     group smaller than :func:`~adaptive_ftc.sim.lanes.auto_group_min` run one member per
@@ -361,9 +363,10 @@ def _run_group(
     built: list, reduce: Callable | None, kernels: str, lean: bool = False, fallback: bool = False
 ) -> list:
     """One lane group (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure, at
-    most ``LANE_WIDTH``): each member's result (reduced) in order. ``fallback`` (``"auto"``):
-    a lane group the lane engine refuses (a :class:`ConfigurationError`, e.g. its lane form
-    disagreeing with the single run's) warns and runs its members one at a time instead."""
+    most ``QUEUE_MEMBERS`` of its method): each member's result (reduced) in order.
+    ``fallback`` (``"auto"``): a lane group the lane engine refuses (a
+    :class:`ConfigurationError`, e.g. its lane form disagreeing with the single run's) warns
+    and runs its members one at a time instead."""
     from adaptive_ftc.sim import lanes as lane_engine  # looked up per call: benches count it
     from adaptive_ftc.sim.engine import finish_run
 

@@ -13,7 +13,8 @@ times and step sizes (lanes advance in lockstep of *step count*, each on its own
 that has finished idles with a zero step until its group is done), or the same DOPRI5
 (``method="dopri5"``, stage 2, ``templates/lanes_dopri5.py``: lanes advance in lockstep of
 step *attempts*, each with its own step size, error control, accept or reject, break times
-and dense-output records), the same operations in the same order, libm's ``exp``, ``tanh``,
+and dense-output records; a group runs a queue of members, a lane whose member ends taking
+the next one: lane refill), the same operations in the same order, libm's ``exp``, ``tanh``,
 ``sin``, ``cos`` (scalar calls per lane, under strict IEEE arithmetic), its own records,
 divergence check and status (a diverging lane stops at its own record; the others go on).
 

@@ -9,8 +9,11 @@ of step *attempts*: each pass of the loop every active lane tries one step of it
 six stages run for all lanes at once (rows of W), and acceptance is per lane (a rejected lane
 keeps its state and retries with its smaller step, an accepted one advances). A lane entering
 an interval (at the start, after a break) first takes its fresh step-size guess (two rhs
-evaluations of all lanes, used by the lanes that restart). A finished or diverged lane idles
-with a zero step until its group is done. The constants are the single run's (imported from
+evaluations of all lanes, used by the lanes that restart). A lane whose member ends (its
+end, a divergence, a step-size underflow) hands it back and takes the next member of the
+caller's queue (lane refill: ``run_group`` returns after that pass and resumes where it
+stopped, its state in ``B`` and the per-lane arrays), or idles with a zero step once the
+queue is empty. The constants are the single run's (imported from
 ``templates/adaptive.py``), the operations the same in the same order: each lane's result is
 its single run's, bit for bit. The placeholders above the marker exist only so this file
 imports and lints on its own.
