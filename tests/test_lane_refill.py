@@ -164,3 +164,17 @@ def test_an_rk4_group_still_holds_at_most_the_lanes(base):
     compiled = [CompiledLoop.build(base, rk4)] * (LANE_WIDTH + 1)
     with pytest.raises(lane_engine.ConfigurationError, match="RK4 lane group holds 1 to 8"):
         integrate_lanes(compiled)
+
+
+def test_a_queue_holds_more_members_only_while_their_records_fit(base):
+    """A DOPRI5 job's records stay in memory until it ends: members of 120 s recorded every
+    10 ms (2.6 MB each) queue 16 to a job, every millisecond (26 MB, a campaign's) 8, as
+    without refill; RK4 groups stay at 8."""
+    long = replace(base, t_final=120.0)
+    coarse = CompiledLoop.build(long, DP)
+    fine = CompiledLoop.build(long, replace(DP, record_dt=1e-3))
+    rk4 = CompiledLoop.build(long, SolverOptions(method="rk4", dt=1e-3, record_dt=0.01))
+    assert lane_engine.queue_members(coarse) == 2 * LANE_WIDTH
+    assert fine.t_rec.size * 27 * 8 > lane_engine.QUEUE_BYTES // LANE_WIDTH
+    assert lane_engine.queue_members(fine) == LANE_WIDTH
+    assert lane_engine.queue_members(rk4) == LANE_WIDTH

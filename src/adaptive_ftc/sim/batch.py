@@ -232,9 +232,10 @@ class _Job:
     """Members submitted together: a lane group (one future, results in its members' order)
     or one member (one future per member)."""
 
-    def __init__(self, members: list, lanes: bool) -> None:
+    def __init__(self, members: list, lanes: bool, size: int = 1) -> None:
         self.members = members  # (loop, CompiledLoop or None)
         self.lanes = lanes
+        self.size = size  # members that fill it
         self.futures: list = []
 
     def result(self, k: int) -> Any:
@@ -246,8 +247,8 @@ class _Job:
 def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean, expected):
     """:func:`iter_simulate` with lanes: each eligible member joins the open lane group of its
     structure (submitted to the threads when it holds
-    :data:`~adaptive_ftc.sim.lanes.QUEUE_MEMBERS` members: ``LANE_WIDTH`` for RK4, a queue
-    of two groups' worth whose lanes refill for DOPRI5; or when its
+    :func:`~adaptive_ftc.sim.lanes.queue_members` members: ``LANE_WIDTH`` for RK4, for
+    DOPRI5 a queue of up to two groups' worth whose lanes refill; or when its
     first member is the next result to yield); with ``"auto"`` (``strict`` false) a structure
     whose lane module does not pay (:func:`~adaptive_ftc.sim.lanes.auto_uses_lanes`) and a
     group smaller than :func:`~adaptive_ftc.sim.lanes.auto_group_min` run one member per
@@ -318,10 +319,12 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             submit(job)
             slots.append((job, 0))
             return
-        job = groups.setdefault(key, _Job([], lanes=True))
+        job = groups.get(key)
+        if job is None:
+            job = groups[key] = _Job([], lanes=True, size=lane_engine.queue_members(cl))
         slots.append((job, len(job.members)))
         job.members.append((loop, cl))
-        if len(job.members) == width:
+        if len(job.members) == job.size:
             del groups[key]
             submit(job)
 
@@ -340,7 +343,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             job, k = slots[0]
             # the open group of the next result: members of other structures between its own
             # may keep it from filling within ``in_flight``; take up to as many again
-            while grow and not job.futures and len(job.members) < width:
+            while grow and not job.futures and len(job.members) < job.size:
                 if len(slots) >= 2 * in_flight or not fill(len(slots) + 1):
                     break
             if not job.futures:  # an open group whose first member is next: it goes as it is
@@ -363,7 +366,8 @@ def _run_group(
     built: list, reduce: Callable | None, kernels: str, lean: bool = False, fallback: bool = False
 ) -> list:
     """One lane group (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure, at
-    most ``QUEUE_MEMBERS`` of its method): each member's result (reduced) in order.
+    most :func:`~adaptive_ftc.sim.lanes.queue_members`): each member's result (reduced) in
+    order.
     ``fallback`` (``"auto"``): a lane group the lane engine refuses (a
     :class:`ConfigurationError`, e.g. its lane form disagreeing with the single run's) warns
     and runs its members one at a time instead."""

@@ -1222,9 +1222,25 @@ AUTO_COMPILE_MIN = {
 #: members per lane job of :func:`~adaptive_ftc.sim.batch.iter_simulate` (one call of
 #: :func:`integrate_lanes`), per method: RK4 a group of :data:`LANE_WIDTH`; DOPRI5 a queue of
 #: two groups' worth (lane refill: a lane whose member ends takes the next one, so the lanes
-#: idle only for the tail of 16 members, not of every 8). A job's records stay in memory
-#: until it ends (26 MB a member of 120 s recorded every millisecond), hence not longer.
+#: idle only for the tail of 16 members, not of every 8), fewer where the members' records
+#: would exceed :data:`QUEUE_BYTES` (:func:`queue_members`).
 QUEUE_MEMBERS = {"rk4": LANE_WIDTH, "dopri5": 2 * LANE_WIDTH}
+
+#: a DOPRI5 queue's records stay in memory until its job ends: a queue holds more than
+#: ``LANE_WIDTH`` members only while their records fit in this many bytes (members of 120 s
+#: recorded every 10 ms: 2.6 MB each, a queue of 16; every millisecond, a campaign's: 26 MB
+#: each, groups of 8 as without refill, so a campaign's memory stays what it was)
+QUEUE_BYTES = 64 << 20
+
+
+def queue_members(cl) -> int:
+    """Members per lane job of ``cl``'s structure and solver (one
+    :class:`~adaptive_ftc.sim.engine.CompiledLoop` of them): :data:`QUEUE_MEMBERS` of its
+    method, at least ``LANE_WIDTH``, at most as many as :data:`QUEUE_BYTES` of records hold."""
+    cap = QUEUE_MEMBERS.get(cl.solver.method, LANE_WIDTH)
+    per = max(1, int(cl.t_rec.size) * int(cl.asm.y0.size) * 8)
+    return max(LANE_WIDTH, min(cap, QUEUE_BYTES // per))
+
 
 #: RK4 lanes write their records per lane (strided): with a record every step (1 ms records
 #: at dt 1 ms, a campaign that judges the control activity) they cost 1.26x the members one
