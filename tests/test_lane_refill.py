@@ -178,3 +178,28 @@ def test_a_queue_holds_more_members_only_while_their_records_fit(base):
     assert fine.t_rec.size * 27 * 8 > lane_engine.QUEUE_BYTES // LANE_WIDTH
     assert lane_engine.queue_members(fine) == LANE_WIDTH
     assert lane_engine.queue_members(rk4) == LANE_WIDTH
+
+
+def test_a_lane_stopped_by_a_step_size_underflow_is_refilled():
+    """A plant written as equations with a pole at ``ts`` (``1/(ts - t)``): the members whose
+    pole is inside their run stop with a step-size underflow (the single run's status 2,
+    diagnosed ``singular``) at different times, their lanes take the next members; 11
+    members in one queue, each its own run."""
+    from pathlib import Path
+
+    from adaptive_ftc import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "examples" / "own_plant.toml")
+    plant = sc.loop.plant
+    dynamics = {**plant.dynamics, "w": plant.dynamics["w"] + " + 1/(ts - t)"}
+    loops = []
+    for k in range(11):
+        ts = 0.3 + 0.2 * k if k % 3 == 1 else 50.0  # a pole at 0.5, 1.1, 1.7 s in three
+        pole = replace(plant, parameters={**plant.parameters, "ts": ts}, dynamics=dynamics)
+        fails = (LossOfEffectiveness(actuator=2, onset=0.1 * k, effectiveness=0.5),)
+        loops.append(replace(sc.loop, plant=pole, t_final=1.0 + 0.1 * k, failures=fails))
+    singles = single_runs(loops, DP)
+    assert [r.status for r in singles].count("singular") == 3
+    got = _quiet(simulate_lanes, loops, DP)
+    for a, b in zip(got, singles, strict=True):
+        assert_same_run(a, b)
