@@ -319,9 +319,9 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             submit(job)
             slots.append((job, 0))
             return
-        job = groups.get(key)
-        if job is None:
-            job = groups[key] = _Job([], lanes=True, size=lane_engine.queue_members(cl))
+        if key not in groups:  # a new lane job: a group (RK4) or a queue (DOPRI5)
+            groups[key] = _Job([], lanes=True, size=lane_engine.queue_members(cl))
+        job = groups[key]
         slots.append((job, len(job.members)))
         job.members.append((loop, cl))
         if len(job.members) == job.size:
