@@ -208,8 +208,9 @@ def main() -> int:
                 slots = after.slots - before.slots
                 print(
                     f"  {label}: lane occupancy {used / max(slots, 1):.1%} with refill "
-                    f"(queues of {QUEUE_MEMBERS['dopri5']}; counted: the members' step attempts "
-                    f"/ the lane slots), {occupancy(attempts):.1%} in groups of 8 without"
+                    f"(queues of up to {QUEUE_MEMBERS['dopri5']}; counted: the members' step "
+                    f"attempts / the lane slots), {occupancy(attempts):.1%} in groups of 8 "
+                    "without"
                 )
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))
