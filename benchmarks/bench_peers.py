@@ -11,8 +11,10 @@ Engines, each on ONE thread so that its wall time is its per-core time:
 * ``lanes``: this project's lane engine (``iter_simulate(..., lanes=True)``, ``sim/lanes.py``:
   8 members per compiled call in SIMD lanes; RK4 (stage 1 of issue 29) and DOPRI5 (stage 2:
   each lane its own step size and error control), same thread; with DOPRI5 it also prints the
-  lanes' occupancy: the share of the group's step attempts that were a member's own (a group
-  runs until its slowest member); ``lanes-vec`` (RK4): the same with
+  lanes' occupancy: the share of the lane slots (8 per pass of a group) that were a member's
+  step attempt, counted by the engine (lane refill: a lane whose member ends takes the next
+  one of its queue), beside what groups of 8 without refill would give (each group runs
+  until its slowest member); ``lanes-vec`` (RK4): the same with
   ``lane_kernels="vector"`` (stage 1b/1c: call-free exp, tanh, sin, cos, the rhs pasted into
   the RK4 stages, fused multiply-adds; about 1e-14 from the single
   runs instead of bit-identical);
@@ -58,6 +60,7 @@ from _cref import CReferenceError, build, failure_records, rk4_scenario, run_bat
 from bench_batch import draw_failures  # noqa: E402
 
 from adaptive_ftc import SolverOptions, iter_simulate, simulate  # noqa: E402
+from adaptive_ftc.sim.lanes import QUEUE_MEMBERS, lane_occupancy  # noqa: E402
 
 METHODS = {
     "RK4 dt 1e-3": SolverOptions(method="rk4", dt=1e-3, record_dt=0.01),
@@ -94,9 +97,9 @@ def python_batch(
 
 
 def occupancy(attempts: list, width: int = 8) -> float:
-    """The share of a lane engine's step attempts that were its members' own: consecutive
-    groups of ``width`` run until their slowest member (the others idle), the last group
-    padded to ``width``."""
+    """The share of a lane engine's step attempts that were its members' own WITHOUT refill:
+    consecutive groups of ``width`` run until their slowest member (the others idle), the
+    last group padded to ``width``."""
     groups = [attempts[i : i + width] for i in range(0, len(attempts), width)]
     return sum(attempts) / sum(width * max(g) for g in groups)
 
@@ -196,12 +199,18 @@ def main() -> int:
             warm = iter_simulate(loops[:2], solver, jobs=1, lanes=True, lane_kernels=kernels)
             list(warm)  # compile or load the lane module
             attempts: list[int] = []
+            before = lane_occupancy()
             t_l, l_rows = python_batch(loops, solver, True, kernels, attempts)
+            after = lane_occupancy()
             lines.append((name, t_l / args.n, max_diff(l_rows[:k], ref)))
             if label.startswith("Dopri5"):
+                used = after.attempts - before.attempts
+                slots = after.slots - before.slots
                 print(
-                    f"  {label}: lane occupancy {occupancy(attempts):.1%} (step attempts of "
-                    "the members / lanes x the groups' attempts)"
+                    f"  {label}: lane occupancy {used / max(slots, 1):.1%} with refill "
+                    f"(queues of up to {QUEUE_MEMBERS['dopri5']}; counted: the members' step "
+                    f"attempts / the lane slots), {occupancy(attempts):.1%} in groups of 8 "
+                    "without"
                 )
         if label.startswith("RK4") and c_per is not None:
             lines.append(("C", c_per, max_diff(c_rows[:k], ref)))

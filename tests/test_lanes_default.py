@@ -250,7 +250,7 @@ CAMPAIGN = {
 
 def test_a_campaign_by_default_equals_lanes_false_bit_for_bit(tmp_path, monkeypatch):
     """A campaign whose runs repay the compile (AUTO_COMPILE_MIN lowered to its 16 runs)
-    runs its DOPRI5 members in full real lane groups by default; its table equals the
+    runs its DOPRI5 members in a real lane queue by default; its table equals the
     lanes=False table, every column (diverged members and failures at different times
     included)."""
     sizes: list[tuple[int, bool]] = []
@@ -265,9 +265,10 @@ def test_a_campaign_by_default_equals_lanes_false_bit_for_bit(tmp_path, monkeypa
     assert spec.solver.method == "dopri5"
     monkeypatch.setitem(lanes.AUTO_COMPILE_MIN, ("dopri5", True), spec.runs)
     run_campaign(spec, tmp_path / "default", jobs=2, progress=False, summary=False)
-    assert sizes == [(8, True), (8, True)]  # the campaign's lean signals, in the lanes
+    # the campaign's lean signals, in the lanes: its 16 DOPRI5 members in one refilled queue
+    assert sizes == [(16, True)] and lanes.QUEUE_MEMBERS["dopri5"] == 16
     run_campaign(spec, tmp_path / "off", jobs=2, progress=False, summary=False, lanes=False)
-    assert len(sizes) == 2
+    assert len(sizes) == 1
     a, b = read_results(tmp_path / "default"), read_results(tmp_path / "off")
     timing = [c for c in a.columns if "wall" in c]  # the runs' own timings differ
     adaptive = b[b["design"] == "adaptive"]

@@ -232,9 +232,10 @@ class _Job:
     """Members submitted together: a lane group (one future, results in its members' order)
     or one member (one future per member)."""
 
-    def __init__(self, members: list, lanes: bool) -> None:
+    def __init__(self, members: list, lanes: bool, size: int = 1) -> None:
         self.members = members  # (loop, CompiledLoop or None)
         self.lanes = lanes
+        self.size = size  # members that fill it
         self.futures: list = []
 
     def result(self, k: int) -> Any:
@@ -245,7 +246,9 @@ class _Job:
 
 def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernels, lean, expected):
     """:func:`iter_simulate` with lanes: each eligible member joins the open lane group of its
-    structure (submitted to the threads when it holds ``LANE_WIDTH`` members, or when its
+    structure (submitted to the threads when it holds
+    :func:`~adaptive_ftc.sim.lanes.queue_members` members: ``LANE_WIDTH`` for RK4, for
+    DOPRI5 a queue of up to two groups' worth whose lanes refill; or when its
     first member is the next result to yield); with ``"auto"`` (``strict`` false) a structure
     whose lane module does not pay (:func:`~adaptive_ftc.sim.lanes.auto_uses_lanes`) and a
     group smaller than :func:`~adaptive_ftc.sim.lanes.auto_group_min` run one member per
@@ -254,7 +257,8 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
     from adaptive_ftc.sim.engine import CompiledLoop, SolverOptions
 
     solver = solver or SolverOptions()
-    width = lane_engine.LANE_WIDTH
+    # members per lane job: a group of LANE_WIDTH (RK4), a queue that refills its lanes (DOPRI5)
+    width = lane_engine.QUEUE_MEMBERS.get(solver.method, lane_engine.LANE_WIDTH)
     # members out (in flight or waiting): the window, as without lanes; enough for a lane
     # group per thread and the next one (2 * jobs * width) once lanes run, unless the
     # caller's own window says otherwise ("auto") -- with lanes=True at least that many
@@ -315,10 +319,12 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             submit(job)
             slots.append((job, 0))
             return
-        job = groups.setdefault(key, _Job([], lanes=True))
+        if key not in groups:  # a new lane job: a group (RK4) or a queue (DOPRI5)
+            groups[key] = _Job([], lanes=True, size=lane_engine.queue_members(cl))
+        job = groups[key]
         slots.append((job, len(job.members)))
         job.members.append((loop, cl))
-        if len(job.members) == width:
+        if len(job.members) == job.size:
             del groups[key]
             submit(job)
 
@@ -337,7 +343,7 @@ def _iter_lanes(loops, solver, jobs, window, progress, reduce, *, strict, kernel
             job, k = slots[0]
             # the open group of the next result: members of other structures between its own
             # may keep it from filling within ``in_flight``; take up to as many again
-            while grow and not job.futures and len(job.members) < width:
+            while grow and not job.futures and len(job.members) < job.size:
                 if len(slots) >= 2 * in_flight or not fill(len(slots) + 1):
                     break
             if not job.futures:  # an open group whose first member is next: it goes as it is
@@ -360,9 +366,11 @@ def _run_group(
     built: list, reduce: Callable | None, kernels: str, lean: bool = False, fallback: bool = False
 ) -> list:
     """One lane group (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure, at
-    most ``LANE_WIDTH``): each member's result (reduced) in order. ``fallback`` (``"auto"``):
-    a lane group the lane engine refuses (a :class:`ConfigurationError`, e.g. its lane form
-    disagreeing with the single run's) warns and runs its members one at a time instead."""
+    most :func:`~adaptive_ftc.sim.lanes.queue_members`): each member's result (reduced) in
+    order.
+    ``fallback`` (``"auto"``): a lane group the lane engine refuses (a
+    :class:`ConfigurationError`, e.g. its lane form disagreeing with the single run's) warns
+    and runs its members one at a time instead."""
     from adaptive_ftc.sim import lanes as lane_engine  # looked up per call: benches count it
     from adaptive_ftc.sim.engine import finish_run
 

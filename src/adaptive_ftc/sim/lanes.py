@@ -13,7 +13,8 @@ times and step sizes (lanes advance in lockstep of *step count*, each on its own
 that has finished idles with a zero step until its group is done), or the same DOPRI5
 (``method="dopri5"``, stage 2, ``templates/lanes_dopri5.py``: lanes advance in lockstep of
 step *attempts*, each with its own step size, error control, accept or reject, break times
-and dense-output records), the same operations in the same order, libm's ``exp``, ``tanh``,
+and dense-output records; a group runs a queue of members, a lane whose member ends taking
+the next one: lane refill), the same operations in the same order, libm's ``exp``, ``tanh``,
 ``sin``, ``cos`` (scalar calls per lane, under strict IEEE arithmetic), its own records,
 divergence check and status (a diverging lane stops at its own record; the others go on).
 
@@ -868,22 +869,25 @@ def integrate_lanes(
     compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm", *, lean: bool = False
 ) -> list:
     """Integrate ``compiled`` (:class:`~adaptive_ftc.sim.engine.CompiledLoop` of one structure,
-    at most ``width``, every one eligible) in one lane group; returns one
+    every one eligible) in one lane group; returns one
     :class:`~adaptive_ftc.sim.engine.Integration` per member, each equal to its own
-    ``integrate()``. ``lean``: with the lean signals of every record too, computed for the
-    lanes at once (stage 3: the module's ``lean_pass``), each member's equal to its single
-    run's lean pass (:func:`~adaptive_ftc.sim.engine.finish_run` with ``lean`` takes them)."""
-    from adaptive_ftc.sim.engine import Integration, _stop
-    from adaptive_ftc.sim.status import RunStatus
-
+    ``integrate()``. RK4: at most ``width`` members. DOPRI5: any number, a queue (lane
+    refill): ``width`` lanes start on the first members, and a lane whose member ends takes
+    the next one of the queue, so the group runs until the queue is empty rather than each
+    ``width`` members until their slowest (:func:`lane_occupancy` counts the lanes' use).
+    ``lean``: with the lean signals of every record too, computed for the lanes at once
+    (stage 3: the module's ``lean_pass``), each member's equal to its single run's lean pass
+    (:func:`~adaptive_ftc.sim.engine.finish_run` with ``lean`` takes them)."""
     n = len(compiled)
-    if not 1 <= n <= width:
+    first = compiled[0] if n else None
+    method = first.solver.method if first is not None else "rk4"
+    if not 1 <= n <= (width if method == "rk4" else sys.maxsize):
         raise ConfigurationError(
-            f"A lane group holds 1 to {width} members; got {n}. Split the members into groups "
-            f"of at most {width} (simulate_lanes and iter_simulate do)."
+            f"An RK4 lane group holds 1 to {width} members (a DOPRI5 one 1 or more); got {n}. "
+            f"Split the members into groups of at most {width} (simulate_lanes and "
+            "iter_simulate do)."
         )
-    first = compiled[0]
-    method = first.solver.method
+    assert first is not None
     if any(cl.solver.method != method for cl in compiled):
         raise ConfigurationError(
             "A lane group runs one solver method; group the members by method (got "
@@ -898,6 +902,8 @@ def integrate_lanes(
         )
     module, plan = lane_module(first.loop, first.asm, width, kernels, method)
     _self_check(module, plan, first, width, kernels)
+    if method == "dopri5":
+        return _dopri5_queue(module, plan, compiled, width, lean)
     m = first.loop.plant.n_actuators
     pick = [*range(n), *([0] * (width - n))]  # padding lanes: copies of the first member
     members = [compiled[k] for k in pick]
@@ -934,64 +940,243 @@ def integrate_lanes(
     stats = np.zeros((width, 5), dtype=np.int64)
     bound = float(first.solver.divergence_bound)
     start = time.perf_counter()
-    out_Y: np.ndarray | tuple
-    if method == "rk4":
-        out_Y = np.empty((width, maxrec, plan.ny))
-        # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
-        ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
-        a, b, h, tol = (np.zeros(width) for _ in range(4))
-        active = np.zeros(width, dtype=np.bool_)
-        dt = float(first.solver.dt)
-        module.run_group(  # type: ignore[attr-defined]
-            B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
-            t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
-        )  # fmt: skip
-    else:  # dopri5: each lane's own tolerances (rows ATOL..) and step-size state
-        # each member's records in its own block (from the pool of sim/blocks.py, as a single
-        # run's: no fresh pages to zero, 26 MB a 120 s run recorded every millisecond); the
-        # padding lanes record nothing
-        from adaptive_ftc.sim import blocks
-
-        own = [blocks.empty((cl.t_rec.size, plan.ny)) for cl in compiled]
-        out_Y = tuple(own + [np.empty((1, plan.ny)) for _ in range(width - n)])
-        n_rec[n:] = 0
-        for w, cl in enumerate(members):
-            B[rows["ATOL"] * width + w : (rows["ATOL"] + plan.ny) * width : width] = cl.atol
-        rtol = np.array([float(cl.solver.rtol) for cl in members])
-        h_max = np.array([float(min(cl.solver.max_step, 1e300)) for cl in members])
-        ph, r, nstep = (np.zeros(width, dtype=np.int64) for _ in range(3))
-        a, b, tol, h, facold, hs, dnf, limit = (np.zeros(width) for _ in range(8))
-        start_, reject, last, inside, active = (np.zeros(width, dtype=np.bool_) for _ in range(5))
-        module.run_group(  # type: ignore[attr-defined]
-            B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, out_Y, out_ph,
-            status, nrec, t_stop, bad, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf,
-            limit, start_, reject, last, inside, active, np.empty((6, plan.ny)),
-        )  # fmt: skip
+    out_Y = np.empty((width, maxrec, plan.ny))
+    # per lane: interval, step in it, its steps, next record; its ends, step, tolerance
+    ph, st, nst, r = (np.zeros(width, dtype=np.int64) for _ in range(4))
+    a, b, h, tol = (np.zeros(width) for _ in range(4))
+    active = np.zeros(width, dtype=np.bool_)
+    dt = float(first.solver.dt)
+    module.run_group(  # type: ignore[attr-defined]
+        B, y0, brk, nph, fkind, fcon, dt, t_rec, n_rec, bound, out_Y, out_ph, status, nrec,
+        t_stop, bad, stats, ph, st, nst, a, b, h, tol, r, active,
+    )  # fmt: skip
     wall = (time.perf_counter() - start) / width
     lean_out: list = [None] * n
     if lean:
         lean_out = _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon)
+    ends = [
+        _Ended(out_Y[w][: cl.t_rec.size], out_ph[w, : cl.t_rec.size].copy(), int(nrec[w]),
+               int(status[w]), float(t_stop[w]), int(bad[w]), stats[w].copy(), wall)
+        for w, cl in enumerate(compiled)
+    ]  # fmt: skip
+    return _integrations(compiled, ends, lean_out)
+
+
+@dataclass(frozen=True)
+class _Ended:
+    """What a lane hands back when its member's run ends: its records (the member's own
+    block, the state where it stopped in the row after the last record), their phases, the
+    number of records, status (0 finished, 1 diverged, 2 step-size underflow or too many
+    steps), stop time, first bad state, counts and wall time per member (-1: the group's)."""
+
+    Y: np.ndarray
+    phases: np.ndarray
+    nrec: int
+    status: int
+    t_stop: float
+    bad: int
+    stats: np.ndarray
+    wall: float = -1.0
+
+
+@dataclass(frozen=True)
+class LaneCounts:
+    """The DOPRI5 lanes' use since the process started (:func:`lane_occupancy`): the
+    members' step attempts (accepted and rejected) and the lane slots (``width`` per pass of
+    a group, whether a lane held a member or idled)."""
+
+    attempts: int
+    slots: int
+
+    @property
+    def occupancy(self) -> float:
+        """The share of the lane slots that were a member's step attempt."""
+        return self.attempts / self.slots if self.slots else 0.0
+
+
+_counts = [0, 0]  # attempts, slots (under _modules_lock)
+
+
+def lane_occupancy() -> LaneCounts:
+    """The DOPRI5 lane groups' use so far in this process (:class:`LaneCounts`); subtract
+    two readings to measure a stretch of work."""
+    with _modules_lock:
+        return LaneCounts(*_counts)
+
+
+def _dopri5_queue(module, plan: _Plan, compiled: Sequence, width: int, lean: bool) -> list:
+    """:func:`integrate_lanes` of DOPRI5 members as a queue (lane refill): each lane takes the
+    next member when its own ends (the member's rows of constants, tolerances, state, breaks,
+    failures and record times copied into the lane; its records into its own block), so that
+    the lanes idle only for the queue's tail."""
+    from adaptive_ftc.sim import blocks
+
+    n = len(compiled)
+    first = compiled[0]
+    m = first.loop.plant.n_actuators
+    rows, ny, nc = plan.rows, plan.ny, plan.nc
+    maxph = max(len(cl.asm.breakpoints) - 1 for cl in compiled)
+    maxrec = max(cl.t_rec.size for cl in compiled)
+    B = np.zeros(plan.nb * width)
+    brk = np.zeros((width, maxph + 1))
+    nph = np.zeros(width, dtype=np.int64)
+    fkind = -np.ones((width, maxph, m))
+    fcon = np.zeros((width, maxph, m, 5))
+    t_rec = np.zeros((width, maxrec))
+    n_rec = np.zeros(width, dtype=np.int64)
+    y0 = np.zeros((width, ny))
+    rtol = np.zeros(width)
+    h_max = np.zeros(width)
+    out_ph = np.zeros((width, maxrec), dtype=np.int64)
+    status = np.zeros(width, dtype=np.int64)
+    nrec = np.zeros(width, dtype=np.int64)
+    t_stop = np.zeros(width)
+    bad = -np.ones(width, dtype=np.int64)
+    stats = np.zeros((width, 5), dtype=np.int64)
+    ph, r, nstep = (np.zeros(width, dtype=np.int64) for _ in range(3))
+    a, b, tol, h, facold, hs, dnf, limit = (np.zeros(width) for _ in range(8))
+    start_, reject, last, inside, active = (np.zeros(width, dtype=np.bool_) for _ in range(5))
+    fresh = np.zeros(width, dtype=np.bool_)
+    done = np.ones(width, dtype=np.bool_)
+    passes = np.zeros(1, dtype=np.int64)
+    P = np.empty((6, ny))
+    # each member's records in its own block (from the pool of sim/blocks.py, as a single
+    # run's: no fresh pages to zero, 26 MB a 120 s run recorded every millisecond); a lane
+    # without a member records nothing
+    idle = np.empty((1, ny))
+    outs = [idle] * width
+    holder = [-1] * width  # the member each lane runs (-1: none)
+    tables: dict[int, tuple] = {}
+    ends: list = [None] * n
+    bound = float(first.solver.divergence_bound)
+
+    def lane_rows(w: int, cl) -> None:
+        """Member ``cl``'s constants, tolerances and initial state into lane w's rows."""
+        B[rows["CR"] * width + w : (rows["CR"] + nc) * width : width] = cl.asm.data.c[:nc]
+        B[rows["ATOL"] * width + w : (rows["ATOL"] + ny) * width : width] = cl.atol
+        y0[w] = cl.asm.y0
+
+    def load(w: int, k: int) -> None:
+        """Member k into lane w, to start at the next call."""
+        cl = compiled[k]
+        lane_rows(w, cl)
+        kind, con = tables[k] = _failure_tables(cl.asm, m)
+        bps = cl.asm.breakpoints
+        brk[w, : len(bps)] = bps
+        nph[w] = len(bps) - 1
+        fkind[w] = -1.0
+        fkind[w, : kind.shape[0]] = kind
+        fcon[w] = 0.0
+        fcon[w, : con.shape[0]] = con
+        t_rec[w, : cl.t_rec.size] = cl.t_rec
+        n_rec[w] = cl.t_rec.size
+        rtol[w] = float(cl.solver.rtol)
+        h_max[w] = float(min(cl.solver.max_step, 1e300))
+        outs[w] = blocks.empty((cl.t_rec.size, ny))
+        holder[w] = k
+        fresh[w] = True
+        done[w] = False
+
+    def collect(w: int) -> None:
+        k = holder[w]
+        size = compiled[k].t_rec.size
+        ends[k] = _Ended(
+            outs[w], out_ph[w, :size].copy(), int(nrec[w]), int(status[w]), float(t_stop[w]),
+            int(bad[w]), stats[w].copy(),
+        )  # fmt: skip
+        holder[w] = -1
+        outs[w] = idle
+
+    nxt = 0
+    for w in range(width):
+        if nxt < n:
+            load(w, nxt)
+            nxt += 1
+        else:  # no member for it: member 0's numbers, so its idle rhs computes sane values
+            lane_rows(w, first)
+    start = time.perf_counter()
+    while True:
+        module.run_group(  # type: ignore[attr-defined]
+            B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, tuple(outs), out_ph,
+            status, nrec, t_stop, bad, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf,
+            limit, start_, reject, last, inside, active, P, fresh, done, nxt < n, passes,
+        )  # fmt: skip
+        ended = [w for w in range(width) if holder[w] >= 0 and done[w]]
+        if not ended:  # pragma: no cover - the kernel returns when a lane ended or all idle
+            raise RuntimeError("The DOPRI5 lane group returned with no member ended; a bug.")
+        for w in ended:
+            collect(w)
+            if nxt < n:
+                load(w, nxt)
+                nxt += 1
+        if all(k < 0 for k in holder):
+            break
+    wall = (time.perf_counter() - start) / max(n, width)
+    ends = [replace(end, wall=wall) for end in ends]
+    attempts = sum(int(end.stats[0]) + int(end.stats[1]) for end in ends)
+    with _modules_lock:
+        _counts[0] += attempts
+        _counts[1] += width * int(passes[0])
+    lean_out: list = [None] * n
+    if lean:
+        for s in range(0, n, width):
+            lean_out[s : s + width] = _lean_chunk(
+                module, plan, compiled[s : s + width], ends[s : s + width],
+                [tables[k] for k in range(s, min(n, s + width))], width, m,
+            )  # fmt: skip
+    return _integrations(compiled, ends, lean_out)
+
+
+def _lean_chunk(module, plan: _Plan, compiled, ends, tables, width: int, m: int) -> list:
+    """The lean signals' pass of up to ``width`` ended DOPRI5 members, in lanes (their rows
+    of constants, records, phases and failures set for it)."""
+    rows = plan.rows
+    c = len(compiled)
+    B = np.zeros(plan.nb * width)
+    maxrec = max(cl.t_rec.size for cl in compiled)
+    maxph = max(kind.shape[0] for kind, _ in tables)
+    t_rec = np.zeros((width, maxrec))
+    out_ph = np.zeros((width, maxrec), dtype=np.int64)
+    nrec = np.zeros(width, dtype=np.int64)
+    fkind = -np.ones((width, maxph, m))
+    fcon = np.zeros((width, maxph, m, 5))
+    for w, (cl, end, (kind, con)) in enumerate(zip(compiled, ends, tables, strict=True)):
+        B[rows["CR"] * width + w : (rows["CR"] + plan.nc) * width : width] = cl.asm.data.c[
+            : plan.nc
+        ]
+        t_rec[w, : cl.t_rec.size] = cl.t_rec
+        out_ph[w, : cl.t_rec.size] = end.phases
+        nrec[w] = end.nrec
+        fkind[w, : kind.shape[0]] = kind
+        fcon[w, : con.shape[0]] = con
+    out_Y = tuple([end.Y for end in ends] + [np.empty((1, plan.ny))] * (width - c))
+    return _lean_signals(module, plan, B, compiled, t_rec, out_Y, out_ph, nrec, fkind, fcon)
+
+
+def _integrations(compiled, ends, lean_out) -> list:
+    """One :class:`~adaptive_ftc.sim.engine.Integration` per member from what its lane
+    handed back (:class:`_Ended`): the single run's outcome, diagnosis included."""
+    from adaptive_ftc.sim.engine import Integration, _stop
+    from adaptive_ftc.sim.status import RunStatus
+
     out = []
-    for w in range(n):
-        cl = compiled[w]
+    for cl, end, lean_signals in zip(compiled, ends, lean_out, strict=True):
         size = cl.t_rec.size
-        Y = out_Y[w][:size]
-        phases = out_ph[w, :size].copy()
-        k = int(nrec[w])
-        if status[w] == 0:
+        Y, k = end.Y[:size], end.nrec
+        if end.status == 0:
             outcome = (RunStatus.COMPLETED, None)
         else:
             outcome = _stop(
-                cl.loop, cl.asm, cl.solver, cl.t_rec, Y, k, int(status[w]), float(t_stop[w]),
-                int(bad[w]), Y[k].copy() if k < size else None,
+                cl.loop, cl.asm, cl.solver, cl.t_rec, Y, k, end.status, end.t_stop, end.bad,
+                Y[k].copy() if k < size else None,
             )  # fmt: skip
             if outcome[0] is RunStatus.STEP_UNDERFLOW and outcome[1] is not None:
                 from adaptive_ftc.sim.templates.adaptive import MAX_STEPS
 
-                if int(stats[w, 0]) + int(stats[w, 1]) >= MAX_STEPS:  # as the single run
+                if int(end.stats[0]) + int(end.stats[1]) >= MAX_STEPS:  # as the single run
                     outcome = (outcome[0], replace(outcome[1], step_limit=MAX_STEPS))
         out.append(
-            Integration(Y, phases, k, *outcome, wall, stats[w].copy(), lean_signals=lean_out[w])
+            Integration(Y, end.phases, k, *outcome, end.wall, end.stats, lean_signals=lean_signals)
         )
     return out
 
@@ -1051,8 +1236,10 @@ def simulate_lanes(
         )
     kernels = _kernels(kernels)
     out = []
-    for s in range(0, len(compiled), width):
-        group = compiled[s : s + width]
+    # DOPRI5: one queue (lane refill); RK4: groups of width
+    step = width if solver.method == "rk4" else len(compiled)
+    for s in range(0, len(compiled), step):
+        group = compiled[s : s + step]
         runs = integrate_lanes(group, width, kernels)
         out += [finish_run(cl, run) for cl, run in zip(group, runs, strict=True)]
     return out
@@ -1097,6 +1284,29 @@ AUTO_COMPILE_MIN = {
     ("dopri5", False): 3_000,  # records every 10 ms: 4.5-5 ms saved per member
     ("dopri5", True): 10_000,  # a campaign's (records every 1 ms): 1-4 ms saved per member
 }
+
+#: members per lane job of :func:`~adaptive_ftc.sim.batch.iter_simulate` (one call of
+#: :func:`integrate_lanes`), per method: RK4 a group of :data:`LANE_WIDTH`; DOPRI5 a queue of
+#: two groups' worth (lane refill: a lane whose member ends takes the next one, so the lanes
+#: idle only for the tail of 16 members, not of every 8), fewer where the members' records
+#: would exceed :data:`QUEUE_BYTES` (:func:`queue_members`).
+QUEUE_MEMBERS = {"rk4": LANE_WIDTH, "dopri5": 2 * LANE_WIDTH}
+
+#: a DOPRI5 queue's records stay in memory until its job ends: a queue holds more than
+#: ``LANE_WIDTH`` members only while their records fit in this many bytes (members of 120 s
+#: recorded every 10 ms: 2.6 MB each, a queue of 16; every millisecond, a campaign's: 26 MB
+#: each, groups of 8 as without refill, so a campaign's memory stays what it was)
+QUEUE_BYTES = 64 << 20
+
+
+def queue_members(cl) -> int:
+    """Members per lane job of ``cl``'s structure and solver (one
+    :class:`~adaptive_ftc.sim.engine.CompiledLoop` of them): :data:`QUEUE_MEMBERS` of its
+    method, at least ``LANE_WIDTH``, at most as many as :data:`QUEUE_BYTES` of records hold."""
+    cap = QUEUE_MEMBERS.get(cl.solver.method, LANE_WIDTH)
+    per = max(1, int(cl.t_rec.size) * int(cl.asm.y0.size) * 8)
+    return max(LANE_WIDTH, min(cap, QUEUE_BYTES // per))
+
 
 #: RK4 lanes write their records per lane (strided): with a record every step (1 ms records
 #: at dt 1 ms, a campaign that judges the control activity) they cost 1.26x the members one

@@ -9,8 +9,11 @@ of step *attempts*: each pass of the loop every active lane tries one step of it
 six stages run for all lanes at once (rows of W), and acceptance is per lane (a rejected lane
 keeps its state and retries with its smaller step, an accepted one advances). A lane entering
 an interval (at the start, after a break) first takes its fresh step-size guess (two rhs
-evaluations of all lanes, used by the lanes that restart). A finished or diverged lane idles
-with a zero step until its group is done. The constants are the single run's (imported from
+evaluations of all lanes, used by the lanes that restart). A lane whose member ends (its
+end, a divergence, a step-size underflow) hands it back and takes the next member of the
+caller's queue (lane refill: ``run_group`` returns after that pass and resumes where it
+stopped, its state in ``B`` and the per-lane arrays), or idles with a zero step once the
+queue is empty. The constants are the single run's (imported from
 ``templates/adaptive.py``), the operations the same in the same order: each lane's result is
 its single run's, bit for bit. The placeholders above the marker exist only so this file
 imports and lints on its own.
@@ -320,11 +323,49 @@ def enter(B, w, brk, nph, fkind, fcon, t_rec, n_rec, out_Y, out_ph, ph, r, a, b,
         return True
 
 
+@inl
+def begin(B, w, y0, brk, nph, fkind, fcon, h_max, t_rec, n_rec, bound, out_Y, out_ph, status,
+          t_stop, bad_out, stats, ph, r, nstep, a, b, tol, start, reject, active):  # fmt: skip
+    """Lane w takes its (new) member: its state, counts and first interval (the single run's
+    start). Returns False when the member's run is over at once (a bad initial state, or no
+    interval of positive length)."""
+    B[REFT * W + w] = np.nan  # no reference time yet (strict IEEE: nan != t)
+    B[ACT * W + w] = 0.0
+    B[HH * W + w] = 0.0
+    for i in range(NY):
+        B[(Y + i) * W + w] = y0[w, i]
+    for k in range(5):
+        stats[w, k] = 0
+    if not (h_max[w] > 0.0):
+        h_max[w] = math.inf
+    status[w] = 0
+    ph[w] = 0
+    r[w] = 0
+    nstep[w] = 0
+    bad_out[w] = -1
+    start[w] = False
+    reject[w] = False
+    active[w] = False
+    B[T * W + w] = brk[w, 0]
+    bad = first_bad(B, Y, w, bound)
+    if bad >= 0:  # the initial state itself is bad
+        keep_stop(B, Y, w, 0, out_Y)
+        status[w] = 1
+        t_stop[w] = brk[w, 0]
+        bad_out[w] = bad
+        return False
+    if enter(B, w, brk, nph, fkind, fcon, t_rec, n_rec, out_Y, out_ph, ph, r, a, b, tol, start):
+        active[w] = True
+        return True
+    t_stop[w] = brk[w, nph[w]]
+    return False
+
+
 @hot
 def run_group(
     B, y0, brk, nph, fkind, fcon, rtol, h_max, t_rec, n_rec, bound, out_Y, out_ph, status,
     nrec_out, t_stop, bad_out, stats, ph, r, nstep, a, b, tol, h, facold, hs, dnf, limit,
-    start, reject, last, inside, active, P,
+    start, reject, last, inside, active, P, fresh, done, refill, passes,
 ):  # fmt: skip
     """DOPRI5 of the W lanes in lockstep of step attempts, each on its own steps and breaks.
 
@@ -336,39 +377,31 @@ def run_group(
     stopped in the row after its last record), out_ph[W, rows]: their phases; status[W] (0
     finished, 1 diverged, 2 step size underflow or too many steps), nrec_out, t_stop,
     bad_out[W]; stats[W, 5] as the single run's. The rest: per-lane scratch, and P[6, NY]
-    for the records."""
+    for the records.
+
+    Refill (the caller's queue): the lanes with ``fresh[w]`` take their member first (rows
+    of w filled by the caller: constants, tolerances, y0, breaks, failures, records); every
+    other lane goes on from where the last call left it (all its state is in B and the
+    per-lane arrays). A lane whose member ends sets ``done[w]``. With ``refill`` the call
+    returns 1 after the pass in which a member ended (the caller takes its result and gives
+    the lane the next member of the queue, or leaves it idle), else it returns 0 once every
+    lane is idle. ``passes[0]`` counts the passes (step attempts of the group): W x passes
+    lane slots, of which the members' attempts are the occupancy."""
+    ended = False
     for w in range(W):
-        B[REFT * W + w] = np.nan  # no reference time yet (strict IEEE: nan != t)
-        B[RT * W + w] = rtol[w]
-        B[ACT * W + w] = 0.0
-        B[HH * W + w] = 0.0
-        for i in range(NY):
-            B[(Y + i) * W + w] = y0[w, i]
-        for k in range(5):
-            stats[w, k] = 0
-        if not (h_max[w] > 0.0):
-            h_max[w] = math.inf
-        status[w] = 0
-        ph[w] = 0
-        r[w] = 0
-        nstep[w] = 0
-        bad_out[w] = -1
-        start[w] = False
-        reject[w] = False
-        active[w] = False
-        B[T * W + w] = brk[w, 0]
-        bad = first_bad(B, Y, w, bound)
-        if bad >= 0:  # the initial state itself is bad
-            keep_stop(B, Y, w, 0, out_Y)
-            status[w] = 1
-            t_stop[w] = brk[w, 0]
-            bad_out[w] = bad
-            continue
-        if enter(B, w, brk, nph, fkind, fcon, t_rec, n_rec, out_Y, out_ph, ph, r, a, b, tol,
-                 start):  # fmt: skip
-            active[w] = True
-        else:
-            t_stop[w] = brk[w, nph[w]]
+        if fresh[w]:
+            fresh[w] = False
+            done[w] = False
+            B[RT * W + w] = rtol[w]
+            if not begin(B, w, y0, brk, nph, fkind, fcon, h_max, t_rec, n_rec, bound, out_Y,
+                         out_ph, status, t_stop, bad_out, stats, ph, r, nstep, a, b, tol, start,
+                         reject, active):  # fmt: skip
+                done[w] = True
+                ended = True
+    for w in range(W):
+        nrec_out[w] = r[w]
+    if ended and refill:
+        return 1
     while True:
         # lanes entering an interval: f(a, Y) and the fresh step-size guess (HNW I, II.4)
         restart = False
@@ -409,6 +442,8 @@ def run_group(
                 status[w] = 2
                 t_stop[w] = t
                 active[w] = False
+                done[w] = True
+                ended = True
                 B[T1 * W + w] = t
                 continue
             last[w] = t + 1.01 * h[w] >= b[w]
@@ -422,6 +457,7 @@ def run_group(
             n_active += 1
         if n_active == 0:
             break
+        passes[0] += 1
         dopri5_stages(B)
         need_dense = False
         for w in range(W):
@@ -452,6 +488,8 @@ def run_group(
                 t_stop[w] = B[T1 * W + w]
                 bad_out[w] = bad
                 active[w] = False
+                done[w] = True
+                ended = True
                 continue
             stats[w, 0] += 1
             fac11 = err**0.17
@@ -486,5 +524,12 @@ def run_group(
                          tol, start):  # fmt: skip
                 t_stop[w] = brk[w, nph[w]]
                 active[w] = False
+                done[w] = True
+                ended = True
+        if ended and refill:  # a member ended: the caller refills its lane
+            for w in range(W):
+                nrec_out[w] = r[w]
+            return 1
     for w in range(W):
         nrec_out[w] = r[w]
+    return 0
