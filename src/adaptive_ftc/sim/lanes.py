@@ -733,7 +733,7 @@ def lane_module_state(
 def compile_message(loop, width: int, kernels: str, method: str) -> str:
     """The line printed before a lane module compiles (the single path's ``compiling ...``
     line of the command-line tools, for the lane engine)."""
-    seconds = COMPILE_SECONDS[method] * (5.0 if kernels == "vector" else 1.0)
+    seconds = COMPILE_SECONDS[method] * (13.0 if kernels == "vector" else 1.0)
     return (
         f"compiling the SIMD lane module of {loop.plant.name!r} + 'direct' ({method}, {width} "
         f"lanes, {kernels} kernels; first use on this machine only, ~{seconds:.0f} s of CPU; "
