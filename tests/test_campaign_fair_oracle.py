@@ -169,7 +169,10 @@ def test_the_page_says_where_the_oracle_fails_too():
         "oracle_failed_design_succeeded": 1,
     }
     text = headline(info)
-    assert "oracle (knows the failure; same hardware and filters) failed on 2 of the 4" in text
+    assert (
+        "oracle (knows the failure; same hardware and filters) also failed on 2 of the 4 "
+        "members constraint-aware failed" in text
+    )
     assert "oracle-plain succeeded" not in text and "oracle succeeded" not in text
     page = summary._comparison_html(info, "rad")
     assert "Of the 4 members constraint-aware failed, the oracle failed on <b>2</b> too" in page
@@ -182,7 +185,7 @@ def test_the_page_says_where_the_oracle_fails_too():
     )
     text = headline(weak)
     assert "succeeded less often (20\u00a0%), so it is no yardstick for constraint-aware" in text
-    assert "failed on 1 of the 1" not in text
+    assert "also failed on 1 of the 1" not in text
     weak_page = summary._comparison_html(weak, "rad")
     assert "so where it fails is no evidence of infeasibility" in weak_page
     assert "evidence that these draws are infeasible" not in weak_page

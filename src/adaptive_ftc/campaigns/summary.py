@@ -508,8 +508,8 @@ def _design_sentence(info: dict[str, Any], d: str) -> str:
             )
         else:
             text += (
-                f"; the oracle (knows the failure; same hardware and filters) failed on "
-                f"{check['oracle_failed_too']} of the {check['failed']} members it failed"
+                f"; the oracle (knows the failure; same hardware and filters) also failed on "
+                f"{check['oracle_failed_too']} of the {check['failed']} members {d} failed"
             )
     hard = _hardest_model(info, d)
     if hard is not None:
