@@ -731,9 +731,10 @@ class ConstraintAware:
 
     model_feedforward
         The designer's model includes the plant's equations: the MIMO law with a floor adds
-        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``). False:
-        none (a controller exported to C carries no plant model: ``export_c`` refuses one that
-        uses it). Not a constraint.
+        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``; exported
+        to C with the plant's equations and parameters, ``export_c``). False: none (nor a
+        plant model in the exported controller: a plant ``export_c`` cannot translate). Not a
+        constraint.
 
     Examples
     --------

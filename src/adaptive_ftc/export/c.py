@@ -64,6 +64,14 @@ _MODEL_NOTE = (
     "translated to C: ConstraintAware(model_feedforward=False) leaves the feedforward out "
     "(or write the plant's equations in the subset above)."
 )
+#: the header's lines on the designer's model, where the controller carries it
+_MODEL_HEADER = [
+    " * Model feedforward: the controller evaluates the plant's equations (the designer's",
+    " * model: the healthy plant, no failures, no actuators) with params.plant on the",
+    " * scenario's reference read ahead of t (the same reference as <prefix>_reference). Set",
+    " * params.plant to the nominal numbers of the plant it controls.",
+    " *",
+]
 
 
 @dataclass(frozen=True)
@@ -361,6 +369,11 @@ class _Library:
             "the default;",
             " * 0: they start at params.initial).",
             " *",
+            *[
+                ln.replace("<prefix>", pfx)
+                for ln in _MODEL_HEADER
+                if any(f.name == "plant" for f in fields)
+            ],
             f" * Inputs y[{P}_NY]: the measured plant states",
             *ys,
             f" * Inputs r[{P}_NR]: the reference ({pfx}_reference computes the scenario's)",
@@ -469,7 +482,7 @@ class _Library:
         if "s_lookahead1" in names:  # the digital MIMO law's copy of the s' filter
             at = nx + names.index("s_lookahead1")
             start += [
-                "        /* the constraint-aware MIMO law's copy of the s' filter starts there too */",
+                "        /* the MIMO law's copy of the s' filter (s_lookahead) too */",
                 *[f"        state->Y[{at + i}] = state->Y[{self.filt + i}];" for i in range(p)],
             ]
         if "measurement_filter1" in names:
