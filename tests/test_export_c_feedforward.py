@@ -162,3 +162,15 @@ def test_a_plant_the_export_cannot_translate_names_model_feedforward_false(tmp_p
     assert "plant's model" in msg and "ConstraintAware(model_feedforward=False)" in msg
     off = _hardware(replace(sc.loop, plant=plant), model_feedforward=False)
     assert export_c(off, tmp_path).source.is_file()
+
+
+def test_the_fmus_carry_it_too(arm, tmp_path):
+    # the controller FMU (built from the same C) and the closed-loop FMU (the plant side
+    # translated beside it), against the simulator's run
+    pytest.importorskip("fmpy")
+    from adaptive_ftc.export.sil import verify_fmu, verify_loop_fmu
+
+    ctrl = verify_fmu(arm, t_final=10.0, workdir=tmp_path / "controller")
+    assert ctrl.samples > 1000 and ctrl.worst <= TOL, ctrl
+    loop = verify_loop_fmu(arm, t_final=10.0, workdir=tmp_path / "loop")
+    assert loop.samples == 1280 and loop.worst <= TOL, loop
