@@ -6,7 +6,9 @@ side of its right-hand side is kept (measurements, errors, regressors, control l
 ``u = R^T u0``, ``s'`` filter, adaptive laws, constraint-aware parts) and the plant side dropped
 (failures, actuators, plant dynamics), and that function and every part function it calls
 (``controllers/laws.py``, the designs' laws, the guarded math) are translated by
-:mod:`adaptive_ftc.export.pyc`.
+:mod:`adaptive_ftc.export.pyc`. A controller with the designer's model of the plant (the
+constraint-aware MIMO law's model feedforward, ``nominal_dynamics``) carries the plant's
+equations, translated the same way, and its nominal parameters (``params.plant``).
 
 One call of ``step`` does what the simulator's digital mode does at a sample: the command
 ``u`` from the measurement and the controller's states, and the derivatives of those states;
