@@ -8,6 +8,7 @@ manipulator-hardware campaign and issue 25's manipulator noise case (docs/hardwa
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import replace
 
@@ -105,8 +106,8 @@ def test_a_raised_output_gets_no_feedforward(manipulator):
     ctrl = loop.controller.bound(loop)
     assert ctrl.output_floor()[0] == 0.0 < ctrl.output_floor()[1]
     text = source_of(loop)
-    assert "u0[1] += uf[1]" in text
-    assert "u0[0] += uf[0]" not in text
+    assert re.search(r"u0\[1\] \+= wb\[\d+\]", text)
+    assert not re.search(r"u0\[0\] \+= wb\[\d+\]", text)
 
 
 def test_behind_a_47_ms_lag_the_feedforward_meets_the_tracking_target(manipulator, monkeypatch):
@@ -170,7 +171,11 @@ def test_a_rate_limited_floor_loop_keeps_the_std_bound_and_no_prefilter():
     assert replace(ca, noise=0.0).floor_prefiltered_rate(100.0) == 0.0
 
 
-def test_a_controller_exported_to_c_leaves_the_model_feedforward_out(manipulator, tmp_path):
+def test_a_controller_exported_to_c_carries_the_model_feedforward_or_leaves_it_out(
+    manipulator, tmp_path
+):
+    # with it: the plant's equations in the C (tests/test_export_c_feedforward.py checks the
+    # exported commands against the simulation); without it: none
     from adaptive_ftc.export.c import export_c
 
     loop = replace(
@@ -178,11 +183,10 @@ def test_a_controller_exported_to_c_leaves_the_model_feedforward_out(manipulator
         actuators=Actuators(tau=0.04, rate=50.0, lower=-12.0, upper=12.0),
         sample_time=0.01,
     )
-    with pytest.raises(ValueError, match="model_feedforward=False"):
-        export_c(_aware(loop), tmp_path / "with")
+    assert "aftc_nominal_dynamics(" in export_c(_aware(loop), tmp_path / "with").source.read_text()
     ca = replace(ConstraintAware.from_loop(loop), model_feedforward=False)
     plain = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
     assert plain.controller.bound(plain).configuration().feedforward == -1.0
-    assert export_c(plain, tmp_path / "without").source.is_file()
+    assert "nominal_dynamics" not in export_c(plain, tmp_path / "without").source.read_text()
     with pytest.raises(ValueError, match="model_feedforward"):
         ConstraintAware(lag=0.01, model_feedforward=1)

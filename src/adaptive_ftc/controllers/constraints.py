@@ -731,9 +731,10 @@ class ConstraintAware:
 
     model_feedforward
         The designer's model includes the plant's equations: the MIMO law with a floor adds
-        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``). False:
-        none (a controller exported to C carries no plant model: ``export_c`` refuses one that
-        uses it). Not a constraint.
+        the healthy model's feedforward along the reference (``mimo.C_FEEDFORWARD``; exported
+        to C with the plant's equations and parameters, ``export_c``). False: none (nor a
+        plant model in the exported controller: a plant ``export_c`` cannot translate). Not a
+        constraint.
 
     Examples
     --------
@@ -1333,13 +1334,32 @@ def _delivery_weights(g) -> list[float] | None:
     return [float(v) / total for v in G[0]]
 
 
+#: the designer's model of the plant in a generated loop module (the model feedforward's):
+#: the healthy plant's equations with its nominal parameters, named apart from the plant
+#: side's ``plant_dynamics`` (which the failures feed) so that a controller that uses it is
+#: told apart from one that needs the true plant (the oracle, the nominal inverse)
+NOMINAL_MODEL_SRC = """@inl
+def nominal_dynamics(t, x, u, p, xdot):
+    \"\"\"The designer's model: the healthy plant's equations (no failures, no actuators).\"\"\"
+    plant_dynamics(t, x, u, p, xdot)
+
+
+@inl
+def nominal_params(D):
+    \"\"\"The designer's model's parameters: the plant's nominal ones.\"\"\"
+    return plant_params(D)"""
+
+
 def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     """The nominal feedforward's lines (``Configuration.feedforward``): the healthy plant's
     model at the state on the reference read ``lead`` ahead, ``x_r`` (outputs and rates from
     the reference), solved for ``G(x_r) u_ff = y_r'' - f(x_r)`` along the allocation and added
     to ``u0`` of the outputs with a floor (``output_feedback`` > 0; every output without
-    one); none without one. ``uf`` and ``xdot`` serve as scratch (both are written again
-    after the command), the work buffer ``wb`` holds ``[G | v | f | reference | x_r]``."""
+    one); none without one. The model is ``nominal_dynamics`` with ``nominal_params(D)``
+    (:data:`NOMINAL_MODEL_SRC`: the plant's equations and parameters, never its failures),
+    and its scratch is the controller's own work buffer ``wb``, which holds ``[G | v | f |
+    reference | x_r | u | x_r']``: the controller side of the loop carries it whole (the C
+    export, :mod:`adaptive_ftc.export.controller_side`)."""
     floored = [f > 0 for f in cfg.output_feedback] or [True] * g.p
     if cfg.feedforward < 0 or not any(floored):
         return []
@@ -1357,7 +1377,11 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     g.use("nominal_solve", solve_guarded)
     f_at, r_at = p * p + p, p * p + 2 * p
     x_at = r_at + 3 * p
-    g.n_w = max(g.n_w, x_at + nx)
+    u_at = x_at + nx
+    d_at = u_at + max(m, p)
+    g.n_w = max(g.n_w, d_at + nx)
+    if NOMINAL_MODEL_SRC not in g.defs:
+        g.defs.append(NOMINAL_MODEL_SRC)
     g.consts.append(float(cfg.feedforward))
     lead = f"c[{len(g.consts) - 1}]"
     lines = [
@@ -1372,15 +1396,16 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     lines += [
         f"    for kk in range(-1, {p}):",
         f"        for j in range({m}):",
-        f"            uf[j] = 0.0 if kk < 0 else c[RMAT + kk * {m} + j]",
-        f"        plant_dynamics(t, wb[{x_at}:{x_at + nx}], uf, plant_params(D), xdot)",
+        f"            wb[{u_at} + j] = 0.0 if kk < 0 else c[RMAT + kk * {m} + j]",
+        f"        nominal_dynamics(t, wb[{x_at}:{u_at}], wb[{u_at}:{u_at + m}], "
+        f"nominal_params(D), wb[{d_at}:{d_at + nx}])",
         "        if kk < 0:",
-        *[f"            wb[{f_at + i}] = xdot[{vel[i]}]" for i in range(p)],
+        *[f"            wb[{f_at + i}] = wb[{d_at + vel[i]}]" for i in range(p)],
         "        else:",
-        *[f"            wb[{i * p} + kk] = xdot[{vel[i]}] - wb[{f_at + i}]" for i in range(p)],
+        *[f"            wb[{i * p} + kk] = wb[{d_at + vel[i]}] - wb[{f_at + i}]" for i in range(p)],
         *[f"    wb[{p * p + i}] = wb[{r_at + 3 * i + 2}] - wb[{f_at + i}]" for i in range(p)],
-        f"    nominal_solve(wb, 0, {p}, 1e-9, uf)",
-        *[f"    u0[{i}] += uf[{i}]" for i in range(p) if floored[i]],
+        f"    nominal_solve(wb, 0, {p}, 1e-9, wb[{u_at}:{u_at + p}])",
+        *[f"    u0[{i}] += wb[{u_at + i}]" for i in range(p) if floored[i]],
     ]
     return lines
 

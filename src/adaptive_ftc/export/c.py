@@ -6,7 +6,9 @@ side of its right-hand side is kept (measurements, errors, regressors, control l
 ``u = R^T u0``, ``s'`` filter, adaptive laws, constraint-aware parts) and the plant side dropped
 (failures, actuators, plant dynamics), and that function and every part function it calls
 (``controllers/laws.py``, the designs' laws, the guarded math) are translated by
-:mod:`adaptive_ftc.export.pyc`.
+:mod:`adaptive_ftc.export.pyc`. A controller with the designer's model of the plant (the
+constraint-aware MIMO law's model feedforward, ``nominal_dynamics``) carries the plant's
+equations, translated the same way, and its nominal parameters (``params.plant``).
 
 One call of ``step`` does what the simulator's digital mode does at a sample: the command
 ``u`` from the measurement and the controller's states, and the derivatives of those states;
@@ -54,7 +56,24 @@ _MEANING = {
     "adapt": "1: adaptation on; 0: frozen (the adaptive states hold)",
     "centers": "centres of the fuzzy memberships, input by input",
     "spread": "1/(2 w^2) of each fuzzy membership",
+    "plant": "the plant's parameters in the designer's model (the healthy plant's equations, "
+    "no failures), which the model feedforward evaluates along the reference",
 }
+#: added to a refusal of the designer's model of the plant (``nominal_dynamics``)
+_MODEL_NOTE = (
+    "That part is the plant's model (its equations and parameters), which the constraint-aware "
+    "MIMO law's model feedforward carries into the controller, and this plant cannot be "
+    "translated to C: ConstraintAware(model_feedforward=False) leaves the feedforward out "
+    "(or write the plant's equations in the subset above)."
+)
+#: the header's lines on the designer's model, where the controller carries it
+_MODEL_HEADER = [
+    " * Model feedforward: the controller evaluates the plant's equations (the designer's",
+    " * model: the healthy plant, no failures, no actuators) with params.plant on the",
+    " * scenario's reference read ahead of t (the same reference as <prefix>_reference). Set",
+    " * params.plant to the nominal numbers of the plant it controls.",
+    " *",
+]
 
 
 @dataclass(frozen=True)
@@ -235,6 +254,25 @@ class _Library:
             raise ConfigurationError("Cannot export to C: the loop's controller is empty.")
         return rhs
 
+    def classes(self) -> dict[str, tuple[str, ...]]:
+        """``{alias: field names}`` of the NamedTuples of the generated module (the plant's
+        parameters, which the designer's model ``nominal_params(D)`` builds), the gains'
+        (``gains(D).name``, a field of the params struct) left out."""
+        out = {}
+        for alias in self.g.classes:
+            if alias == "Gains":
+                continue
+            target = self.g.imports.get(alias, "")
+            if target:
+                mod, name = target.split(":")
+                cls = getattr(importlib.import_module(mod), name)
+            else:
+                cls = self.g.inject.get(alias)
+            fields = getattr(cls, "_fields", None)
+            if fields is not None:
+                out[alias] = tuple(fields)
+        return out
+
     def fields(self) -> list[Field]:
         lay = self.layout
         out = [Field("constants", 0, lay["c:lam"].start)]
@@ -261,7 +299,9 @@ class _Library:
 
     def render(self) -> tuple[str, str]:
         pfx = self.prefix
-        tr = Translator(self.resolve, self.fields(), self.gain_names, pfx)
+        tr = Translator(self.resolve, self.fields(), self.gain_names, pfx, classes=self.classes())
+        tr.reserved = {f"{pfx}_{n}" for n in ("init", "reset", "step", "reference")}
+        tr.notes = dict.fromkeys(("nominal_dynamics", "nominal_params"), _MODEL_NOTE)
         ctrl = Source(self.controller_def(), "<generated loop module: rhs>", 0, self.constants)
         cname = tr.function(ctrl, [DOUBLE, PTR, PARAMS, PTR, PTR], name=f"{pfx}__controller")
         reference = self.resolve("reference")
@@ -331,6 +371,11 @@ class _Library:
             "the default;",
             " * 0: they start at params.initial).",
             " *",
+            *[
+                ln.replace("<prefix>", pfx)
+                for ln in _MODEL_HEADER
+                if any(f.name == "plant" for f in fields)
+            ],
             f" * Inputs y[{P}_NY]: the measured plant states",
             *ys,
             f" * Inputs r[{P}_NR]: the reference ({pfx}_reference computes the scenario's)",
@@ -436,6 +481,12 @@ class _Library:
                 for i in range(p)
             ],
         ]
+        if "s_lookahead1" in names:  # the digital MIMO law's copy of the s' filter
+            at = nx + names.index("s_lookahead1")
+            start += [
+                "        /* the MIMO law's copy of the s' filter (s_lookahead) too */",
+                *[f"        state->Y[{at + i}] = state->Y[{self.filt + i}];" for i in range(p)],
+            ]
         if "measurement_filter1" in names:
             at = nx + names.index("measurement_filter1")
             start += [

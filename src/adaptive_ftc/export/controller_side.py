@@ -5,6 +5,13 @@ controller (measurements, errors, regressors, control law, allocation, ``s'`` fi
 laws) and the plant side (failures, actuators, the plant's equations). At a controller sample
 (``misc[Misc.SAMPLING] == 1``) the controller's part is what a deployed controller runs: this
 module keeps it, statement by statement, from the parsed ``rhs``.
+
+The designer's model of the plant (``nominal_dynamics`` with ``nominal_params``: the healthy
+plant's equations and nominal parameters, which the constraint-aware MIMO law's model
+feedforward evaluates on the reference read ahead, in its own work buffer ``wb``) is the
+controller's: it is kept, and the C carries the plant's equations and parameters for it. What
+needs the true plant (its failures, the actuators, the plant-side buffers ``uf`` and ``xdot``)
+is not.
 """
 
 from __future__ import annotations
@@ -79,7 +86,7 @@ def controller_side(stmts: list, ny: int, tainted: set | None = None) -> list:
             st.body = body
             out.append(st)
             continue
-        if isinstance(st, ast.Expr) and _calls(st, "reference"):
+        if isinstance(st, ast.Expr) and _calls_reference_into_ref(st):
             continue
         if _uses(st, tainted):
             _drop(st, tainted)
@@ -110,10 +117,11 @@ def _drop(st, tainted: set) -> None:
                         f"from the plant side in `{ast.unparse(node)[:80]}` (generated loop "
                         f"module, line {getattr(node, 'lineno', '?')}): the controller would "
                         "need the plant's model or its failures, which a deployed controller "
-                        "does not have (designs that invert the plant's model, such as the "
-                        "nominal-inverse and oracle baselines, are not exported; the "
-                        "constraint-aware MIMO law's reference feedforward uses it too: "
-                        "ConstraintAware(model_feedforward=False) leaves it out)."
+                        "does not have (designs that invert the true plant, such as the "
+                        "nominal-inverse and oracle baselines, are not exported): export "
+                        "the scenario's adaptive design instead (the constraint-aware MIMO "
+                        "law's model feedforward is exported: it evaluates the healthy model, "
+                        "`nominal_dynamics`, not the plant side)."
                     )
     tainted.update(_assigned(st))
 
@@ -171,6 +179,21 @@ def _calls(node, name: str) -> bool:
     return any(
         isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == name
         for n in ast.walk(node)
+    )
+
+
+def _calls_reference_into_ref(st: ast.Expr) -> bool:
+    """``reference(t, c, ref)``: the reference at the sample, the C's input ``r``. Another
+    call (the model feedforward's ``reference(t + lead, c, wb[...])``, read ahead) is the
+    controller's own: it stays, and the C computes the scenario's reference there."""
+    call = st.value
+    return (
+        isinstance(call, ast.Call)
+        and isinstance(call.func, ast.Name)
+        and call.func.id == "reference"
+        and len(call.args) == 3
+        and isinstance(call.args[2], ast.Name)
+        and call.args[2].id == "ref"
     )
 
 

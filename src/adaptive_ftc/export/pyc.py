@@ -159,6 +159,11 @@ class Translator:
         self.protos: list[str] = []
         self.fields_used: set[str] = set()
         self.busy: set[tuple] = set()
+        #: C names a translated function must not take (the exported interface's)
+        self.reserved: set[str] = set()
+        #: ``{called name: sentence}`` added to a refusal raised while translating that call
+        #: (what the part is and how to leave it out)
+        self.notes: dict[str, str] = {}
 
     # ---------------------------------------------------------------- entry points
     def function(self, src: Source, arg_types: list[str], name: str | None = None) -> str:
@@ -201,7 +206,7 @@ class Translator:
             base = f"{self.prefix}_{node.name.lstrip('_')}"
             cname = base
             n = 2
-            while cname in {v[0] for v in self.done.values()}:
+            while cname in {v[0] for v in self.done.values()} | self.reserved:
                 cname = f"{base}_{n}"
                 n += 1
         fn = _Fn(src, dict(zip(names, arg_types, strict=True)), names)
@@ -584,15 +589,29 @@ class Translator:
                 first = (e.value.id, const, rest)
             elif (e.value.id, const - k, rest) != first:
                 raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
-        if first is None or not _ptr(fn.types.get(first[0])):
+        if first is None or not (_ptr(fn.types.get(first[0])) or fn.types.get(first[0]) == PARAMS):
             raise self._refuse(fn, node, "a tuple that is not consecutive array entries")
         if ty.startswith("nt:"):
             self.nt_places[ty[3:]] = places
         elif ty.startswith("double *#"):
             ty = f"double *#{len(flat)}"
         name, const, rest = first
+        if fn.types.get(name) == PARAMS:  # c[PLACE + 0], c[PLACE + 1]...: one params field
+            return self._param_numbers(fn, node, fn.params_name(name), const, rest, len(flat)), ty
         idx = str(const) if rest is None else f"{const} + {rest}"
         return f"({_c_name(name)} + {idx})", ty
+
+    def _param_numbers(self, fn: _Fn, node, pname: str, const, rest, n: int) -> str:
+        """A pointer to ``n`` consecutive numbers of one array field of the params struct
+        (a NamedTuple of the plant's parameters, ``plant_params(D)``). Its ``const`` is cast
+        away: the callee only reads it (a NamedTuple is immutable in the numba subset)."""
+        for f in self.fields:
+            if rest is None and not f.scalar and f.start <= const < f.start + f.size:
+                if const + n > f.start + f.size:
+                    break
+                self.fields_used.add(f.name)
+                return f"((double *){pname}->{f.name} + {const - f.start})"
+        raise self._refuse(fn, node, "a tuple of the parameters that is not one exported array")
 
     def _gain(self, fn: _Fn, node: ast.Attribute) -> str | None:
         """``gains(D).name`` -> ``D->gains.name`` (``D->c[GAINS + k]`` of a flat loop's data)."""
@@ -794,7 +813,13 @@ class Translator:
         key = (id(src.node), tuple(types))
         if key in self.busy:
             raise self._refuse(fn, node, f"a recursive call of {name!r}")
-        cname, ret = self._function(src, tuple(types), None)
+        try:
+            cname, ret = self._function(src, tuple(types), None)
+        except ConfigurationError as exc:
+            note = self.notes.get(name)
+            if note is None or note in str(exc):
+                raise
+            raise ConfigurationError(f"{exc} {note}") from exc
         return cname, ret, texts
 
 
