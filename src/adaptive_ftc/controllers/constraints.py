@@ -1363,7 +1363,7 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     floored = [f > 0 for f in cfg.output_feedback] or [True] * g.p
     if cfg.feedforward < 0 or not any(floored):
         return []
-    from adaptive_ftc.controllers.nominal import solve_guarded
+    from adaptive_ftc.controllers._solve import solve_guarded
 
     plant = g.loop.plant
     nx, p, m = g.nx, g.p, g.m
