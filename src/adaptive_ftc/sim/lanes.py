@@ -865,6 +865,19 @@ def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
     _checked.add(key)
 
 
+def _run_outputs(width: int, maxrec: int) -> tuple:
+    """A lane group's per-lane outputs, as the lane modules write them: each record's interval,
+    status, records written, stop time, first bad state (-1: none), step counts."""
+    return (
+        np.zeros((width, maxrec), dtype=np.int64),
+        np.zeros(width, dtype=np.int64),
+        np.zeros(width, dtype=np.int64),
+        np.zeros(width),
+        -np.ones(width, dtype=np.int64),
+        np.zeros((width, 5), dtype=np.int64),
+    )
+
+
 def integrate_lanes(
     compiled: Sequence, width: int = LANE_WIDTH, kernels: str = "libm", *, lean: bool = False
 ) -> list:
@@ -932,12 +945,7 @@ def integrate_lanes(
         t_rec[w, : cl.t_rec.size] = cl.t_rec
         n_rec[w] = cl.t_rec.size
         y0[w] = cl.asm.y0
-    out_ph = np.zeros((width, maxrec), dtype=np.int64)
-    status = np.zeros(width, dtype=np.int64)
-    nrec = np.zeros(width, dtype=np.int64)
-    t_stop = np.zeros(width)
-    bad = -np.ones(width, dtype=np.int64)
-    stats = np.zeros((width, 5), dtype=np.int64)
+    out_ph, status, nrec, t_stop, bad, stats = _run_outputs(width, maxrec)
     bound = float(first.solver.divergence_bound)
     start = time.perf_counter()
     out_Y = np.empty((width, maxrec, plan.ny))
@@ -1027,12 +1035,7 @@ def _dopri5_queue(module, plan: _Plan, compiled: Sequence, width: int, lean: boo
     y0 = np.zeros((width, ny))
     rtol = np.zeros(width)
     h_max = np.zeros(width)
-    out_ph = np.zeros((width, maxrec), dtype=np.int64)
-    status = np.zeros(width, dtype=np.int64)
-    nrec = np.zeros(width, dtype=np.int64)
-    t_stop = np.zeros(width)
-    bad = -np.ones(width, dtype=np.int64)
-    stats = np.zeros((width, 5), dtype=np.int64)
+    out_ph, status, nrec, t_stop, bad, stats = _run_outputs(width, maxrec)
     ph, r, nstep = (np.zeros(width, dtype=np.int64) for _ in range(3))
     a, b, tol, h, facold, hs, dnf, limit = (np.zeros(width) for _ in range(8))
     start_, reject, last, inside, active = (np.zeros(width, dtype=np.bool_) for _ in range(5))
