@@ -94,7 +94,8 @@ def test_a_queue_longer_than_the_lanes_gives_each_member_its_own_run(base, monke
     before = lane_occupancy()
     got = _quiet(simulate_lanes, loops, DP)
     after = lane_occupancy()
-    assert calls == [len(loops)]  # one queue, not groups of 8
+    # queues of QUEUE_MEMBERS (16), not groups of 8
+    assert calls == [16, len(loops) - 16]
     for a, b in zip(got, singles, strict=True):
         assert_same_run(a, b)
     attempts = [r.meta["steps"] + r.meta["rejected_steps"] for r in singles]

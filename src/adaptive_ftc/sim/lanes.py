@@ -1239,8 +1239,9 @@ def simulate_lanes(
         )
     kernels = _kernels(kernels)
     out = []
-    # DOPRI5: one queue (lane refill); RK4: groups of width
-    step = width if solver.method == "rk4" else len(compiled)
+    # DOPRI5: queues of queue_members (lane refill; a longer queue measured slower end to end:
+    # docs/performance.md); RK4: groups of width
+    step = width if solver.method == "rk4" else queue_members(compiled[0])
     for s in range(0, len(compiled), step):
         group = compiled[s : s + step]
         runs = integrate_lanes(group, width, kernels)
