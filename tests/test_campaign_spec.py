@@ -328,3 +328,34 @@ def test_a_folder_of_a_version_that_recorded_none_is_refused_on_resume(tmp_path)
     (out / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(CampaignError, match=r"an earlier version \(none recorded\)"):
         store.prepare_folder(sp, out)
+
+
+def test_resuming_after_a_code_change_at_the_same_version_is_refused(tmp_path, monkeypatch):
+    """The version string stays while a checkout's code changes: the manifest records a
+    fingerprint of the package's source files, and a resume with other code is refused
+    (session 12 noticed a fair-oracle change would have mixed old and new oracle rows)."""
+    data = spec(runs=2, chunk_size=1, duration=0.5)
+    data["success"]["final_window"] = 0.1
+    data["failures"]["onset"] = {"uniform": [0.1, 0.3]}
+    out = tmp_path / "c"
+    run_campaign(load_campaign(data), out, max_chunks=1, progress=False)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["code"] == store.code_fingerprint()
+    # the fingerprint is of the files: recomputed from scratch it is the same
+    store.code_fingerprint.cache_clear()
+    assert store.code_fingerprint() == manifest["code"]
+    monkeypatch.setattr(store, "code_fingerprint", lambda: "f" * 64)
+    with pytest.raises(CampaignError) as err:
+        run_campaign(load_campaign(data), out, progress=False)
+    msg = str(err.value)
+    assert "other library code" in msg and "mix" in msg and "Delete" in msg
+    assert store.finished_chunks(load_campaign(data), out) == {0}  # nothing was added
+    del manifest["code"]  # a folder written before the fingerprint existed
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(CampaignError, match="before the code fingerprint was recorded"):
+        store.prepare_folder(load_campaign(data), out)
+    monkeypatch.undo()
+    manifest["code"] = store.code_fingerprint()  # the same code resumes
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    done = run_campaign(load_campaign(data), out, progress=False, summary=False)
+    assert done.complete and done.runs_resumed == 1

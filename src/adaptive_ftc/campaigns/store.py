@@ -13,6 +13,8 @@ complete: an interruption at any moment loses at most the chunks in flight.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import json
 import os
 import re
@@ -29,6 +31,7 @@ from adaptive_ftc.campaigns.spec import CampaignError, CampaignSpec
 __all__ = [
     "OUTCOME_COLUMNS",
     "check_manifest",
+    "code_fingerprint",
     "column_units",
     "finished_chunks",
     "prepare_folder",
@@ -285,6 +288,20 @@ def part_path(out: Path, chunk: int) -> Path:
     return Path(out) / "parts" / f"part-{chunk:05d}.parquet"
 
 
+@functools.cache
+def code_fingerprint() -> str:
+    """SHA-256 over the package's own source and data files (``*.py``, ``*.toml``, sorted by
+    path): the version string does not change while the code does (a development checkout,
+    an edited install), and a resumed campaign must not mix rows of two codes."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*")):
+        if path.suffix in (".py", ".toml") and "__pycache__" not in path.parts:
+            h.update(path.relative_to(root).as_posix().encode() + b"\0")
+            h.update(path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
     """Create ``out`` for ``spec`` or check that it holds the same campaign (to resume).
 
@@ -316,6 +333,20 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
                 f"('{old.get('name', '?')}'). Use another --out folder, or delete '{out}' to "
                 "start again."
             )
+        written_code = old.get("code")
+        if written_code != code_fingerprint():
+            what = (
+                "before the code fingerprint was recorded"
+                if written_code is None
+                else "by other library code"
+            )
+            raise CampaignError(
+                f"'{out}' holds results written {what} (same version "
+                f"{_version.__version__}, different source files of adaptive_ftc). Resuming "
+                "would mix the results of two codes in one table. Delete "
+                f"'{out}' (or choose another --out folder) to run the campaign again with this "
+                "code."
+            )
         remove_stale_temporaries(out)
         return out
     if out.is_dir():
@@ -333,6 +364,7 @@ def prepare_folder(spec: CampaignSpec, out: str | Path) -> Path:
             "name": spec.name,
             "version": _version.__version__,
             "digest": spec.digest(),
+            "code": code_fingerprint(),
             "runs": spec.runs,
             "designs": list(spec.designs),
             "chunk_size": spec.chunk_size,
