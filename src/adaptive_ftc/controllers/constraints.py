@@ -742,6 +742,16 @@ class ConstraintAware:
         to C with the plant's equations and parameters, ``export_c``). False: none (nor a
         plant model in the exported controller: a plant ``export_c`` cannot translate). Not a
         constraint.
+    per_actuator
+        (session 13) The command filter is shaped by each actuator's own limits: with a travel
+        limit (and a rate limit that is not tight), ``u0`` is bounded by the least-allocated
+        actuator's travel and each actuator's command is clipped to its own travel after the
+        allocation (``Configuration.actuator_travel``, :func:`emit`); a digital law's filter
+        is a discrete limiter (:attr:`discrete_limiter`). ``None`` (default): filled by
+        :meth:`AdaptiveController.bound`, true for a single-output design with a fixed
+        allocation (no allocator) and limits, but where the placed feedback is
+        (:meth:`fast_unstable`: the wing rock's loop was sized with the common filter). Not a
+        constraint.
 
     Examples
     --------
@@ -771,7 +781,7 @@ class ConstraintAware:
     floor_delay: float | None = None
     open_loop: tuple[float, float] | None = None
     model_feedforward: bool = True
-    sampled_limiter: bool | None = None
+    per_actuator: bool | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -804,10 +814,10 @@ class ConstraintAware:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
         if self.floor_delay is not None:
             _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
-        if self.sampled_limiter is not None and not isinstance(self.sampled_limiter, bool):
+        if self.per_actuator is not None and not isinstance(self.per_actuator, bool):
             raise ConfigurationError(
-                "`sampled_limiter` of ConstraintAware must be true, false or left unset; got "
-                f"{self.sampled_limiter!r}."
+                "`per_actuator` of ConstraintAware must be true, false or left unset; got "
+                f"{self.per_actuator!r}."
             )
         if not isinstance(self.model_feedforward, bool):
             raise ConfigurationError(
@@ -1013,14 +1023,12 @@ class ConstraintAware:
     @property
     def discrete_limiter(self) -> bool:
         """The law's command filter is a discrete limiter (session 13): a digital law with
-        rate or travel limits whose model says so (``sampled_limiter``, which
-        :meth:`AdaptiveController.bound` sets for single-output designs without the placed
-        feedback) runs its command filter at ``C_EULER / T`` and hands on its value after
+        rate or travel limits whose model says so (:attr:`per_actuator`) runs its command filter at ``C_EULER / T`` and hands on its value after
         the sample's step (``u0 = uf + T uf'``, ``Configuration.step``): each sample's
         command is the law's, clipped to the travel and moved by at most ``T`` times the
         rate. Its forward-Euler pole is 0, so it adds no lag to the loop (the filter at
         ``min(C_FILTER w, 1/lag, C_EULER / T)`` added the actuator's lag once more)."""
-        return bool(self.sampled_limiter) and self.sample_time > 0 and self.limited
+        return bool(self.per_actuator) and self.sample_time > 0 and self.limited
 
     def configure(
         self,
@@ -1074,6 +1082,13 @@ class ConstraintAware:
         # the loop rate runs into it)
         rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
         rate_tight = rate_bound < C_TIGHT * w
+        # a travel limit on the common filter of a per-actuator model: each actuator clipped
+        # to its own travel after the allocation, u0 bounded by the least-allocated one's
+        # (constraints.emit): the hedge then sees only what no actuator can deliver (lam
+        # stays the limited loop's: raised as for a loop without limits, C_LAM, the
+        # hypersonic-hardware campaign's first 100 members lost 45, their commands carrying
+        # the noise of s that lam multiplies)
+        own_travel = bool(self.per_actuator) and math.isfinite(self.travel) and not rate_tight
         if rmin < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
             # a tight rate limit, or a travel limit
@@ -1108,11 +1123,7 @@ class ConstraintAware:
         # (single-output designs without an allocator; constraints.emit), hedged by what they
         # deliver
         actuator_rate = C_MARGIN * self.rate if limited and rate_tight else math.inf
-        # a travel limit on the common filter: each actuator clipped to its own travel after
-        # the allocation, u0 bounded by the least-allocated one's (constraints.emit)
-        actuator_travel = math.inf
-        if math.isfinite(self.travel) and not math.isfinite(actuator_rate):
-            actuator_travel = C_MARGIN * self.travel
+        actuator_travel = C_MARGIN * self.travel if own_travel else math.inf
         hedge = self.input_gain if self.input_gain is not None else float(input_gain)
         hedge = hedge if limited else 0.0
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
