@@ -1023,11 +1023,17 @@ class ConstraintAware:
     @property
     def discrete_limiter(self) -> bool:
         """The law's command filter is a discrete limiter (session 13): a digital law with
-        rate or travel limits whose model says so (:attr:`per_actuator`) runs its command filter at ``C_EULER / T`` and hands on its value after
-        the sample's step (``u0 = uf + T uf'``, ``Configuration.step``): each sample's
-        command is the law's, clipped to the travel and moved by at most ``T`` times the
-        rate. Its forward-Euler pole is 0, so it adds no lag to the loop (the filter at
-        ``min(C_FILTER w, 1/lag, C_EULER / T)`` added the actuator's lag once more)."""
+        rate or travel limits whose model says so (:attr:`per_actuator`) runs its command
+        filter at ``C_EULER / T`` and hands on its value after the sample's step (``u0 = uf
+        + T uf'``, ``Configuration.step``): each sample's command is the law's, clipped to
+        the travel and moved by at most ``T`` times the rate. Its forward-Euler pole is 0,
+        so it adds no lag to the loop, and the delay budget counts none: ``w (lag + T/2 +
+        tau_d) <= C_DELAY_LIMITED``. The filter at ``min(C_FILTER w, 1/lag, C_EULER / T)``
+        added the actuator's lag once more (issue 25's second combination: ``w`` = 5.4
+        against 8.75 1/s; forced to 7-8 1/s with that filter, the loop limit-cycled at the
+        rate limit before any failure, 6.5-8e-3 rad over 30-40 s, against 1.6-2.1e-4 with
+        the discrete limiter; at 12.5 1/s, a budget of 1.0, it limit-cycles too: 4.8e-3).
+        """
         return bool(self.per_actuator) and self.sample_time > 0 and self.limited
 
     def configure(
