@@ -66,7 +66,13 @@ design, not another design) it derives, by the rules below, one configuration
    less: the one left when the most-allocated actuator is lost), and the compensated error
    hedges what they deliver together, ``u0_reachable = sum_j G_j (u_j + u_j'/w_f) / sum_j
    G_j R_j`` with ``G_j`` the plant's nominal input gains at ``t0`` (pseudo-control hedging
-   with an actuator model, Johnson & Calise 2003).
+   with an actuator model, Johnson & Calise 2003). Session 13 (round 7), for a single-output
+   design with a fixed allocation and no placed feedback (:attr:`ConstraintAware.per_actuator`):
+   with a travel limit (the rate not tight) ``U`` is the least-allocated actuator's travel
+   and each actuator's command is clipped to its own after the allocation
+   (:func:`_travel_bound`), and a digital law's filter is a discrete limiter (at ``C_EULER /
+   T``, its value after the sample's step: no lag of its own in the delay budget,
+   :attr:`ConstraintAware.discrete_limiter`).
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
