@@ -227,6 +227,17 @@ class AdaptiveController(ABC):
                 updates["loop_gain"] = gain
             if ca.min_loop_gain is None and least > 0:
                 updates["min_loop_gain"] = least
+        if ca.per_actuator is None:
+            # a single-output law with a fixed allocation shapes its command filter by each
+            # actuator's own limits (session 13, ConstraintAware.per_actuator), but where the
+            # placed feedback is (the wing rock: its loop was sized with the filter it has)
+            done = replace(ca, **updates)
+            updates["per_actuator"] = bool(
+                self.single_output
+                and loop.allocator is None
+                and done.limited
+                and not done.fast_unstable(float(done.b_max or 1.0))
+            )
         return replace(self, constraint_aware=replace(ca, **updates))
 
     @staticmethod

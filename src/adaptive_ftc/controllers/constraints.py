@@ -66,7 +66,13 @@ design, not another design) it derives, by the rules below, one configuration
    less: the one left when the most-allocated actuator is lost), and the compensated error
    hedges what they deliver together, ``u0_reachable = sum_j G_j (u_j + u_j'/w_f) / sum_j
    G_j R_j`` with ``G_j`` the plant's nominal input gains at ``t0`` (pseudo-control hedging
-   with an actuator model, Johnson & Calise 2003).
+   with an actuator model, Johnson & Calise 2003). Session 13 (round 7), for a single-output
+   design with a fixed allocation and no placed feedback (:attr:`ConstraintAware.per_actuator`):
+   with a travel limit (the rate not tight) ``U`` is the least-allocated actuator's travel
+   and each actuator's command is clipped to its own after the allocation
+   (:func:`_travel_bound`), and a digital law's filter is a discrete limiter (at ``C_EULER /
+   T``, its value after the sample's step: no lag of its own in the delay budget,
+   :attr:`ConstraintAware.discrete_limiter`).
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
@@ -588,6 +594,13 @@ class Configuration(NamedTuple):
     #: :meth:`MimoDirectAdaptive.floor_configuration`); ``-1`` = none, else the lead (s) that
     #: the reference is read ahead by
     feedforward: float = -1.0
+    #: (session 13) the travel bound of each actuator's command after the allocation (inf =
+    #: none): where finite, a single-output design without an allocator or a fixed feedback
+    #: bounds its common command ``u0`` by the *least*-allocated actuator's travel,
+    #: ``actuator_travel / min |R_j|``, and clips each actuator's command to
+    #: ``actuator_travel`` after the allocation (:func:`emit`): the compensated error then
+    #: hedges only the command no actuator can deliver
+    actuator_travel: float = math.inf
 
     @property
     def filtered(self) -> bool:
@@ -735,6 +748,16 @@ class ConstraintAware:
         to C with the plant's equations and parameters, ``export_c``). False: none (nor a
         plant model in the exported controller: a plant ``export_c`` cannot translate). Not a
         constraint.
+    per_actuator
+        (session 13) The command filter is shaped by each actuator's own limits: with a travel
+        limit (and a rate limit that is not tight), ``u0`` is bounded by the least-allocated
+        actuator's travel and each actuator's command is clipped to its own travel after the
+        allocation (``Configuration.actuator_travel``, :func:`emit`); a digital law's filter
+        is a discrete limiter (:attr:`discrete_limiter`). ``None`` (default): filled by
+        :meth:`AdaptiveController.bound`, true for a single-output design with a fixed
+        allocation (no allocator) and limits, but where the placed feedback is
+        (:meth:`fast_unstable`: the wing rock's loop was sized with the common filter). Not a
+        constraint.
 
     Examples
     --------
@@ -764,6 +787,7 @@ class ConstraintAware:
     floor_delay: float | None = None
     open_loop: tuple[float, float] | None = None
     model_feedforward: bool = True
+    per_actuator: bool | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -796,6 +820,11 @@ class ConstraintAware:
             _number(owner, "unstable_rate", self.unstable_rate, allow_inf=False)
         if self.floor_delay is not None:
             _number(owner, "floor_delay", self.floor_delay, allow_inf=False, positive=True)
+        if self.per_actuator is not None and not isinstance(self.per_actuator, bool):
+            raise ConfigurationError(
+                "`per_actuator` of ConstraintAware must be true, false or left unset; got "
+                f"{self.per_actuator!r}."
+            )
         if not isinstance(self.model_feedforward, bool):
             raise ConfigurationError(
                 "`model_feedforward` of ConstraintAware must be true or false; got "
@@ -921,7 +950,12 @@ class ConstraintAware:
                 w = min(w, C_FLOOR_SAMPLE / self.sample_time)
         elif delay > 0 and not self.limited:
             w = min(w, C_DELAY / delay)
-        if self.limited and self.floor_delay is None:
+        if self.limited and self.floor_delay is None and self.discrete_limiter:
+            # a digital command filter that is a discrete limiter (``discrete_limiter``) adds
+            # no lag of its own: the loop's lags alone against the limited budget
+            if delay > 0:
+                w = min(w, C_DELAY_LIMITED / delay)
+        elif self.limited and self.floor_delay is None:
             lag_f = max(self.lag, self.sample_time / C_EULER)
             if delay + lag_f > 0:
                 w = min(w, C_DELAY_LIMITED / (delay + lag_f))
@@ -992,6 +1026,22 @@ class ConstraintAware:
         """A rate or travel limit is declared (the law's command is filtered)."""
         return math.isfinite(self.rate) or math.isfinite(self.travel)
 
+    @property
+    def discrete_limiter(self) -> bool:
+        """The law's command filter is a discrete limiter (session 13): a digital law with
+        rate or travel limits whose model says so (:attr:`per_actuator`) runs its command
+        filter at ``C_EULER / T`` and hands on its value after the sample's step (``u0 = uf
+        + T uf'``, ``Configuration.step``): each sample's command is the law's, clipped to
+        the travel and moved by at most ``T`` times the rate. Its forward-Euler pole is 0,
+        so it adds no lag to the loop, and the delay budget counts none: ``w (lag + T/2 +
+        tau_d) <= C_DELAY_LIMITED``. The filter at ``min(C_FILTER w, 1/lag, C_EULER / T)``
+        added the actuator's lag once more (issue 25's second combination: ``w`` = 5.4
+        against 8.75 1/s; forced to 7-8 1/s with that filter, the loop limit-cycled at the
+        rate limit before any failure, 6.5-8e-3 rad over 30-40 s, against 1.6-2.1e-4 with
+        the discrete limiter; at 12.5 1/s, a budget of 1.0, it limit-cycles too: 4.8e-3).
+        """
+        return bool(self.per_actuator) and self.sample_time > 0 and self.limited
+
     def configure(
         self,
         *,
@@ -1044,6 +1094,13 @@ class ConstraintAware:
         # the loop rate runs into it)
         rate_bound = C_MARGIN * self.rate / max(abs(b_max), 1e-300) / A_RATE
         rate_tight = rate_bound < C_TIGHT * w
+        # a travel limit on the common filter of a per-actuator model: each actuator clipped
+        # to its own travel after the allocation, u0 bounded by the least-allocated one's
+        # (constraints.emit): the hedge then sees only what no actuator can deliver (lam
+        # stays the limited loop's: raised as for a loop without limits, C_LAM, the
+        # hypersonic-hardware campaign's first 100 members lost 45, their commands carrying
+        # the noise of s that lam multiplies)
+        own_travel = bool(self.per_actuator) and math.isfinite(self.travel) and not rate_tight
         if rmin < 1.0:
             top = LAM_FACTOR_NOISE if noisy else LAM_FACTOR_MAX
             # a tight rate limit, or a travel limit
@@ -1060,6 +1117,8 @@ class ConstraintAware:
                 omega_f = min(omega_f, 1.0 / self.lag)
             if self.sample_time > 0:
                 omega_f = min(omega_f, C_EULER / self.sample_time)
+            if self.discrete_limiter:
+                omega_f = C_EULER / self.sample_time
         omega_q = omega_m = math.inf
         if noisy:
             omega_q = C_PREFILTER_NOISE * w
@@ -1076,6 +1135,7 @@ class ConstraintAware:
         # (single-output designs without an allocator; constraints.emit), hedged by what they
         # deliver
         actuator_rate = C_MARGIN * self.rate if limited and rate_tight else math.inf
+        actuator_travel = C_MARGIN * self.travel if own_travel else math.inf
         hedge = self.input_gain if self.input_gain is not None else float(input_gain)
         hedge = hedge if limited else 0.0
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
@@ -1103,6 +1163,8 @@ class ConstraintAware:
             feedback_i=feedback_i,
             feedback_lead=lead if feedback or feedback_e else (),
             actuator_rate=actuator_rate,
+            step=float(self.sample_time) if self.discrete_limiter else 0.0,
+            actuator_travel=actuator_travel,
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -1410,6 +1472,35 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     return lines
 
 
+def _travel_bound(cfg: Configuration, g) -> float | None:
+    """The common command's travel bound where each actuator is clipped to its own travel
+    after the allocation (``Configuration.actuator_travel``): ``actuator_travel / min |R_j|``
+    over the allocated actuators, the command at which the last of them reaches its travel;
+    ``None`` where the rule does not apply (several outputs, an allocator, a fixed feedback
+    after the filter, the per-actuator filters of a tight rate limit, no travel).
+
+    Why (session 13, issue 25's combination 2 on hypersonic-direct-s1: travel +-0.5 rad,
+    allocation (1, 2)): the common filter bounded ``u0`` by the *most*-allocated actuator's
+    travel, ``0.9 x 0.5 / 2`` = 0.225 rad, so that no actuator is ever commanded past its
+    travel; after elevator 2 stuck at 40 s and elevator 1's 80 s bias (-0.2 rad at 75 %)
+    elevator 1, alone, needed 0.27 rad and was held at 0.225 (half its travel): the loop
+    diverged at 82.4 s. With the bound at the least-allocated actuator's travel (0.45 rad)
+    and every actuator clipped to its own, the hedge sees only what no actuator can deliver
+    (hedging each actuator's clipping, the stuck elevator's included, diverged at 83.4 s:
+    the law cannot know that elevator 2's command drives nothing)."""
+    if not (math.isfinite(cfg.actuator_travel) and cfg.filtered and g.p == 1):
+        return None
+    if g.loop.allocator is not None or cfg.feedback != 0 or cfg.feedback_e != 0:
+        return None
+    if math.isfinite(cfg.actuator_rate):
+        return None
+    R = np.abs(np.ravel(np.asarray(g.loop.R, dtype=float)))
+    R = R[R > 0]
+    if R.size == 0:
+        return None
+    return float(cfg.actuator_travel / R.min())
+
+
 def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction: str = ""):
     """Generated lines of the constraint-aware parts: ``(after u0, before the adaptive laws,
     after the adaptive laws, the measurements the law sees)``. The numbers go to ``D.c``
@@ -1423,6 +1514,9 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     gain the hedging filter assumes (``""``: positive, the loop's nominal ``|d s'/d u0|``;
     §4.4, whose direction is unknown: the sign of its estimate ``rho``)."""
     p, nx = g.p, g.nx
+    travel_u0 = _travel_bound(cfg, g)
+    if travel_u0 is not None:  # each actuator clipped to its own travel after the allocation
+        cfg = cfg._replace(u_max=travel_u0)
     c0 = len(g.consts)
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
@@ -1515,6 +1609,10 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_a} + jj] = min(max({wf} * (tj - Y[{at_a} + jj]), -{ar}), {ar})",
         ]
         g.allocate_lines = [f"        acc = Y[{at_a} + j]  # constraint-aware: its own filter"]
+    if travel_u0 is not None:
+        g.consts.append(cfg.actuator_travel)
+        tr = f"c[{len(g.consts) - 1}]"
+        g.allocate_lines = [f"        acc = min(max(acc, -{tr}), {tr})  # its own travel"]
     if cfg.feedback != 0 or cfg.feedback_e != 0:  # fixed feedback on the measured errors
         g.consts.extend([cfg.feedback, cfg.feedback_e])
         fd, fe = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
