@@ -435,6 +435,24 @@ FEEDBACK_KI_EXTEND = 2
 FEEDBACK_KI_SWING = 2.0
 
 
+#: (session 13, round 8) where each actuator is clipped to its own travel behind a discrete
+#: limiter (:attr:`ConstraintAware.discrete_limiter`, the travel per actuator), the law's
+#: filtered error carries the tracking error's integral, ``s = e' + lam e + k_I int e_c``
+#: with ``k_I = (C_INTEGRAL w_max)^2`` (:attr:`Configuration.error_integral`; an integral
+#: sliding surface, Slotine & Li 1991, §7.1.3): the loop gain below ``C_INTEGRAL w_max``
+#: rises by about ``k_I / (lam w)`` at a disturbance of frequency ``w``, without a higher
+#: loop rate (the delay budget caps it) and without more gain on the measured ``e`` (its
+#: noise) at the loop rate. Why (issue 25's second combination, hypersonic-direct-s1: the
+#: stuck elevator's 0.5 rad/s pattern, which the law's state-dependent basis cannot learn,
+#: was rejected by loop gain alone, 3.0e-3 rad against 8.7e-4). Measured there (``w`` =
+#: 8.75, so ``k_I`` = 4.8; final-window error in rad): 0.2 (``k_I`` = 3.1) 1.2e-3, 0.25
+#: 7.2e-4 (noise seed 1: 7.4e-4), 0.256 (5.0) 6.8e-4, 0.28 (6.0) 1.6e-3, 0.32 (8.0) lost
+#: (0.17 rad): above it the lightly damped mode that every failure leaves near 4-6 rad/s
+#: (the input gain falls to a quarter of the healthy one) loses its damping. With ``lam``
+#: lowered to 1 beside it (less noise): 8.4e-4 (``k_I`` 4) to 8.2e-4 (5), diverged at 6.
+C_INTEGRAL = 0.25
+
+
 #: the placed feedback's lead (issue 25, wing rock, session 12): the PID's output passes
 #: ``(lag s + 1) / (tau s + 1)`` (a state per output), which cancels the declared actuator
 #: lag down to ``tau = max(lag / LEAD_MAX, LEAD_SAMPLE T)``, and the gains are placed behind
@@ -601,6 +619,18 @@ class Configuration(NamedTuple):
     #: ``actuator_travel`` after the allocation (:func:`emit`): the compensated error then
     #: hedges only the command no actuator can deliver
     actuator_travel: float = math.inf
+    #: (session 13, round 8) the gain ``k_I`` (1/s^2) of the integral of the tracking error in
+    #: the law's filtered error, ``s = e' + lam e + k_I int e_c`` (0 = none; a state per
+    #: output): an integral sliding surface (Slotine & Li 1991, §7.1.3), which raises the
+    #: loop gain below ``sqrt(k_I)`` without raising the gain on the measured ``e`` (its
+    #: noise) at the loop rate; ``e_c = e - xi / lam`` with the compensated error's ``xi``
+    #: where the command is hedged (the integral does not wind up on the limits)
+    error_integral: float = 0.0
+    #: (session 13, round 8) a lead ``(lag s + 1) / (tau s + 1)`` on the law's command before
+    #: the command filter, ``(lag, tau)`` (``()`` = none; a state per output): it cancels the
+    #: declared actuator lag down to ``tau`` (a model-based lag compensation), so the delay
+    #: budget counts ``tau`` instead of ``lag``
+    command_lead: tuple = ()
 
     @property
     def filtered(self) -> bool:
@@ -1141,6 +1171,11 @@ class ConstraintAware:
         # anti-windup: the compensated error where the loop's input gain is known (it keeps
         # the undelivered command out of the adaptation); back-calculation otherwise
         k_aw = C_AW * omega_f if limited and math.isfinite(omega_f) and hedge == 0 else 0.0
+        # the integral sliding surface where each actuator is clipped to its own travel behind
+        # a discrete limiter (C_INTEGRAL; an adaptive law's, not a baseline's)
+        error_integral = 0.0
+        if own_travel and self.discrete_limiter and adaptive:
+            error_integral = (C_INTEGRAL * w) ** 2
         lead: tuple[float, ...] = ()
         if placed is not None and self.feedback is None and self.lead_lag < self.lag:
             lead = (float(self.lag), self.lead_lag)
@@ -1165,6 +1200,7 @@ class ConstraintAware:
             actuator_rate=actuator_rate,
             step=float(self.sample_time) if self.discrete_limiter else 0.0,
             actuator_travel=actuator_travel,
+            error_integral=error_integral,
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -1541,6 +1577,12 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_a = end
     if weights is not None:
         end += g.m
+    at_z = end
+    if cfg.error_integral != 0 and single_output:
+        end += p
+    at_c = end
+    if cfg.command_lead and single_output:
+        end += p
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1555,6 +1597,10 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"feedback_lead{i + 1}" for i in range(p)]
     if weights is not None:
         g.adaptive_names += [f"actuator_filter{j + 1}" for j in range(g.m)]
+    if at_c > at_z:
+        g.adaptive_names += [f"error_integral{i + 1}" for i in range(p)]
+    if end > at_c:
+        g.adaptive_names += [f"command_lead{i + 1}" for i in range(p)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -1576,6 +1622,16 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)
+    if end > at_c:  # (lag s + 1) / (tau s + 1) on the law's command: out = r u0c - (r - 1) z
+        lag_c, tau_c = cfg.command_lead
+        g.consts.extend([lag_c / tau_c, tau_c])
+        cr, ct = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
+        control.append("    # constraint-aware: the law's command through the lead")
+        for i in range(p):
+            control += [
+                f"    dY[{at_c + i}] = (u0[{i}] - Y[{at_c + i}]) / {ct}",
+                f"    u0[{i}] = {cr} * u0[{i}] - ({cr} - 1.0) * Y[{at_c + i}]",
+            ]
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
@@ -1641,6 +1697,18 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                 ]
     if not cfg.feedback_filtered:  # the MIMO floor after the command filter
         control += _floor_lines(cfg, g, nx, p)
+    if at_c > at_z:  # the integral sliding surface s = e' + lam e + k_I int e_c
+        g.consts.append(cfg.error_integral)
+        ki = f"c[{len(g.consts) - 1}]"
+        control.append("    # constraint-aware: the law's filtered error with the error's integral")
+        for i in range(p):
+            ec = f"sig[{nx + i}]"
+            if hedged:  # the compensated tracking error: no windup on the limits
+                ec += f" - Y[{at_h + i}] / c[LAM + {i}]"
+            control += [
+                f"    dY[{at_z + i}] = {ec}",
+                f"    sig[{nx + 2 * p + i}] += {ki} * Y[{at_z + i}]",
+            ]
     if hedged:  # compensated error (Farrell et al. 2009)
         g.use("hedged_q", hedged_q)
         pre.append("    # constraint-aware: the laws see the compensated error s - xi")
