@@ -1004,6 +1004,15 @@ class ConstraintAware:
                 return C_NOISE / self.noise, True
         return w, False
 
+    def delay_bound(self, w: float) -> bool:
+        """The loop rate ``w`` is the one the delay budget of a discrete limiter admits,
+        ``C_DELAY_LIMITED / (lag + T/2 + tau_d)`` (no other bound of the rule is lower: not
+        the noise's, not the cap's)."""
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        if not (self.discrete_limiter and delay > 0 and self.bandwidth is None):
+            return False
+        return w >= C_DELAY_LIMITED / delay * (1.0 - 1e-9)
+
     def floor_prefiltered_rate(self, w_hw: float) -> float:
         """The loop rate (1/s) a loop with a floor (``floor_delay`` set) admits when it sees
         its measurements through a first-order prefilter at ``C_FLOOR_MEASURE w`` (at most
@@ -1174,7 +1183,7 @@ class ConstraintAware:
         # the integral sliding surface where each actuator is clipped to its own travel behind
         # a discrete limiter (C_INTEGRAL; an adaptive law's, not a baseline's)
         error_integral = 0.0
-        if own_travel and self.discrete_limiter and adaptive:
+        if own_travel and self.discrete_limiter and adaptive and self.delay_bound(w):
             error_integral = (C_INTEGRAL * w) ** 2
         lead: tuple[float, ...] = ()
         if placed is not None and self.feedback is None and self.lead_lag < self.lag:
