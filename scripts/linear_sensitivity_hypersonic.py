@@ -1,0 +1,99 @@
+"""The sensitivity of the constraint-aware §2.3 loop at the stuck elevator's frequency (issue 25,
+the second hardware combination; docs/hardware.md, "Round 8 (combination 2)").
+
+The law's linear band on hypersonic-direct-s1: ``u0 = (g/b) (s_f + K int s)`` with the filtered
+error ``s = e' + lam e + k_I int e`` (``k_I``: ``Configuration.error_integral``, the integral
+sliding surface of round 8; 0 before), ``s_f`` its ``s'`` estimate's first-order lag
+``tau_d``; the plant linearised at ``t0``, ``y'' = a y + c y' + beta b u0``
+(``AdaptiveController.open_loop_rows``), behind the actuator's lag and half a sample of hold
+(exact delay). ``beta`` is the input gain left by the failures over the healthy one: 1 before
+40 s, 1/3 with elevator 2 stuck, 1/4 after elevator 1's 80 s failure (75 % of its gain; the
+final window's loop). The stuck elevator's pattern ``0.05 cos(0.5 t) - 0.08 sin(0.5 t)`` is an
+input disturbance at 0.5 rad/s; the final window's error at that frequency is ``|S(j0.5)|``
+times the open loop's response to it.
+
+    PYTHONPATH=src python scripts/linear_sensitivity_hypersonic.py
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: the stuck elevator's pattern's frequency (rad/s) and amplitude (rad)
+W_PATTERN = 0.5
+A_PATTERN = math.hypot(0.05, 0.08)
+
+
+def loop_gain(w, *, g, K, lam, k_i, beta, a, c, lag, T, tau_d):
+    """``L(jw)``: the law's linear band times the linearised plant per unit input gain."""
+    p = 1j * np.asarray(w, dtype=float)
+    plant = 1.0 / (p * p - c * p - a)
+    act = np.exp(-p * T / 2.0) / (lag * p + 1.0)
+    s = p + lam + k_i / p
+    law = g * (s / (tau_d * p + 1.0) + K * s / p)
+    return beta * plant * act * law
+
+
+def sensitivity(w, **kw) -> float:
+    """``|S(jw)| = 1 / |1 + L(jw)|``."""
+    return float(1.0 / abs(1.0 + loop_gain(w, **kw)))
+
+
+def combination_2(k_i: float | None = None) -> dict:
+    """The loop's numbers on hypersonic-direct-s1 under the second combination (the law's
+    configuration as compiled; ``k_i``: the error integral, the rule's when ``None``)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from hardware_cases import HYPERSONIC_CASES, case_loop, constraint_aware
+
+    from adaptive_ftc.scenarios.loader import load_scenario
+
+    sc = load_scenario("hypersonic-direct-s1")
+    case = HYPERSONIC_CASES[-1]
+    loop, solver = case_loop(sc, case)
+    loop = constraint_aware(loop, solver)
+    design = loop.controller.bound(loop)
+    ca = design.constraint_aware
+    cfg = design.configuration()
+    lam, k, k0, eps0 = design.robust_settings()
+    g = float(ca.loop_gain) * cfg.scale
+    a, c = ca.open_loop
+    return {
+        "g": g,
+        "K": float(k) + float(k0) / float(eps0),
+        "lam": float(lam),
+        "k_i": cfg.error_integral if k_i is None else float(k_i),
+        "a": float(a),
+        "c": float(c),
+        "lag": case.lag,
+        "T": 1.0 / case.hz,
+        "tau_d": float(ca.s_lag),
+        "b": float(ca.input_gain),
+        "g2": float(ca.input_gain) / 3.0,  # elevator 2's input gain (allocation (1, 2))
+    }
+
+
+def main() -> int:
+    print("| k_I | beta | |S(j0.5)| | predicted amplitude at 0.5 rad/s (rad) |")
+    print("|---|---|---|---|")
+    rows = {}
+    for label, k_i in (("before (k_I = 0)", 0.0), ("round 8", None)):
+        nums = combination_2(k_i)
+        kw = {k: nums[k] for k in ("g", "K", "lam", "k_i", "a", "c", "lag", "T", "tau_d")}
+        plant = abs(1.0 / ((1j * W_PATTERN) ** 2 - nums["c"] * 1j * W_PATTERN - nums["a"]))
+        for beta in (1.0, 1.0 / 3.0, 0.25):
+            sv = sensitivity(W_PATTERN, beta=beta, **kw)
+            amp = sv * nums["g2"] * A_PATTERN * plant
+            rows[(label, beta)] = sv
+            print(f"| {label}: {kw['k_i']:.3g} | {beta:.3g} | {sv:.3e} | {amp:.2e} |")
+    ratio = rows[("before (k_I = 0)", 0.25)] / rows[("round 8", 0.25)]
+    print(f"\n|S(j0.5)| falls {ratio:.2f}x in the final window's loop (beta = 1/4)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
