@@ -1,0 +1,107 @@
+"""Campaign throughput (issue 29, session 13): what a campaign's members share is found or
+allocated once, with the same numbers as computed afresh for each member.
+
+- the facts of a record grid (``reduce.grid_spacing``, ``reduce.nondecreasing``) are
+  remembered per grid, bit for bit, and follow an array whose times change;
+- a lane group's per-record rows (record times, phases) come from the pool of
+  ``sim/blocks.py``, zeroed, instead of fresh pages each group.
+"""
+
+from __future__ import annotations
+
+import gc
+
+import numpy as np
+import pytest
+
+from adaptive_ftc.sim import blocks, reduce
+from adaptive_ftc.sim.engine import _record_times
+
+
+@pytest.fixture
+def fresh_memo():
+    with reduce._memo_lock:
+        saved_memo, saved_seen = list(reduce._memo), dict(reduce._seen)
+        reduce._memo.clear()
+        reduce._seen.clear()
+    yield
+    with reduce._memo_lock:
+        reduce._memo[:] = saved_memo
+        reduce._seen.clear()
+        reduce._seen.update(saved_seen)
+
+
+def _counting(monkeypatch, name):
+    calls = []
+    kernel = getattr(reduce, name)
+
+    def counted(t):
+        calls.append(t.size)
+        return kernel(t)
+
+    monkeypatch.setattr(reduce, name, counted)
+    return calls
+
+
+def test_a_shared_grid_is_reduced_once_with_the_same_facts(fresh_memo, monkeypatch):
+    grid = _record_times(0.0, 120.0, 1e-3)  # a campaign member's record times
+    truth = reduce._grid_spacing(grid.copy())
+    assert truth[0] == 0  # uniform: the common case
+    spacing = _counting(monkeypatch, "_grid_spacing")
+    order = _counting(monkeypatch, "_nondecreasing")
+    for _ in range(5):  # five members: each result holds its own copy of the times
+        t = grid.copy()
+        kind, dt = reduce.grid_spacing(t)
+        assert (kind, dt) == (int(truth[0]), float(truth[1]))
+        assert np.float64(dt).tobytes() == np.float64(truth[1]).tobytes()
+        assert reduce.nondecreasing(t) is True
+    # found at most on the first two sightings (the second remembers the grid), then never
+    assert 1 <= len(spacing) <= 2
+    assert 1 <= len(order) <= 2
+
+
+def test_the_facts_follow_the_times_not_the_array(fresh_memo):
+    grid = _record_times(0.0, 60.0, 1e-3)
+    for _ in range(3):
+        assert reduce.grid_spacing(grid) == (0, reduce.grid_spacing(grid.copy())[1])
+    # the same array changed in place: its facts are found again, not the remembered ones
+    grid[100] += 0.5e-3
+    kind, dt = reduce._grid_spacing(grid.copy())
+    assert kind == 2
+    assert reduce.grid_spacing(grid) == (2, float(dt))
+    grid[200] = grid[199] - 1.0  # decreasing
+    assert reduce.nondecreasing(grid) is False
+    assert reduce.nondecreasing(grid.copy()) is False
+
+
+def test_a_diverged_members_shorter_grid_is_not_kept(fresh_memo, monkeypatch):
+    grid = _record_times(0.0, 120.0, 1e-3)
+    kernel = reduce._grid_spacing
+    spacing = _counting(monkeypatch, "_grid_spacing")
+    for cut in (50_000, 61_234, 99_999):  # runs that stopped at different records
+        t = grid[:cut].copy()
+        kind, dt = kernel(t.copy())
+        assert reduce.grid_spacing(t) == (int(kind), float(dt))
+    assert len(spacing) == 3
+    assert not reduce._memo  # each seen once: nothing remembered
+    short = grid[:100].copy()  # below MEMO_MIN_ROWS: never remembered
+    for _ in range(3):
+        reduce.grid_spacing(short)
+    assert not reduce._memo
+
+
+def test_lane_group_rows_come_zeroed_from_the_pool():
+    from adaptive_ftc.sim.lanes import _run_outputs, _zeros
+
+    before = blocks.pooled_bytes()
+    a = _zeros((8, 120_001))
+    a[:] = 7.0
+    nbytes = a.nbytes
+    del a
+    gc.collect()
+    assert blocks.pooled_bytes() >= before + nbytes  # given back to the pool, not freed
+    b = _zeros((8, 120_001))  # the same block again: zeros, not the 7s left in it
+    assert b.dtype == np.float64 and b.shape == (8, 120_001)
+    assert not b.any()
+    phases = _run_outputs(8, 120_001)[0]
+    assert phases.dtype == np.int64 and not phases.any()
