@@ -105,3 +105,19 @@ def test_lane_group_rows_come_zeroed_from_the_pool():
     assert not b.any()
     phases = _run_outputs(8, 120_001)[0]
     assert phases.dtype == np.int64 and not phases.any()
+
+
+@pytest.mark.parametrize(
+    ("t0", "t1", "dt"),
+    [(0.0, 120.0, 1e-3), (0.0, 120.0, 0.01), (-3.7, 41.3, 1e-3), (2.5, 7.0, 0.3), (0.0, 1.0, 0.1)],
+)
+def test_record_times_are_the_grid_t0_plus_k_dt(t0, t1, dt):
+    import math
+
+    t = _record_times(t0, t1, dt)
+    n = int(math.floor((t1 - t0) / dt + 1e-9))
+    grid = t0 + dt * np.arange(n + 1)  # the formula the engine always used
+    if t1 - grid[-1] > 1e-9 * max(1.0, abs(t1)):
+        grid = np.append(grid, t1)
+    assert t.dtype == np.float64 and t.flags.c_contiguous and t.flags.writeable
+    assert t.tobytes() == grid.tobytes()
