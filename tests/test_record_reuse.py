@@ -3,18 +3,15 @@ allocated once, with the same numbers as computed afresh for each member.
 
 - the facts of a record grid (``reduce.grid_spacing``, ``reduce.nondecreasing``) are
   remembered per grid, bit for bit, and follow an array whose times change;
-- a lane group's per-record rows (record times, phases) come from the pool of
-  ``sim/blocks.py``, zeroed, instead of fresh pages each group.
+- the record times are built in place, the same numbers as ``t0 + dt * np.arange(n + 1)``.
 """
 
 from __future__ import annotations
 
-import gc
-
 import numpy as np
 import pytest
 
-from adaptive_ftc.sim import blocks, reduce
+from adaptive_ftc.sim import reduce
 from adaptive_ftc.sim.engine import _record_times
 
 
@@ -88,23 +85,6 @@ def test_a_diverged_members_shorter_grid_is_not_kept(fresh_memo, monkeypatch):
     for _ in range(3):
         reduce.grid_spacing(short)
     assert not reduce._memo
-
-
-def test_lane_group_rows_come_zeroed_from_the_pool():
-    from adaptive_ftc.sim.lanes import _run_outputs, _zeros
-
-    before = blocks.pooled_bytes()
-    a = _zeros((8, 120_001))
-    a[:] = 7.0
-    nbytes = a.nbytes
-    del a
-    gc.collect()
-    assert blocks.pooled_bytes() >= before + nbytes  # given back to the pool, not freed
-    b = _zeros((8, 120_001))  # the same block again: zeros, not the 7s left in it
-    assert b.dtype == np.float64 and b.shape == (8, 120_001)
-    assert not b.any()
-    phases = _run_outputs(8, 120_001)[0]
-    assert phases.dtype == np.int64 and not phases.any()
 
 
 @pytest.mark.parametrize(

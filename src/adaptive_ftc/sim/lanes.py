@@ -865,23 +865,11 @@ def _self_check(module, plan: _Plan, cl, width: int, kernels: str) -> None:
     _checked.add(key)
 
 
-def _zeros(shape: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
-    """``np.zeros(shape, dtype)`` over a block of the pool of :mod:`adaptive_ftc.sim.blocks`
-    when it is big (a lane group's per-record rows: 8 MB at 1 ms records over 120 s), so that
-    each group does not fault and zero fresh pages; the same zeros, written over mapped
-    memory."""
-    from adaptive_ftc.sim import blocks
-
-    out = blocks.empty(shape, dtype)
-    out.fill(0)
-    return out
-
-
 def _run_outputs(width: int, maxrec: int) -> tuple:
     """A lane group's per-lane outputs, as the lane modules write them: each record's interval,
     status, records written, stop time, first bad state (-1: none), step counts."""
     return (
-        _zeros((width, maxrec), np.int64),
+        np.zeros((width, maxrec), dtype=np.int64),
         np.zeros(width, dtype=np.int64),
         np.zeros(width, dtype=np.int64),
         np.zeros(width),
@@ -1042,7 +1030,7 @@ def _dopri5_queue(module, plan: _Plan, compiled: Sequence, width: int, lean: boo
     nph = np.zeros(width, dtype=np.int64)
     fkind = -np.ones((width, maxph, m))
     fcon = np.zeros((width, maxph, m, 5))
-    t_rec = _zeros((width, maxrec))
+    t_rec = np.zeros((width, maxrec))
     n_rec = np.zeros(width, dtype=np.int64)
     y0 = np.zeros((width, ny))
     rtol = np.zeros(width)
@@ -1150,8 +1138,8 @@ def _lean_chunk(module, plan: _Plan, compiled, ends, tables, width: int, m: int)
     B = np.zeros(plan.nb * width)
     maxrec = max(cl.t_rec.size for cl in compiled)
     maxph = max(kind.shape[0] for kind, _ in tables)
-    t_rec = _zeros((width, maxrec))
-    out_ph = _zeros((width, maxrec), np.int64)
+    t_rec = np.zeros((width, maxrec))
+    out_ph = np.zeros((width, maxrec), dtype=np.int64)
     nrec = np.zeros(width, dtype=np.int64)
     fkind = -np.ones((width, maxph, m))
     fcon = np.zeros((width, maxph, m, 5))
