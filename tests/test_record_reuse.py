@@ -101,3 +101,24 @@ def test_record_times_are_the_grid_t0_plus_k_dt(t0, t1, dt):
         grid = np.append(grid, t1)
     assert t.dtype == np.float64 and t.flags.c_contiguous and t.flags.writeable
     assert t.tobytes() == grid.tobytes()
+
+
+@pytest.mark.parametrize(("n", "pad"), [(30_001, 10_000), (5000, 3000), (400, 399), (100, 27)])
+def test_the_lowpass_of_strided_command_columns_is_scipys_bit_for_bit(n, pad):
+    """The activity's low-pass reads the commands as strided columns of a lean signal block
+    (``e``, ``u_cmd``, ``u_applied`` side by side) and builds the odd extension itself: scipy's
+    ``sosfiltfilt`` of the same columns, bit for bit."""
+    from scipy.signal import sosfiltfilt
+
+    from adaptive_ftc.sim import zerophase
+
+    rng = np.random.default_rng(n + pad)
+    block = np.cumsum(rng.standard_normal((n, 5)), axis=0) * 1e-3
+    block += 1e-2 * rng.standard_normal((n, 5))
+    sos, zi = zerophase.lowpass_design(4, 1.0, 1000.0)
+    for u in (block[:, 1:3], block[:, 3:5], block[::-1, 1:4], block[:, :1]):
+        assert not u.flags.c_contiguous or u.shape[1] == 1
+        expected = sosfiltfilt(sos.copy(), u, axis=0, padtype="odd", padlen=pad)
+        got = zerophase.sosfiltfilt_odd(sos, zi, u, pad)
+        assert got.shape == expected.shape
+        assert got.tobytes() == np.ascontiguousarray(expected).tobytes()
