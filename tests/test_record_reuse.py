@@ -122,3 +122,77 @@ def test_the_lowpass_of_strided_command_columns_is_scipys_bit_for_bit(n, pad):
         got = zerophase.sosfiltfilt_odd(sos, zi, u, pad)
         assert got.shape == expected.shape
         assert got.tobytes() == np.ascontiguousarray(expected).tobytes()
+
+
+#: members of 12 s recorded every millisecond (the campaign's activity records): failures at
+#: different times, recoveries, two members that diverge at different times (an elevator
+#: stuck far out), so rows over full and cut grids
+ROWS_SPEC = {
+    "name": "reuse-rows",
+    "base": "hypersonic-direct-s1",
+    "designs": ["adaptive"],
+    "runs": 8,
+    "seed": 3,
+    "chunk_size": 8,
+    "duration": 12.0,
+    "success": {"rms_error_final": 8.7e-4, "final_window": 4.0},
+    "failures": {
+        "count": {"integers": [1, 2]},
+        "onset": {"uniform": [1.0, 8.0]},
+        "recovery_probability": 0.3,
+        "duration": {"uniform": [0.5, 3.0]},
+        "models": {
+            "loss_of_effectiveness": {"effectiveness": {"uniform": [0.1, 0.9]}},
+            "bias": {"bias": {"uniform": [-0.3, 0.3]}},
+            "stuck": {"value": {"uniform": [-60.0, 60.0]}},
+        },
+    },
+}
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return np.float64(a).tobytes() == np.float64(b).tobytes()
+    return type(a) is type(b) and a == b
+
+
+def test_results_rows_equal_the_rows_without_the_reuse(monkeypatch, fresh_memo):
+    """Every column of a campaign chunk's rows, with the remembered grid facts and the compiled
+    low-pass, equals the rows computed with neither (no memo; scipy's own sosfiltfilt)."""
+    import warnings
+
+    from scipy.signal import sosfiltfilt
+
+    from adaptive_ftc.campaigns import load_campaign, run_chunk
+    from adaptive_ftc.errors import DivergenceWarning
+    from adaptive_ftc.sim import zerophase
+
+    spec = load_campaign(ROWS_SPEC)
+    assert spec.solver.record_dt == 1e-3
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DivergenceWarning)
+        rows = run_chunk(spec, 0, jobs=1, lanes=False)
+        assert reduce._memo  # the members' shared grid was remembered
+        scipy_calls = []
+
+        def scipys(sos, zi, u, pad):
+            scipy_calls.append(pad)
+            return sosfiltfilt(np.array(sos), u, axis=0, padtype="odd", padlen=pad)
+
+        monkeypatch.setattr(zerophase, "sosfiltfilt_odd", scipys)
+        monkeypatch.setattr(reduce, "MEMO_MIN_ROWS", 10**12)
+        with reduce._memo_lock:
+            reduce._memo.clear()
+            reduce._seen.clear()
+        truth = run_chunk(spec, 0, jobs=1, lanes=False)
+    assert len(scipy_calls) >= len(truth)
+    assert not reduce._memo
+    statuses = [r["status"] for r in rows]
+    assert statuses.count("diverged") >= 2 and statuses.count("completed") >= 4
+    ends = {r["t_end"] for r in rows if r["status"] == "diverged"}
+    assert len(ends) >= 2  # cut at different records
+    assert len(rows) == len(truth)
+    for got, want in zip(rows, truth, strict=True):
+        assert got.keys() == want.keys()
+        for key in want:
+            assert _same(got[key], want[key]), (key, got[key], want[key])
