@@ -3,10 +3,15 @@ allocated once, with the same numbers as computed afresh for each member.
 
 - the facts of a record grid (``reduce.grid_spacing``, ``reduce.nondecreasing``) are
   remembered per grid, bit for bit, and follow an array whose times change;
-- the record times are built in place, the same numbers as ``t0 + dt * np.arange(n + 1)``.
+- the record times are the same numbers as ``t0 + dt * np.arange(n + 1)``, found once per
+  grid and copied into a block of the pool, as are a run's phases and its result's times;
+- the activity's low-pass builds scipy's odd extension itself: scipy's numbers bit for bit;
+- a campaign chunk's rows equal, every column, the rows computed without any of it.
 """
 
 from __future__ import annotations
+
+import gc
 
 import numpy as np
 import pytest
@@ -196,3 +201,43 @@ def test_results_rows_equal_the_rows_without_the_reuse(monkeypatch, fresh_memo):
         assert got.keys() == want.keys()
         for key in want:
             assert _same(got[key], want[key]), (key, got[key], want[key])
+
+
+def _pooled(a: np.ndarray) -> bool:
+    """Whether ``a`` lies over a buffer of the pool of sim/blocks.py (a bytearray)."""
+    while isinstance(a, np.ndarray) and a.base is not None:
+        a = a.base
+    return isinstance(a, memoryview) and isinstance(a.obj, bytearray)
+
+
+def test_a_long_runs_times_come_from_the_pool_and_are_its_own():
+    """A run's record grid, its phases and its result's times (0.56 MB each at 70,001
+    records) are blocks of the pool; each result's times are its own array, the grid
+    t0 + dt * k bit for bit."""
+    import dataclasses
+    import math
+
+    from adaptive_ftc.scenarios import load_scenario
+    from adaptive_ftc.sim.engine import CompiledLoop, simulate
+    from adaptive_ftc.sim.result import TIME_POOL_BYTES
+
+    sc = load_scenario("hypersonic-direct-s1")
+    loop = dataclasses.replace(sc.loop, t_final=70.0)
+    solver = dataclasses.replace(sc.solver, record_dt=1e-3)
+    n = int(math.floor(70.0 / 1e-3 + 1e-9))
+    grid = 0.0 + 1e-3 * np.arange(n + 1)
+    cl = CompiledLoop.build(loop, solver)
+    run = cl.integrate()
+    assert cl.t_rec.tobytes() == grid.tobytes() and _pooled(cl.t_rec)
+    assert _pooled(run.phases) and _pooled(run.Y)
+    first = simulate(loop, solver, lean_signals=True)
+    assert first.time.nbytes >= TIME_POOL_BYTES
+    assert first.time.tobytes() == grid.tobytes() and _pooled(first.time)
+    second = simulate(loop, solver, lean_signals=True)
+    first.time[:] = -1.0  # its own array: not the other result's times, not the next grid
+    assert second.time.tobytes() == grid.tobytes()
+    del first
+    gc.collect()
+    third = simulate(loop, solver, lean_signals=True)  # may take first's block: overwritten
+    assert third.time.tobytes() == grid.tobytes()
+    assert CompiledLoop.build(loop, solver).t_rec.tobytes() == grid.tobytes()
