@@ -21,7 +21,8 @@ path), ``--command-filter M`` (a first-order low-pass ``M w`` on ``u0``, at most
 the failures. ``--gain-estimate BAND`` (round 8, session 13) adds an online estimate of the
 loop's input gain ``b = d y''/d u0`` and normalises the command by it, ``u0 -> (b_nom /
 b_hat) u0`` (:func:`emit_with_gain_estimate`; ``--gain-forget`` its forgetting rate, 1/s):
-the input-gain lever of docs/hardware.md ("Round 8: the input-gain lever, built").
+the input-gain lever of docs/hardware.md ("Round 8: the input-gain lever, built");
+``--gain-low-band WC`` normalises only the command's content below ``WC`` rad/s.
 
     PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1
     PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1 --command-filter 4
@@ -114,7 +115,9 @@ def nominal_gain(loop) -> float:
     return float(np.sum(G[0] * R[0]))
 
 
-def gain_lines(band, forget, lag, b_nom, pos, at, consts) -> tuple[list[str], list[str]]:
+def gain_lines(
+    band, forget, lag, b_nom, pos, at, consts, low_band=0.0
+) -> tuple[list[str], list[str]]:
     """The input-gain estimate's generated lines, its states from ``at`` on: ``(the command
     normalised by the estimate, before the command filter; the estimator's derivatives)``.
 
@@ -130,7 +133,13 @@ def gain_lines(band, forget, lag, b_nom, pos, at, consts) -> tuple[list[str], li
     control, ``u0 -> (b_nom / b_hat) u0``. The output's position, not its measured rate:
     the command carries the rate's noise through the learnt rate feedback, and a regression
     on the measured rate's derivative takes that correlation for input gain (measured: 1.5-2x
-    the true gain in the noise-driven stretches)."""
+    the true gain in the noise-driven stretches).
+
+    ``low_band`` > 0 (rad/s): the normalisation only below it, on a first-order low-pass of
+    the command (one state more, after the estimate's), ``u0 -> u0 + (b_nom / b_hat - 1)
+    u0_lp``: the failed loop's gain restored where the stuck elevator's pattern is rejected,
+    not in the band where the command carries the noise (a lag compensator whose boost is the
+    estimate)."""
     k0 = len(consts)
     consts.extend([band, forget, GAIN_FLOOR * b_nom, b_nom, lag, GAIN_PRIOR])
     a, lf, bmin, bn, lg, p0 = (f"c[{k0 + k}]" for k in range(6))
@@ -140,8 +149,16 @@ def gain_lines(band, forget, lag, b_nom, pos, at, consts) -> tuple[list[str], li
         "    # study lever: the command normalised by the estimated input gain",
         f"    bh = (Y[{sz}] + {p0} * {bn}) / (Y[{sp}] + {p0})",
         f"    bh = {clip}",
-        f"    u0[0] *= {bn} / bh",
     ]
+    if low_band > 0:
+        consts.append(float(low_band))
+        wc = f"c[{len(consts) - 1}]"
+        control += [
+            f"    dY[{at + GAIN_STATES}] = {wc} * (u0[0] - Y[{at + GAIN_STATES}])",
+            f"    u0[0] += ({bn} / bh - 1.0) * Y[{at + GAIN_STATES}]",
+        ]
+    else:
+        control += [f"    u0[0] *= {bn} / bh"]
     pre = [
         "    # study lever: least-squares estimate of the input gain (forgetting)",
         f"    ym = sig[{pos}]",
@@ -167,7 +184,7 @@ def gain_lines(band, forget, lag, b_nom, pos, at, consts) -> tuple[list[str], li
     return control, pre
 
 
-def emit_with_gain_estimate(band: float, forget: float):
+def emit_with_gain_estimate(band: float, forget: float, low_band: float = 0.0):
     """A replacement of ``constraints.emit`` that adds the input-gain estimate (:func:`gain_
     lines`, its states before the rule's, adaptive: frozen with the adaptation) to a
     single-output loop without an allocator whose position output is measured; the lag of
@@ -183,10 +200,14 @@ def emit_with_gain_estimate(band: float, forget: float):
             return emit(cfg, g, blocks, at, single_output, direction)
         g.adaptive_names += [f"gain_estimate{k + 1}" for k in range(GAIN_STATES)]
         g.y0_extra.extend([0.0] * (GAIN_STATES - 2) + [GAIN_PRIOR * b_nom, GAIN_PRIOR])
+        extra = 1 if low_band > 0 else 0
+        if extra:
+            g.adaptive_names += ["gain_low_pass"]
+            g.y0_extra.append(0.0)
         lag = ca.lag + 0.5 * ca.sample_time
-        control0, pre0 = gain_lines(band, forget, lag, b_nom, int(pos[0]), at, g.consts)
+        control0, pre0 = gain_lines(band, forget, lag, b_nom, int(pos[0]), at, g.consts, low_band)
         control, pre, post, measure = emit(
-            cfg, g, blocks, at + GAIN_STATES, single_output, direction
+            cfg, g, blocks, at + GAIN_STATES + extra, single_output, direction
         )
         return control0 + control, pre + pre0, post, measure
 
@@ -214,7 +235,7 @@ def run(
 ):
     """The combination's run of ``scenario`` with the constraint-aware law, ``levers`` (the
     keywords of :func:`with_levers`) applied to its configuration, and ``gain_estimate =
-    (band, forget)`` the input-gain estimate (:func:`emit_with_gain_estimate`):
+    (band, forget[, low_band])`` the input-gain estimate (:func:`emit_with_gain_estimate`):
     ``(result, loop)``."""
     sc = load_scenario(scenario)
     loop, solver = case_loop(sc, COMBO1, duration)
@@ -293,7 +314,8 @@ def main(argv=None) -> int:
     ap.add_argument("--q-prefilter", type=float, default=None)
     ap.add_argument("--measure-prefilter", type=float, default=None)
     ap.add_argument("--gain-estimate", type=float, default=None, metavar="BAND")
-    ap.add_argument("--gain-forget", type=float, default=0.5, metavar="RATE")
+    ap.add_argument("--gain-forget", type=float, default=0.2, metavar="RATE")
+    ap.add_argument("--gain-low-band", type=float, default=0.0, metavar="RAD_PER_S")
     ap.add_argument("--no-split", action="store_true", help="skip the regressor/theta split")
     args = ap.parse_args(argv)
     levers = {
@@ -304,7 +326,9 @@ def main(argv=None) -> int:
         "q_prefilter": args.q_prefilter,
         "measure_prefilter": args.measure_prefilter,
     }
-    ge = None if args.gain_estimate is None else (args.gain_estimate, args.gain_forget)
+    ge = None
+    if args.gain_estimate is not None:
+        ge = (args.gain_estimate, args.gain_forget, args.gain_low_band)
     r, loop = run(
         args.scenario,
         noise_off=args.noise_off,
