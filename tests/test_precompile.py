@@ -218,3 +218,21 @@ def test_aftc_run_compiles_first_only_when_something_is_new(tmp_path, monkeypatc
     designs = {loop.controller.design for loop, _ in jobs}
     assert {"nominal-inverse", "oracle"} <= designs and len(designs) >= 3, designs
     assert {loop.name for loop, _ in jobs} >= {"short"}
+
+
+def test_numba_writes_its_typing_messages_without_colorama():
+    """numba writes a message for every overload it rejects while typing (15,091 on a first
+    ``aftc run hypersonic-direct-s1``); with colorama installed each piece went through
+    colorama's terminal set-up (0.6-0.8 s of CPU): after the first loop loads, plain text."""
+    pytest.importorskip("colorama")
+    import numba
+    from numba.core import errors
+
+    from adaptive_ftc.sim import codegen
+
+    if numba.config.COLOR_SCHEME != "no_color":
+        pytest.skip("a colour scheme was chosen (NUMBA_COLOR_SCHEME): left as it is")
+    codegen._plain_typing_errors()
+    scheme = errors.termcolor()
+    assert scheme.errmsg("no match") == "no match"
+    assert scheme.filename("f.py") == "f.py"

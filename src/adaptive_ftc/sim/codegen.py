@@ -328,6 +328,36 @@ def _bind_libm() -> int:
     return done
 
 
+@functools.cache
+def _plain_typing_errors() -> bool:
+    """Let numba write its typing messages without colorama's terminal set-up; ``True`` when
+    changed.
+
+    While it types a function, numba tries the overloads of every call and writes a message
+    for each one it rejects, whether or not anybody reads it; with colorama installed (a
+    dependency of many tools) each piece of such a message is wrapped in colorama's
+    ``init``/``deinit``, which wraps ``sys.stdout`` and ``sys.stderr`` anew. Measured on a
+    first ``aftc run hypersonic-direct-s1`` (session 13): 15,091 such pieces, 0.6-0.8 s of
+    its 12-14 s of CPU. The messages keep their text without the bold-face escape codes, as
+    numba writes them when ``NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING`` is set; left alone
+    when a colour scheme was chosen (``NUMBA_COLOR_SCHEME``).
+    """
+    import numba
+    from numba.core import errors
+
+    # the one scheme object numba's modules took at import (errors.termcolor())
+    scheme = errors.termcolor()
+    chosen = getattr(numba.config, "COLOR_SCHEME", "no_color")
+    if chosen != "no_color" or not hasattr(type(scheme), "_markup"):
+        return False  # a chosen colour scheme, or no colorama: nothing to do
+    scheme._markup = _plain_markup
+    return True
+
+
+def _plain_markup(msg: str, color=None, style=None) -> str:
+    return msg
+
+
 def load_module(
     source: str,
     *,
@@ -352,6 +382,7 @@ def load_module(
         and module names.
     """
     _bind_libm()
+    _plain_typing_errors()
     key = _key(source, imports)
     # a module with injected parts is kept under their identities too: the same function
     # object (a plant of a notebook or a script) reuses its compiled loop, a redefined one
