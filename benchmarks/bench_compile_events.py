@@ -133,8 +133,10 @@ def main(argv: list[str]) -> int:
         else:
 
             def timed_start(cls, jobs):
-                marks["fork"] = time.process_time() - t0
-                return start.__func__(cls, jobs)
+                try:
+                    return start.__func__(cls, jobs)
+                finally:  # the child is forked at the end of start()
+                    marks["fork"] = time.process_time() - t0
 
             def timed_wait(self):
                 marks["wait"] = time.process_time() - t0

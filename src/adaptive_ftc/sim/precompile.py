@@ -173,6 +173,12 @@ class SharedCompile:
         # cache entries are keyed by their time stamps
         integrators()
         _kernel()
+        from numba.core.registry import cpu_target
+
+        # numba's typing and lowering registries, filled on the first compile (0.3-0.4 s of
+        # CPU): filled here once, not in both processes
+        cpu_target.typing_context.refresh()
+        cpu_target.target_context.refresh()
         for stream in (sys.stdout, sys.stderr):  # or the child writes its copy again at exit
             stream.flush()
         try:
