@@ -289,7 +289,32 @@ def is_cached(
     if numba_dir:  # numba then keeps every index there
         sub = UserProvidedCacheLocator.get_suitable_cache_subpath(str(folder / "x.py"))
         places.insert(0, Path(numba_dir) / sub)
-    return any(any(p.glob(f"{kind}_{key}*.nbi")) for p in places)
+    prefix = f"{kind}_{key}"
+    return any(
+        name.startswith(prefix) and name.endswith(".nbi") for p in places for name in _listing(p)
+    )
+
+
+_listings: dict[str, tuple[int, tuple[str, ...]]] = {}
+
+
+def _listing(folder: Path) -> tuple[str, ...]:
+    """The file names in ``folder`` (none when it does not exist), listed again only when its
+    time stamp moved: ``aftc run`` asks :func:`is_cached` about each of its structures, and a
+    well-used cache folder holds tens of thousands of files (a glob per question took 17 ms
+    on one of 22,675: 0.34 s of a warm run)."""
+    try:
+        stamp = os.stat(folder).st_mtime_ns
+    except OSError:
+        return ()
+    key = str(folder)
+    seen = _listings.get(key)
+    if seen is not None and seen[0] == stamp:
+        return seen[1]
+    with os.scandir(folder) as entries:
+        names = tuple(e.name for e in entries)
+    _listings[key] = (stamp, names)
+    return names
 
 
 @functools.cache
