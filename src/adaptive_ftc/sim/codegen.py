@@ -375,7 +375,7 @@ def _plain_typing_errors() -> bool:
     chosen = getattr(numba.config, "COLOR_SCHEME", "no_color")
     if chosen != "no_color" or not hasattr(type(scheme), "_markup"):
         return False  # a chosen colour scheme, or no colorama: nothing to do
-    scheme._markup = _plain_markup
+    scheme._markup = _plain_markup  # type: ignore[attr-defined]  # colorama's scheme has one
     return True
 
 
