@@ -255,3 +255,14 @@ def test_is_cached_sees_a_module_compiled_after_it_last_looked(tmp_path, monkeyp
     (folder / "__pycache__" / f"loop_{key}.f-2.py311.nbi").write_bytes(b"")
     assert codegen.is_cached(source, [])
     assert not codegen.is_cached(source, [], kind="gain")
+
+
+def test_a_loop_that_cannot_be_built_is_left_to_its_run():
+    """The compiles before the runs skip what cannot be built or compiled: the run itself then
+    reports it, with the loop's name (sim/compile_errors.py), not the overlap."""
+    from adaptive_ftc.sim.engine import SolverOptions
+    from adaptive_ftc.sim.precompile import compile_shared, compile_structures
+
+    broken = object()  # no closed loop at all
+    compile_structures([(broken, SolverOptions())])
+    assert compile_shared([(broken, SolverOptions())]) == 0

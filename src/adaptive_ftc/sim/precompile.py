@@ -2,16 +2,19 @@
 structures in this one.
 
 A first run after install compiles, one after another, things that do not depend on each
-other (``python benchmarks/bench_compile_events.py``, session 12): the integrator every loop
-shares (``integrate_dopri5`` and its helpers, 4.5-5.5 s of CPU) and the record pass
-``signals`` (0.6-0.7 s), which read a loop's right-hand side only through an address in its
-data (sim/fptr.py); each structure's ``rhs``, ``jump`` and plant ``control_gain`` (about 1 s a
-structure: the scenario's, the nominal-inverse and the oracle baselines'); the activity
-low-pass ``filtfilt`` (0.5 s). numba writes every compiled function to its disk cache, and a
-process that finds it there loads it in milliseconds. So :func:`overlapped` forks a child that
-compiles the shared functions for the argument types the runs will pass
-(:func:`shared_signatures`) and exits, while this process compiles the structures and the
-low-pass; then it waits for the child, and the runs load the integrators from the cache.
+other (``python benchmarks/bench_compile_events.py``): the integrator every loop shares
+(``integrate_dopri5`` and its helpers, 4.5-5.5 s of CPU) and the record pass ``signals``
+(0.6-1.0 s), which call a loop's right-hand side only through an address in its data
+(sim/fptr.py); each structure's ``rhs``, ``jump`` and plant ``control_gain`` (1-2 s a
+structure; ``aftc run hypersonic-direct-s1`` has two: the scenario's, which its frozen,
+failure-free and fixed-gain runs share, and the exact inverse of the nominal-inverse and
+oracle baselines); the activity low-pass ``filtfilt`` (0.5 s) and its design (scipy.signal's
+import, 0.8-0.9 s, once per install). numba writes every compiled function to its disk cache,
+and a process that finds it there loads it in milliseconds. So :func:`overlapped` forks a
+child that compiles the integrators and ``filtfilt`` for the argument types the runs will pass
+(:func:`shared_signatures`, :func:`compile_lowpass`) and exits, while this process compiles
+the structures and ``signals`` and designs the low-pass: about as much CPU each. Then it waits
+for the child, and the runs load what the child compiled from the cache.
 
 Nothing the runs compute changes: the child compiles the same functions for the same types
 that the first run would have compiled (tests/test_precompile.py checks that the runs then
@@ -82,14 +85,21 @@ def compile_shared(
     module = integrators()
     wanted: dict[tuple[str, tuple], None] = {}
     for loop, solver in jobs:
-        for name, sig in shared_signatures(loop, solver):
+        try:
+            signatures = shared_signatures(loop, solver)
+        except Exception:  # noqa: BLE001 - the run itself reports a loop that cannot be built
+            continue
+        for name, sig in signatures:
             if names is None or name in names:
                 wanted.setdefault((name, sig), None)
     compiled = 0
     for name, sig in wanted:
         disp = getattr(module, name)
         before = sum(disp.stats.cache_misses.values())
-        disp.compile(sig)
+        try:
+            disp.compile(sig)
+        except Exception:  # noqa: BLE001 - the run compiles it again and reports the error
+            continue  # with the loop's name (sim/compile_errors.py)
         compiled += sum(disp.stats.cache_misses.values()) - before
     return compiled
 
