@@ -66,9 +66,7 @@ def shared_compiled() -> bool:
 
 def compile_line(n: int, seconds: float, jobs: int = 1) -> str:
     """The line printed before the first compile (``jobs``: processes compiling at once)."""
-    # the shared integrators compile beside the structures when there are two processes
-    units = n + (1 if seconds > n * SECONDS_PER_STRUCTURE else 0)
-    wall = seconds / max(1, min(jobs, units))
+    wall = seconds / max(1, min(jobs, n))
     word = "structure" if n == 1 else "structures"
     shared = seconds > n * SECONDS_PER_STRUCTURE
     how = f"{SECONDS_PER_STRUCTURE:g} s of CPU a structure" + (
