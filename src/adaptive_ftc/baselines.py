@@ -175,6 +175,12 @@ def _inverse(
         # "how good could any controller be on this hardware"
         # (the adaptive design's model completed from the loop: its loop rate)
         settings["constraint_aware"] = c.bound(loop).constraint_aware
+    if settings.pop("law_feedback", False):
+        model = settings.get("constraint_aware")
+        if model is not None and not model.is_ideal and c.regressors():
+            # the law's own feedback design beside the inverse (OracleInverse.law)
+            law = c.bound(loop)
+            settings.update(law=law, constraint_aware=law.constraint_aware)
     ctrl = cls(lam=c.lam, k=c.k, k0=c.k0, eps0=c.eps0, **settings)
     name = f"{loop.name} ({ctrl.design})" if loop.name else ctrl.design
     return replace(loop, controller=ctrl, adaptive_initial=(), adapt=False, name=name)
@@ -211,7 +217,7 @@ def nominal_inverse(loop: ClosedLoop, **settings) -> ClosedLoop:
     return _inverse(loop, NominalInverse, "nominal_inverse", **settings)
 
 
-def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
+def oracle(loop: ClosedLoop, *, law_feedback: bool = False, **settings) -> ClosedLoop:
     """The oracle baseline of ``loop``: feedback linearisation knowing the true failure.
 
     As :func:`nominal_inverse`, with :class:`~adaptive_ftc.controllers.OracleInverse`: the
@@ -237,7 +243,9 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     """
     from adaptive_ftc.controllers.nominal import OracleInverse
 
-    return _inverse(loop, OracleInverse, "oracle", hardware=True, **settings)
+    return _inverse(
+        loop, OracleInverse, "oracle", hardware=True, law_feedback=law_feedback, **settings
+    )
 
 
 @dataclass(frozen=True)

@@ -118,6 +118,16 @@ def _oracle(loop: ClosedLoop) -> ClosedLoop:
     return baselines.oracle(_constraint_aware(loop) if _has_option(loop) else loop)
 
 
+def _oracle_law(loop: ClosedLoop) -> ClosedLoop:
+    """The oracle that keeps the member's constraint-aware law's own feedback design
+    (:func:`~adaptive_ftc.baselines.oracle` with ``law_feedback``): the exact inverse of the
+    known (failed) plant where the law has its adaptation, beside the law's command filter,
+    smoothing, placed PID and lead, per-output floors and measurement filters."""
+    if not _has_option(loop):
+        return baselines.oracle(loop)
+    return baselines.oracle(_constraint_aware(loop), law_feedback=True)
+
+
 def _oracle_plain(loop: ClosedLoop) -> ClosedLoop:
     """The oracle with the thesis's gains and no designer's model (the campaigns' ``oracle``
     before issue 25's fair oracle): feedback linearisation knowing the failure, on the
@@ -145,6 +155,7 @@ DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "nominal-inverse": baselines.nominal_inverse,
     "oracle": _oracle,
     "oracle-plain": _oracle_plain,
+    "oracle-law": _oracle_law,
 }
 #: Designs that need an adaptive base design with the ``constraint_aware`` option.
 _OPTION_DESIGNS = ("thesis-law", "constraint-aware")
