@@ -13,9 +13,10 @@ fault tolerance would fly) and :func:`oracle` inverts the model *with the true f
 interval (a bound, not a fair competitor: claims never compare with it, reports show it).
 
 Campaigns compare them under the design names ``"fixed-gain"``, ``"nominal-inverse"`` and
-``"oracle"`` (a campaign's ``"oracle"`` is :func:`oracle` of the member's constraint-aware loop,
-under the same designer's model; ``"oracle-plain"`` the thesis-gain one with no command filter:
-:data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`)::
+``"oracle"`` (a campaign's ``"oracle"`` is :func:`oracle` of the member's constraint-aware loop
+with ``law_feedback``: the same designer's model and the law's own fixed feedback;
+``"oracle-filtered"`` the same without that feedback, ``"oracle-plain"`` the thesis-gain one with
+no command filter: :data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`)::
 
     designs = ["adaptive", "fixed-gain", "nominal-inverse", "oracle", "frozen"]
 
@@ -234,6 +235,16 @@ def oracle(loop: ClosedLoop, *, law_feedback: bool = False, **settings) -> Close
     "how good could a controller that knows the failure be on this hardware" (the yardstick
     of issue 25's "2x the oracle's error"). ``constraint_aware=None`` in ``settings`` gives
     the thesis-gain oracle on the same hardware.
+
+    ``law_feedback=True`` (session 13; the campaigns' ``oracle``) also keeps the law's own
+    feedback design where the loop's design has a non-ideal constraint-aware model:
+    :class:`~adaptive_ftc.controllers.OracleInverse` with ``law`` (the bound design), i.e.
+    the law's whole configuration (placed PID and lead, MIMO floors, its sampled filter) and
+    per-output smoothing, with the exact inverse of the failed plant where the law has its
+    adaptation (:mod:`adaptive_ftc.controllers.nominal`, "The oracle of the law's
+    feedback"). Without it the oracle drops every fixed feedback: behind a lag, on the wing
+    rock and the spacecraft, that inverse is weaker than the law itself (docs/hardware.md).
+    The default stays off, so the catalogue's oracle rows do not move.
 
     Examples
     --------
