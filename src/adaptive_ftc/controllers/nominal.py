@@ -274,6 +274,25 @@ class OracleInverse(NominalInverse):
             return super().bound(loop)
         return self  # the law is bound already (its model completed from its own loop)
 
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        """:meth:`NominalInverse.emit_control`, then, with a :attr:`law` whose nominal
+        feedforward is read ahead by the declared lags (``Configuration.feedforward``, the
+        MIMO law's floored outputs), the same lead on the inverse's reference part: ``u0 +=
+        u_ff(t + lead) - u_ff(t)`` (the law's feedforward lines, ``constraints.emit``, at the
+        lead and at zero), so that the cancellation of the reference's feedforward is not
+        delivered late behind the lags, as the law's is not."""
+        lines = super().emit_control(g, blocks, extra_at)
+        if self.law is None:
+            return lines
+        cfg = AdaptiveController.compiled_configuration(self, g)
+        if cfg.feedforward < 0:
+            return lines
+        from adaptive_ftc.controllers.constraints import _feedforward_lines
+
+        lines += ["    # the oracle's lead correction of the reference feedforward"]
+        lines += _feedforward_lines(cfg, g)
+        return lines + _feedforward_lines(cfg._replace(feedforward=0.0), g, sign=-1.0)
+
     def feedback_model(self, g) -> tuple[tuple[float, float] | None, ...]:
         """Per output, the designer's linear model ``y'' = a y + c y' + b u0`` on which the
         law's fixed feedback sets the error dynamics, as ``(a, c)``, or ``None`` for an output
