@@ -68,12 +68,15 @@ def test_the_mimo_oracle_carries_the_laws_smoothing_floor_and_exact_feedforward(
     (raised outputs: ``k`` lowered to the loop rate, ``k0`` = 0), which the former oracle (the
     shared rule's smoothing, one for every output) does not; on a manipulator member it keeps
     the law's floor on each output and aims there at ``y_d''`` (the floor sets the error
-    dynamics), and the law's nominal feedforward is left out (the inverse is the exact one)."""
+    dynamics), and the law's nominal feedforward is left out (the inverse is the exact one)
+    but for its lead: ``u_ff(t + lead) - u_ff(t)`` (the law's feedforward lines, added and
+    subtracted), which the spacecraft's oracle (no floor) does not have."""
     sc = draw_member(load_campaign(spec_of("spacecraft-hardware")), 0)
     aware, new = sc.design_loop("constraint-aware"), sc.design_loop("oracle")
     law = aware.controller.bound(aware)
     assert new.controller.robust_settings() == law.robust_settings()
     assert sc.design_loop("oracle-filtered").controller.robust_settings() != law.robust_settings()
+    assert "lead correction" not in source_of(new, sdot="filtered")
 
     arm = draw_member(load_campaign(spec_of("manipulator-hardware")), 0)
     aware, new = arm.design_loop("constraint-aware"), arm.design_loop("oracle")
@@ -87,6 +90,10 @@ def test_the_mimo_oracle_carries_the_laws_smoothing_floor_and_exact_feedforward(
         (0.0, 0.0) if f > 0 else None for f in cfg_law.output_feedback
     )
     assert compiled(arm.design_loop("oracle-filtered")).output_feedback == ()
+    src = source_of(new, sdot="filtered")
+    correction = src[src.index("lead correction") :]
+    assert correction.count("feedforward along the reference read ahead") == 2
+    assert "    u0[0] += wb[" in correction and "    u0[0] -= wb[" in correction
 
 
 def test_on_wing_rock_hardware_the_oracle_holds_what_the_former_one_loses():
