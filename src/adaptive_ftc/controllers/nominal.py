@@ -45,19 +45,19 @@ output with a fixed feedback the target is the designer's linear model along the
 (``y'' = a y + c y' + b u0``: the placed PID's model, :attr:`ConstraintAware.open_loop`;
 ``a = c = 0`` for the MIMO floor, sized as ``s' = -w s`` on the nominal input gain), so that
 the inverse cancels the rest of the true (failed) plant, ``f(x) - a y - c y'``, and supplies
-the reference feedforward of that model, while the law's fixed feedback, added after the
-command filter as in the law, sets the error dynamics it was placed for (with the healthy
-input gain: ``e'' = a e + c e' - b u_fb``); the other outputs keep ``v`` above with the law's
-smoothing. The law's nominal feedforward along the reference is left out (the inverse is the
-exact one) but for its lead: where the law reads it ahead by the declared lags (the MIMO
-floors, ``mimo.C_FEEDFORWARD_LEAD``), the oracle adds ``u_ff(t + lead) - u_ff(t)`` (the law's
-feedforward lines at the lead and at zero), so that the inverse's reference part is not
-delivered late behind the lags (without it, the manipulator-hardware oracle's median error
+the reference feedforward of that model, while the law's fixed feedback, added where the law
+adds it (before or after the command filter), sets the error dynamics it was placed for (with
+the healthy input gain: ``e'' = a e + c e' - b u_fb``); the other outputs keep ``v`` above
+with the law's smoothing. The law's nominal feedforward along the reference is left out (the
+inverse is the exact one) but for its lead: where the law reads it ahead by the declared lags
+(the MIMO floors, ``mimo.C_FEEDFORWARD_LEAD``), the oracle adds ``u_ff(t + lead) - u_ff(t)``
+(the law's feedforward lines at the lead and at zero), so that the inverse's reference part is
+not delivered late behind the lags (without it, the manipulator-hardware oracle's median error
 was 3.5e-2 rad on the first 20 members, with it 6.7e-3). Without a fixed feedback (the
-hypersonic loops) it is the inverse with the law's smoothing. Measured on the first 100 members of the hardware campaigns (docs/hardware.md,
-"The oracle with the law's feedback design"): wing rock 99 % (the inverse alone: 6 %),
-spacecraft 99 % (0 %), manipulator 78 % (65 %), hypersonic bit-identical to the inverse alone
-(99 %).
+hypersonic loops) it is the inverse with the law's smoothing. Measured on the first 100
+members of the hardware campaigns (docs/hardware.md, "The oracle with the law's feedback
+design"): wing rock 99 % (the inverse alone: 6 %), spacecraft 99 % (0 %), manipulator 78 %
+(65 %), hypersonic bit-identical to the inverse alone (99 %).
 
 Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
 failure) that is not, ``G`` is the forward-difference slope at ``u0 = 0`` over ``probe``: the
