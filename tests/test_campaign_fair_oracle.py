@@ -3,7 +3,9 @@ design runs with the member's constraint-aware designer's model (the same comman
 smoothing and measurement filters, derived from the drawn hardware) and knows the failure;
 ``oracle-plain`` is the thesis-gain oracle with no command filter, kept for comparison. On a
 hardware member the plain one chatters and the fair one does not (the activity verdict); the
-page says on how many of a design's failed members the oracle failed too."""
+page says on how many of a design's failed members the oracle failed too. Since session 13 the
+``oracle`` also keeps the law's fixed feedback (``tests/test_law_oracle.py``); the former one is
+``oracle-filtered``."""
 
 from __future__ import annotations
 
@@ -170,21 +172,31 @@ def test_the_page_says_where_the_oracle_fails_too():
     }
     text = headline(info)
     assert (
-        "oracle (knows the failure; same hardware and filters) also failed on 2 of the 4 "
-        "members constraint-aware failed" in text
+        "oracle (knows the failure; same hardware, filters and feedback) also failed on 2 of "
+        "the 4 members constraint-aware failed" in text
     )
     assert "oracle-plain succeeded" not in text and "oracle succeeded" not in text
     page = summary._comparison_html(info, "rad")
     assert "Of the 4 members constraint-aware failed, the oracle failed on <b>2</b> too" in page
     assert "succeeded on 2 (feasible" in page
     assert "too (evidence that these draws are infeasible on their hardware)" in page
-    # an oracle that succeeds less often than the design is no yardstick: the page says so
+    # an oracle that succeeds significantly less often than the design (its Wilson interval
+    # wholly below the design's: 4 of 20 against 19 of 20) is no yardstick: the page says so
     weak = success_tables(
-        frame({"constraint-aware": "sssse", "oracle": "eeese", "nominal-inverse": "eeeee"}),
+        frame(
+            {
+                "constraint-aware": "s" * 19 + "e",
+                "oracle": "e" * 15 + "sssse",
+                "nominal-inverse": "e" * 20,
+            }
+        ),
         1e-3,
     )
     text = headline(weak)
-    assert "succeeded less often (20\u00a0%), so it is no yardstick for constraint-aware" in text
+    assert (
+        "succeeded significantly less often (20\u00a0%), so it is no yardstick for "
+        "constraint-aware" in text
+    )
     assert "also failed on 1 of the 1" not in text
     weak_page = summary._comparison_html(weak, "rad")
     assert "so where it fails is no evidence of infeasibility" in weak_page

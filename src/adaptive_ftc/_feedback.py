@@ -30,8 +30,7 @@ SECONDS_SHARED = 8.0
 def compile_plan(loops: Iterable[tuple[ClosedLoop, str]]) -> tuple[int, float]:
     """``(n, seconds)``: the distinct structures among ``(loop, sdot)`` pairs that are not
     compiled yet, and the CPU seconds their compilation is expected to take."""
-    from adaptive_ftc.sim import codegen
-    from adaptive_ftc.sim.compose import _INTEGRATORS_IMPORTS, _integrators_source, is_compiled
+    from adaptive_ftc.sim.compose import is_compiled
 
     seen: set[tuple[int, str]] = set()
     texts: set[str] = set()
@@ -51,9 +50,18 @@ def compile_plan(loops: Iterable[tuple[ClosedLoop, str]]) -> tuple[int, float]:
         texts.add(text)
         if not is_compiled(loop, sdot=sdot):
             n += 1
-    shared = not codegen.is_cached(_integrators_source(), _INTEGRATORS_IMPORTS, kind="integrators")
+    shared = not shared_compiled()
     seconds = n * SECONDS_PER_STRUCTURE + (SECONDS_SHARED if n and shared else 0.0)
     return n, seconds
+
+
+def shared_compiled() -> bool:
+    """Whether the integrators every loop shares are compiled (in this process or the disk
+    cache)."""
+    from adaptive_ftc.sim import codegen
+    from adaptive_ftc.sim.compose import _INTEGRATORS_IMPORTS, _integrators_source
+
+    return codegen.is_cached(_integrators_source(), _INTEGRATORS_IMPORTS, kind="integrators")
 
 
 def compile_line(n: int, seconds: float, jobs: int = 1) -> str:

@@ -13,9 +13,10 @@ fault tolerance would fly) and :func:`oracle` inverts the model *with the true f
 interval (a bound, not a fair competitor: claims never compare with it, reports show it).
 
 Campaigns compare them under the design names ``"fixed-gain"``, ``"nominal-inverse"`` and
-``"oracle"`` (a campaign's ``"oracle"`` is :func:`oracle` of the member's constraint-aware loop,
-under the same designer's model; ``"oracle-plain"`` the thesis-gain one with no command filter:
-:data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`)::
+``"oracle"`` (a campaign's ``"oracle"`` is :func:`oracle` of the member's constraint-aware loop
+with ``law_feedback``: the same designer's model and the law's own fixed feedback;
+``"oracle-filtered"`` the same without that feedback, ``"oracle-plain"`` the thesis-gain one with
+no command filter: :data:`adaptive_ftc.campaigns.spec.DESIGN_VARIANTS`)::
 
     designs = ["adaptive", "fixed-gain", "nominal-inverse", "oracle", "frozen"]
 
@@ -175,6 +176,12 @@ def _inverse(
         # "how good could any controller be on this hardware"
         # (the adaptive design's model completed from the loop: its loop rate)
         settings["constraint_aware"] = c.bound(loop).constraint_aware
+    if settings.pop("law_feedback", False):
+        model = settings.get("constraint_aware")
+        if model is not None and not model.is_ideal and c.regressors():
+            # the law's own feedback design beside the inverse (OracleInverse.law)
+            law = c.bound(loop)
+            settings.update(law=law, constraint_aware=law.constraint_aware)
     ctrl = cls(lam=c.lam, k=c.k, k0=c.k0, eps0=c.eps0, **settings)
     name = f"{loop.name} ({ctrl.design})" if loop.name else ctrl.design
     return replace(loop, controller=ctrl, adaptive_initial=(), adapt=False, name=name)
@@ -211,7 +218,7 @@ def nominal_inverse(loop: ClosedLoop, **settings) -> ClosedLoop:
     return _inverse(loop, NominalInverse, "nominal_inverse", **settings)
 
 
-def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
+def oracle(loop: ClosedLoop, *, law_feedback: bool = False, **settings) -> ClosedLoop:
     """The oracle baseline of ``loop``: feedback linearisation knowing the true failure.
 
     As :func:`nominal_inverse`, with :class:`~adaptive_ftc.controllers.OracleInverse`: the
@@ -229,6 +236,16 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     of issue 25's "2x the oracle's error"). ``constraint_aware=None`` in ``settings`` gives
     the thesis-gain oracle on the same hardware.
 
+    ``law_feedback=True`` (session 13; the campaigns' ``oracle``) also keeps the law's own
+    feedback design where the loop's design has a non-ideal constraint-aware model:
+    :class:`~adaptive_ftc.controllers.OracleInverse` with ``law`` (the bound design), i.e.
+    the law's whole configuration (placed PID and lead, MIMO floors, its sampled filter) and
+    per-output smoothing, with the exact inverse of the failed plant where the law has its
+    adaptation (:mod:`adaptive_ftc.controllers.nominal`, "The oracle of the law's
+    feedback"). Without it the oracle drops every fixed feedback: behind a lag, on the wing
+    rock and the spacecraft, that inverse is weaker than the law itself (docs/hardware.md).
+    The default stays off, so the catalogue's oracle rows do not move.
+
     Examples
     --------
     >>> from adaptive_ftc import load_scenario
@@ -237,7 +254,9 @@ def oracle(loop: ClosedLoop, **settings) -> ClosedLoop:
     """
     from adaptive_ftc.controllers.nominal import OracleInverse
 
-    return _inverse(loop, OracleInverse, "oracle", hardware=True, **settings)
+    return _inverse(
+        loop, OracleInverse, "oracle", hardware=True, law_feedback=law_feedback, **settings
+    )
 
 
 @dataclass(frozen=True)

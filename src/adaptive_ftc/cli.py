@@ -465,6 +465,39 @@ def _cmd_run(args: argparse.Namespace) -> int:
             figure_process.close()
 
 
+def _compile_first(args, sc, solver, fair: bool) -> None:
+    """What a first run compiles, before the runs: the line that says so (unless
+    ``--quiet``), then the compiles themselves on two cores where possible (the shared
+    integrators in a second process, the structures here: sim/precompile.py)."""
+    from adaptive_ftc._feedback import compile_line, compile_plan, shared_compiled
+
+    loops = [sc.loop]
+    if not args.no_baselines:
+        loops += [sc.loop.frozen(), sc.loop.without_failures()]
+    if fair:
+        from adaptive_ftc.baselines import nominal_inverse, oracle
+
+        for make in (nominal_inverse, oracle):  # fixed-gain: the scenario's structure
+            try:
+                loops.append(make(sc.loop))
+            except ConfigurationError:
+                pass  # no such baseline: reported below
+    if getattr(sc.loop.controller, "constraint_aware", None) is not None:
+        from adaptive_ftc.reproduce import thesis_law_loop
+
+        loops.append(thesis_law_loop(sc.loop))  # the thesis law's companion run
+    n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in loops)
+    if not n_new and shared_compiled():
+        return
+    from adaptive_ftc.sim.precompile import SharedCompile, overlapped
+
+    if n_new and not args.quiet:
+        jobs = 2 if SharedCompile.available() else 1
+        print(compile_line(n_new, seconds, jobs), file=sys.stderr, flush=True)
+
+    overlapped([(loop, solver) for loop in loops])
+
+
 def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure_process) -> int:
     """The runs of ``aftc run`` and their files (figures drawn by ``figure_process`` when it
     is not ``None``, beside the data files)."""
@@ -478,26 +511,8 @@ def _run_and_write(args, sc, solver, out: Path, formats: tuple[str, ...], figure
         and sc.loop.adapt
         and sc.loop.controller.design not in ("nominal-inverse", "oracle")
     )
-    if not args.quiet:  # before the fixed-gain baseline's tuning run compiles the loop
-        from adaptive_ftc._feedback import compile_line, compile_plan
-
-        loops = [sc.loop]
-        if not args.no_baselines:
-            loops += [sc.loop.frozen(), sc.loop.without_failures()]
-        if fair:
-            from adaptive_ftc.baselines import nominal_inverse
-
-            try:
-                loops.append(nominal_inverse(sc.loop))  # the oracle's structure too
-            except ConfigurationError:
-                pass  # no such baseline: reported below
-        if getattr(sc.loop.controller, "constraint_aware", None) is not None:
-            from adaptive_ftc.reproduce import thesis_law_loop
-
-            loops.append(thesis_law_loop(sc.loop))  # the thesis law's companion run
-        n_new, seconds = compile_plan((loop, solver.sdot_for(loop)) for loop in loops)
-        if n_new:
-            print(compile_line(n_new, seconds), file=sys.stderr, flush=True)
+    # before the fixed-gain baseline's tuning run compiles the loop: what the runs compile
+    _compile_first(args, sc, solver, fair)
     variants = {"adaptive": sc.loop}
     if not args.no_baselines:
         variants["frozen"] = sc.loop.frozen()

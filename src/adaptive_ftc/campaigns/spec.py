@@ -106,15 +106,30 @@ def _has_option(loop: ClosedLoop) -> bool:
 
 
 def _oracle(loop: ClosedLoop) -> ClosedLoop:
-    """The oracle under the same hardware *and the same designer's model* as the member's
-    ``constraint-aware`` design (issue 25, item 3): :func:`~adaptive_ftc.baselines.oracle` of
-    :func:`_constraint_aware`'s loop, so it runs with the same command filter (rate, travel and
-    bandwidth limits), the same smoothing of the robust term and the same measurement filters,
-    all derived from the member's drawn hardware, and knows the failure. Its result is "how
-    good could a controller that knows the failure be on this hardware": where it fails too,
-    the member is evidence of an infeasible draw, not of a weak law. A base design without the
-    constraint-aware option gets :func:`_oracle_plain`. On ideal hardware the model is ideal
-    and the oracle is the thesis-gain one."""
+    """The oracle under the same hardware *and the same feedback design* as the member's
+    ``constraint-aware`` design (issue 25, item 3; session 13):
+    :func:`~adaptive_ftc.baselines.oracle` of :func:`_constraint_aware`'s loop with
+    ``law_feedback``, i.e. :class:`~adaptive_ftc.controllers.OracleInverse` with that law
+    (``law``): the exact inverse of the known (failed) plant where the law has its adaptation,
+    beside the law's own command filter, smoothing of the robust term (per output on the MIMO
+    law), placed PID and lead, per-output floors and measurement filters, all derived from the
+    member's drawn hardware. Its result is "how good could a controller that knows the failure
+    be on this hardware": where it fails too, the member is evidence of an infeasible draw, not
+    of a weak law. A base design without the constraint-aware option gets
+    :func:`_oracle_plain`. On ideal hardware the model is ideal and the oracle is the
+    thesis-gain one."""
+    if not _has_option(loop):
+        return baselines.oracle(loop)
+    return baselines.oracle(_constraint_aware(loop), law_feedback=True)
+
+
+def _oracle_filtered(loop: ClosedLoop) -> ClosedLoop:
+    """The campaigns' ``oracle`` of session 12, kept as ``oracle-filtered``:
+    :func:`~adaptive_ftc.baselines.oracle` of :func:`_constraint_aware`'s loop without the
+    law's feedback design, i.e. feedback linearisation knowing the failure with the designer's
+    model's command filter, smoothing (the shared rule's, one for every output) and
+    measurement filters, but none of the law's fixed feedback (placed PID and lead, MIMO
+    floor). Weaker than the law itself on wing rock and the spacecraft (docs/hardware.md)."""
     return baselines.oracle(_constraint_aware(loop) if _has_option(loop) else loop)
 
 
@@ -132,8 +147,10 @@ def _oracle_plain(loop: ClosedLoop) -> ClosedLoop:
 #: design, drawn failures and hardware). ``adaptive`` is the base scenario's design as it is;
 #: ``thesis-law`` and ``constraint-aware`` are that design without / with the constraint-aware
 #: option (derived from each member's drawn hardware); ``oracle`` knows the failure and runs
-#: under the same designer's model as ``constraint-aware`` (:func:`_oracle`), ``oracle-plain``
-#: is the thesis-gain oracle with no command filter (:func:`_oracle_plain`); the others are
+#: under the same designer's model and fixed feedback as ``constraint-aware`` (:func:`_oracle`),
+#: ``oracle-filtered`` under that model without the law's fixed feedback (session 12's
+#: ``oracle``, :func:`_oracle_filtered`), ``oracle-plain`` is the thesis-gain oracle with no
+#: command filter (:func:`_oracle_plain`); the others are
 #: the baselines of :mod:`adaptive_ftc.baselines`. A user adds designs with
 #: :func:`register_design`.
 DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
@@ -144,6 +161,7 @@ DESIGN_VARIANTS: dict[str, Callable[[ClosedLoop], ClosedLoop]] = {
     "fixed-gain": baselines.campaign_fixed_gain,
     "nominal-inverse": baselines.nominal_inverse,
     "oracle": _oracle,
+    "oracle-filtered": _oracle_filtered,
     "oracle-plain": _oracle_plain,
 }
 #: Designs that need an adaptive base design with the ``constraint_aware`` option.

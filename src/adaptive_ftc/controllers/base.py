@@ -329,18 +329,33 @@ class AdaptiveController(ABC):
 
         return times(self.lam, f), times(self.k, r), times(self.k0, w), self.eps0 * w / rk
 
-    def emit_constraint_aware(self, g, blocks, at: int):
-        """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for
-        the thesis law or an ideal designer's model."""
+    @property
+    def keeps_fixed_feedback(self) -> bool:
+        """Whether the generated loop keeps the configuration's fixed feedback (placed PID
+        and lead): an adaptive design does; a baseline's own law (the inverse) has none beside
+        it, unless it stands in for a law's adaptation (the oracle with ``law``)."""
+        return bool(self.regressors())
+
+    def compiled_configuration(self, g) -> constraints.Configuration:
+        """The configuration the generated loop ``g`` implements (before
+        :meth:`sampled_configuration`): :meth:`configuration` with the allocation's largest
+        gain and the loop's nominal input gain, its fixed feedback dropped where the design
+        does not keep it (:attr:`keeps_fixed_feedback`)."""
         b_max = float(abs(np.asarray(g.loop.R)).max()) if np.size(g.loop.R) else 1.0
         gain = 0.0
         ca = self.constraint_aware
         if ca is not None and ca.input_gain is None and not ca.is_ideal:
             gain = self.nominal_input_gain(g.loop)
         cfg = self.configuration(b_max, gain)  # compose calls this on the bound design
-        if (cfg.feedback or cfg.feedback_e or cfg.feedback_i) and not self.regressors_for(g.p):
+        if (cfg.feedback or cfg.feedback_e or cfg.feedback_i) and not self.keeps_fixed_feedback:
             # a baseline's own law (the oracle) has no fixed feedback beside it
             cfg = cfg._replace(feedback=0.0, feedback_e=0.0, feedback_i=0.0, feedback_lead=())
+        return cfg
+
+    def emit_constraint_aware(self, g, blocks, at: int):
+        """Generated lines of the constraint-aware parts (``constraints.emit``): nothing for
+        the thesis law or an ideal designer's model."""
+        cfg = self.compiled_configuration(g)
         if cfg == constraints.IDENTITY:
             return [], [], [], []
         cfg = self.sampled_configuration(cfg, g)

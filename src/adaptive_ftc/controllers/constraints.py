@@ -1462,7 +1462,7 @@ def nominal_params(D):
     return plant_params(D)"""
 
 
-def _feedforward_lines(cfg: Configuration, g) -> list[str]:
+def _feedforward_lines(cfg: Configuration, g, sign: float = 1.0) -> list[str]:
     """The nominal feedforward's lines (``Configuration.feedforward``): the healthy plant's
     model at the state on the reference read ``lead`` ahead, ``x_r`` (outputs and rates from
     the reference), solved for ``G(x_r) u_ff = y_r'' - f(x_r)`` along the allocation and added
@@ -1471,7 +1471,8 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
     (:data:`NOMINAL_MODEL_SRC`: the plant's equations and parameters, never its failures),
     and its scratch is the controller's own work buffer ``wb``, which holds ``[G | v | f |
     reference | x_r | u | x_r']``: the controller side of the loop carries it whole (the C
-    export, :mod:`adaptive_ftc.export.controller_side`)."""
+    export, :mod:`adaptive_ftc.export.controller_side`). ``sign`` -1: subtracted from ``u0``
+    instead (the oracle's lead correction, :class:`~adaptive_ftc.controllers.OracleInverse`)."""
     floored = [f > 0 for f in cfg.output_feedback] or [True] * g.p
     if cfg.feedforward < 0 or not any(floored):
         return []
@@ -1517,7 +1518,11 @@ def _feedforward_lines(cfg: Configuration, g) -> list[str]:
         *[f"            wb[{i * p} + kk] = wb[{d_at + vel[i]}] - wb[{f_at + i}]" for i in range(p)],
         *[f"    wb[{p * p + i}] = wb[{r_at + 3 * i + 2}] - wb[{f_at + i}]" for i in range(p)],
         f"    nominal_solve(wb, 0, {p}, 1e-9, wb[{u_at}:{u_at + p}])",
-        *[f"    u0[{i}] += wb[{u_at + i}]" for i in range(p) if floored[i]],
+        *[
+            f"    u0[{i}] {'+=' if sign > 0 else '-='} wb[{u_at + i}]"
+            for i in range(p)
+            if floored[i]
+        ],
     ]
     return lines
 

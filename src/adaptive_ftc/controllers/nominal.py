@@ -29,6 +29,36 @@ so a baseline built from an adaptive loop aims at the same error dynamics.
     is the best any controller of this form could do and is not a fair competitor: reports
     show it, claims never compare with it.
 
+**The oracle of the law's feedback** (``OracleInverse(law=...)``; issue 25, item 3, session
+13). Under hardware the constraint-aware laws are not only adaptation: beside ``Pi^T theta``
+they carry a fixed feedback sized for the hardware (:mod:`adaptive_ftc.controllers.constraints`:
+the wing rock's PID placed on the linearised plant behind the lag, with its lead; the MIMO
+law's floor ``u0_i += (w / b_i) s_i`` and its per-output smoothing), and an inverse that
+cancels the whole plant through a 30-50 ms lag (the wing rock's ``-922.7 phi``) loses what
+that feedback holds. With ``law`` the oracle keeps the law's configuration whole (command
+filter, placed PID and lead, floors, measurement prefilters, its sampled implementation) and
+its robust-term smoothing, and its inverse stands where the law's adaptation stands: on an
+output with a fixed feedback the target is the designer's linear model along the error,
+
+    ``v_i = y_di'' - a_i e_i - c_i e_i'``
+
+(``y'' = a y + c y' + b u0``: the placed PID's model, :attr:`ConstraintAware.open_loop`;
+``a = c = 0`` for the MIMO floor, sized as ``s' = -w s`` on the nominal input gain), so that
+the inverse cancels the rest of the true (failed) plant, ``f(x) - a y - c y'``, and supplies
+the reference feedforward of that model, while the law's fixed feedback, added where the law
+adds it (before or after the command filter), sets the error dynamics it was placed for (with
+the healthy input gain: ``e'' = a e + c e' - b u_fb``); the other outputs keep ``v`` above
+with the law's smoothing. The law's nominal feedforward along the reference is left out (the
+inverse is the exact one) but for its lead: where the law reads it ahead by the declared lags
+(the MIMO floors, ``mimo.C_FEEDFORWARD_LEAD``), the oracle adds ``u_ff(t + lead) - u_ff(t)``
+(the law's feedforward lines at the lead and at zero), so that the inverse's reference part is
+not delivered late behind the lags (without it, the manipulator-hardware oracle's median error
+was 3.5e-2 rad on the first 20 members, with it 6.7e-3). Without a fixed feedback (the
+hypersonic loops) it is the inverse with the law's smoothing. Measured on the first 100
+members of the hardware campaigns (docs/hardware.md, "The oracle with the law's feedback
+design"): wing rock 99 % (the inverse alone: 6 %), spacecraft 99 % (0 %), manipulator 78 %
+(65 %), hypersonic bit-identical to the inverse alone (99 %).
+
 Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
 failure) that is not, ``G`` is the forward-difference slope at ``u0 = 0`` over ``probe``: the
 local linearisation there, not at the current command.
@@ -46,6 +76,7 @@ from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.controllers._solve import solve_guarded
 from adaptive_ftc.controllers.base import AdaptiveController, _positive
+from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
 
 __all__ = ["NominalInverse", "OracleInverse", "solve_guarded"]
@@ -105,6 +136,12 @@ class NominalInverse(AdaptiveController):
     def gains(self) -> NominalGains:
         return NominalGains(float(self.gmin), float(self.probe), 1.0 if self.oracle else 0.0)
 
+    def feedback_model(self, g) -> tuple[tuple[float, float] | None, ...]:
+        """Per output, the linear model on which a kept fixed feedback sets the error dynamics
+        (:meth:`OracleInverse.feedback_model`); ``None``: the target keeps the robust term
+        (every output of the nominal inverse)."""
+        return (None,) * g.p
+
     def emit_control(self, g, blocks, extra_at: int) -> list[str]:
         nx, p, m = g.nx, g.p, g.m
         plant = g.loop.plant
@@ -138,8 +175,21 @@ class NominalInverse(AdaptiveController):
             "    # target y'' = y_d'' + lambda e' + k s + k0 tanh(s/eps0), so that with an exact",
             "    # model s' = -k s - k0 tanh(s/eps0)",
         ]
+        models = self.feedback_model(g)
         for i in range(p):
-            ed, s = f"sig[{nx + p + i}]", f"sig[{nx + 2 * p + i}]"
+            e, ed, s = f"sig[{nx + i}]", f"sig[{nx + p + i}]", f"sig[{nx + 2 * p + i}]"
+            if models[i] is not None:
+                # the oracle of a law with a placed feedback (OracleInverse.law): the target is
+                # the designer's linear model along the error, y'' = y_d'' - a e - c e', so that
+                # the law's fixed feedback (added after the command filter) sets the error
+                # dynamics it was placed for; the inverse cancels the rest of the true plant
+                g.consts.extend(models[i])
+                a, cc = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
+                lines.append(
+                    f"    wb[{v_at + i}] = (ref[{3 * i + 2}] - {a} * {e} - {cc} * {ed})"
+                    f" - wb[{f_at + i}]"
+                )
+                continue
             lines.append(
                 f"    wb[{v_at + i}] = (ref[{3 * i + 2}] + c[LAM + {i}] * {ed} + c[K + {i}] * {s}"
                 f" + c[K0 + {i}] * math.tanh({s} / c[EPS0])) - wb[{f_at + i}]"
@@ -156,11 +206,117 @@ class OracleInverse(NominalInverse):
     """:class:`NominalInverse` that knows the true failure of the current interval: the model
     calls go through the loop's failure functions, so ``f`` and ``G`` include the failed
     actuators' outputs (exact for ``a u + b`` failures of a plant affine in ``u``). A bound on
-    what a controller of this form can achieve, not a fair competitor."""
+    what a controller of this form can achieve, not a fair competitor.
+
+    ``law``: the constraint-aware design (bound to its loop, :meth:`AdaptiveController.bound`)
+    whose **own feedback design** the oracle keeps (issue 25, item 3; the module docstring,
+    "The oracle of the law's feedback"; what the campaigns' ``oracle`` runs): its
+    configuration whole (command filter, placed PID and lead, per-output floors, measurement
+    prefilters, as ``constraints.emit`` generates them for the law; not its nominal
+    feedforward, which the exact inverse replaces), its smoothing of the robust term
+    (:meth:`~AdaptiveController.robust_settings`, per output on the MIMO law) and its sampled
+    implementation; the exact inverse of the known (failed) plant stands where the law's
+    adaptive term ``Pi^T theta`` stands. ``None`` (default): the inverse alone, with the
+    filters of its own ``constraint_aware`` model."""
 
     design: ClassVar[str] = "oracle"
     equation: ClassVar[str] = "feedback linearisation knowing the true failure (oracle baseline)"
     oracle: ClassVar[bool] = True
+
+    law: AdaptiveController | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        law = self.law
+        if law is None:
+            return
+        if (
+            not isinstance(law, AdaptiveController)
+            or isinstance(law, NominalInverse)
+            or law.constraint_aware is None
+        ):
+            raise ConfigurationError(
+                "`law` of OracleInverse must be an adaptive design with its constraint-aware "
+                "option (the law whose feedback design the oracle keeps, bound to its loop: "
+                f"design.bound(loop)); got {law!r}. Leave `law` out for the plain inverse."
+            )
+
+    @property
+    def keeps_fixed_feedback(self) -> bool:
+        return self.law is not None
+
+    def configuration(self, b_max: float = 1.0, input_gain: float = 0.0):
+        if self.law is None:
+            return super().configuration(b_max, input_gain)
+        return self.law.configuration(b_max, input_gain)
+
+    def compiled_configuration(self, g):
+        """The law's configuration (:attr:`law`) without its nominal feedforward, which the
+        inverse replaces by the exact one (it knows the plant); the plain oracle's own
+        otherwise (:meth:`AdaptiveController.compiled_configuration`)."""
+        cfg = super().compiled_configuration(g)
+        if self.law is not None and cfg.feedforward >= 0:
+            cfg = cfg._replace(feedforward=-1.0)
+        return cfg
+
+    def robust_settings(self) -> tuple:
+        if self.law is None:
+            return super().robust_settings()
+        return self.law.robust_settings()
+
+    def sampled_configuration(self, cfg, g):
+        if self.law is None:
+            return super().sampled_configuration(cfg, g)
+        return self.law.sampled_configuration(cfg, g)
+
+    def derivative_filter_tau(self, loop) -> float | None:
+        if self.law is None:
+            return super().derivative_filter_tau(loop)
+        return self.law.derivative_filter_tau(loop)
+
+    def bound(self, loop):
+        if self.law is None:
+            return super().bound(loop)
+        return self  # the law is bound already (its model completed from its own loop)
+
+    def emit_control(self, g, blocks, extra_at: int) -> list[str]:
+        """:meth:`NominalInverse.emit_control`, then, with a :attr:`law` whose nominal
+        feedforward is read ahead by the declared lags (``Configuration.feedforward``, the
+        MIMO law's floored outputs), the same lead on the inverse's reference part: ``u0 +=
+        u_ff(t + lead) - u_ff(t)`` (the law's feedforward lines, ``constraints.emit``, at the
+        lead and at zero), so that the cancellation of the reference's feedforward is not
+        delivered late behind the lags, as the law's is not."""
+        lines = super().emit_control(g, blocks, extra_at)
+        if self.law is None:
+            return lines
+        cfg = AdaptiveController.compiled_configuration(self, g)
+        if cfg.feedforward < 0:
+            return lines
+        from adaptive_ftc.controllers.constraints import _feedforward_lines
+
+        lines += ["    # the oracle's lead correction of the reference feedforward"]
+        lines += _feedforward_lines(cfg, g)
+        return lines + _feedforward_lines(cfg._replace(feedforward=0.0), g, sign=-1.0)
+
+    def feedback_model(self, g) -> tuple[tuple[float, float] | None, ...]:
+        """Per output, the designer's linear model ``y'' = a y + c y' + b u0`` on which the
+        law's fixed feedback sets the error dynamics, as ``(a, c)``, or ``None`` for an output
+        without one (its target keeps the law's robust term): the placed PID of a
+        single-output law (``Configuration.feedback``, ``feedback_e``, ``feedback_i``; the
+        model's ``open_loop`` rows, zeros where it has none) and the MIMO law's floor
+        (``Configuration.output_feedback``: ``(0, 0)``, the loop ``s' = -w s`` it was sized
+        for on the nominal input gain). All ``None`` without :attr:`law`."""
+        p = g.p
+        if self.law is None:
+            return super().feedback_model(g)
+        cfg = self.compiled_configuration(g)
+        if cfg.feedback or cfg.feedback_e or cfg.feedback_i:
+            model = self.law.constraint_aware
+            rows = model.open_loop if model is not None else None
+            a, c = (float(rows[0]), float(rows[1])) if rows is not None else (0.0, 0.0)
+            return ((a, c),) * p
+        floor = tuple(cfg.output_feedback) or (0.0,) * p
+        return tuple((0.0, 0.0) if f > 0 else None for f in floor)
 
     def code_label(self) -> str:
         return NominalInverse.code_label(NominalInverse())  # the same code, other numbers

@@ -33,12 +33,14 @@ _pool: OrderedDict[int, list[bytearray]] = OrderedDict()  # nbytes -> free buffe
 _pooled = 0
 
 
-def empty(shape: tuple[int, ...], dtype: type | np.dtype = np.float64) -> np.ndarray:
-    """An uninitialised C-contiguous array, like ``np.empty(shape, dtype)``; a big one over a
-    buffer from the pool when one of its size is free."""
+def empty(
+    shape: tuple[int, ...], dtype: type | np.dtype = np.float64, *, min_bytes: int = MIN_BYTES
+) -> np.ndarray:
+    """An uninitialised C-contiguous array, like ``np.empty(shape, dtype)``; a big one (at
+    least ``min_bytes``) over a buffer from the pool when one of its size is free."""
     dt = np.dtype(dtype)
     nbytes = int(np.prod(shape, dtype=np.int64)) * dt.itemsize
-    if nbytes < MIN_BYTES:
+    if nbytes < min_bytes:
         return np.empty(shape, dt)
     raw = _take(nbytes)
     owner = np.frombuffer(raw, dtype=dt)  # not the buffer's owner: views collapse onto it

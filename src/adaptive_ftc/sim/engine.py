@@ -5,6 +5,7 @@ exactly at every failure time, and returns a :class:`~adaptive_ftc.sim.result.Si
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -176,10 +177,28 @@ class SolverOptions:
 
 
 def _record_times(t0: float, t1: float, dt: float) -> np.ndarray:
+    """The record grid ``t0 + dt * k`` (and ``t1`` when the last record falls short of it): a
+    copy of the grid of these three numbers (:func:`_grid`, found once), over a block of the
+    pool of :mod:`~adaptive_ftc.sim.blocks` when big (a campaign's members share their grid:
+    no fresh pages, no arithmetic, per member)."""
+    from adaptive_ftc.sim import blocks
+    from adaptive_ftc.sim.result import TIME_POOL_BYTES
+
+    grid = _grid(*(np.float64(v).tobytes() for v in (t0, t1, dt)))  # keyed by the bits
+    t = blocks.empty(grid.shape, min_bytes=TIME_POOL_BYTES)
+    t[...] = grid
+    return t
+
+
+@functools.lru_cache(maxsize=8)
+def _grid(t0_bits: bytes, t1_bits: bytes, dt_bits: bytes) -> np.ndarray:
+    """:func:`_record_times`' grid of the floats with these bits (read-only, never handed out)."""
+    t0, t1, dt = (float(np.frombuffer(b, dtype=np.float64)[0]) for b in (t0_bits, t1_bits, dt_bits))
     n = int(math.floor((t1 - t0) / dt + 1e-9))
     t = t0 + dt * np.arange(n + 1)
     if t1 - t[-1] > 1e-9 * max(1.0, abs(t1)):
         t = np.append(t, t1)
+    t.setflags(write=False)
     return t
 
 
@@ -423,9 +442,10 @@ class CompiledLoop:
         # rows past the last record are never read: not zeroed (4 MB a 120 s run); a block of
         # an earlier run's records, already mapped, when one is free (sim/blocks.py)
         from adaptive_ftc.sim import blocks
+        from adaptive_ftc.sim.result import TIME_POOL_BYTES
 
         Y = blocks.empty((t_rec.size, asm.y0.size))
-        phases = np.empty(t_rec.size, dtype=np.int64)
+        phases = blocks.empty((t_rec.size,), np.int64, min_bytes=TIME_POOL_BYTES)
         args = (asm.data, asm.work())
         bound = float(solver.divergence_bound)
         outputs = (Y, phases, stats)

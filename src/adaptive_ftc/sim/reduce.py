@@ -21,6 +21,9 @@ on disk), and loads from the cache in about 0.06 s for all after that.
 from __future__ import annotations
 
 import math
+import threading
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numba import boolean, float64, int64, njit, types
@@ -227,7 +230,86 @@ def nondecreasing(time: np.ndarray) -> bool:
     t = np.asarray(time)
     if t.ndim != 1 or t.dtype != np.float64:
         return bool(t.size < 2 or np.all(t[1:] >= t[:-1]))
+    known = _known_grid(t)
+    if known is not None:
+        return known.facts("nondecreasing", lambda: bool(_nondecreasing(t)))
     return bool(_nondecreasing(t))
+
+
+# ----------------------------------------------------------------- facts of known grids
+#: Record grids of at least this many rows are remembered once seen twice (a campaign's
+#: members share one grid: its facts are found once, not a pass over every member's times
+#: per question; a diverged member's shorter grid is seen once and never kept).
+MEMO_MIN_ROWS = 4096
+#: Grids remembered (the most recently used kept).
+MEMO_GRIDS = 4
+
+_memo_lock = threading.Lock()
+_memo: list[_Grid] = []
+_seen: dict[tuple[int, float, float], int] = {}
+
+
+class _Grid:
+    """A remembered record grid (its own copy) and the facts found about it so far."""
+
+    __slots__ = ("bits", "found")
+
+    def __init__(self, t: np.ndarray) -> None:
+        self.bits = t.view(np.int64).copy()
+        self.found: dict[str, Any] = {}
+
+    def facts(self, name: str, compute: Callable[[], Any]) -> Any:
+        """The fact ``name`` of this grid, computed by ``compute`` the first time (a pure
+        function of the times: the same value for every array with these bits)."""
+        found = self.found.get(name, _MISSING)
+        if found is _MISSING:
+            found = self.found[name] = compute()
+        return found
+
+
+_MISSING = object()
+
+
+@_jit(boolean(int64[::1], int64[::1]))
+def _same_bits(a, b):
+    """Whether two int64 arrays hold the same values (early exit at the first difference)."""
+    if a.size != b.size:
+        return False
+    for i in range(a.size):
+        if a[i] != b[i]:
+            return False
+    return True
+
+
+def _known_grid(t: np.ndarray) -> _Grid | None:
+    """The remembered grid whose times are ``t``'s bit for bit (remembering ``t`` when it is
+    seen the second time), or ``None`` (short, not contiguous, or first seen)."""
+    if t.size < MEMO_MIN_ROWS or not (t.flags.c_contiguous and t.flags.writeable):
+        return None  # (a read-only array would compile _same_bits once more)
+    bits = t.view(np.int64)
+    key = (int(t.size), int(bits[0]), int(bits[-1]))
+    with _memo_lock:
+        candidates = [g for g in _memo if g.bits.size == key[0] and g.bits[0] == key[1]]
+    for g in candidates:
+        if g.bits[-1] == key[2] and _same_bits(g.bits, bits):
+            with _memo_lock:
+                if g in _memo:  # most recently used last
+                    _memo.remove(g)
+                    _memo.append(g)
+            return g
+    with _memo_lock:
+        seen = _seen.get(key, 0) + 1
+        if seen < 2:
+            if len(_seen) > 64:
+                _seen.clear()
+            _seen[key] = seen
+            return None
+        _seen.pop(key, None)
+    g = _Grid(t)
+    with _memo_lock:
+        _memo.append(g)
+        del _memo[:-MEMO_GRIDS]
+    return g
 
 
 #: Most distinct spacings :func:`grid_spacing` tracks (an engine record holds about 16: the
@@ -300,8 +382,14 @@ def _grid_spacing(t):
 
 def grid_spacing(t: np.ndarray) -> tuple[int, float]:
     """``(kind, dt)`` of record times ``t`` (at least two): see :func:`_grid_spacing`."""
-    kind, dt = _grid_spacing(np.ascontiguousarray(t, dtype=np.float64))
-    return int(kind), float(dt)
+    t = np.ascontiguousarray(t, dtype=np.float64)
+
+    def compute() -> tuple[int, float]:
+        kind, dt = _grid_spacing(t)
+        return int(kind), float(dt)
+
+    known = _known_grid(t) if t.ndim == 1 else None
+    return known.facts("spacing", compute) if known is not None else compute()
 
 
 def row_span(time: np.ndarray, start: float, end: float) -> tuple[int, int]:

@@ -39,40 +39,54 @@ from numba import njit
 
 
 @njit(nogil=True, error_model="numpy", inline="always")
-def start(zi, z, x0):
-    """The sections' state at rest for a constant input ``x0`` (scipy's ``zi * x[0]``)."""
+def start(zi, z, i, x0):
+    """Column i's sections at rest for a constant input ``x0`` (scipy's ``zi * x[0]``)."""
     for s in range(zi.shape[0]):
-        z[s, 0] = zi[s, 0] * x0
-        z[s, 1] = zi[s, 1] * x0
+        z[i, s, 0] = zi[s, 0] * x0
+        z[i, s, 1] = zi[s, 1] * x0
 
 
 @njit(nogil=True, error_model="numpy", inline="always")
-def sections(sos, z, x_cur):
-    """One sample through the direct-form II transposed sections (scipy's sosfilt)."""
+def sections(sos, z, i, x_cur):
+    """One sample of column i through the direct-form II transposed sections (scipy's
+    sosfilt; ``z[i]``: that column's state)."""
     for s in range(sos.shape[0]):
-        x_new = sos[s, 0] * x_cur + z[s, 0]
-        z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-        z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+        x_new = sos[s, 0] * x_cur + z[i, s, 0]
+        z[i, s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[i, s, 1]
+        z[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
         x_cur = x_new
     return x_cur
 
 
 @njit(cache=CACHE, nogil=True, error_model="numpy")
-def filtfilt(sos, zi, ext):
-    """scipy.signal.sosfiltfilt's two passes over the padded record ``ext`` (samples, columns):
-    each column forwards from ``zi * ext[0]``, then backwards from ``zi * y[-1]``."""
-    n, m = ext.shape
-    ns = sos.shape[0]
-    y = np.empty_like(ext)
-    z = np.empty((ns, 2))
+def filtfilt_odd(sos, zi, u, pad):
+    """scipy.signal.sosfiltfilt's two passes over ``u`` (samples, columns; any strides)
+    extended by scipy's odd extension of ``pad`` samples each side, which is built here
+    sample by sample as numpy computes it (``2 u[0] - u[pad - k]`` before, ``2 u[-1] -
+    u[-2 - k]`` after): each column forwards from ``zi * ext[0]``, then backwards from ``zi *
+    y[-1]``. The columns are interleaved (two independent chains of operations at a time),
+    each column's operations in scipy's order. Returns the rows of ``u``."""
+    n0, m = u.shape
+    n = n0 + 2 * pad
+    y = np.empty((n, m))
+    z = np.empty((m, sos.shape[0], 2))
     for i in range(m):
-        start(zi, z, ext[0, i])
-        for k in range(n):
-            y[k, i] = sections(sos, z, ext[k, i])
-        start(zi, z, y[n - 1, i])
-        for k in range(n - 1, -1, -1):
-            y[k, i] = sections(sos, z, y[k, i])
-    return y
+        start(zi, z, i, 2.0 * u[0, i] - u[pad, i])
+    for k in range(pad):
+        for i in range(m):
+            y[k, i] = sections(sos, z, i, 2.0 * u[0, i] - u[pad - k, i])
+    for k in range(n0):
+        for i in range(m):
+            y[pad + k, i] = sections(sos, z, i, u[k, i])
+    for k in range(pad):
+        for i in range(m):
+            y[pad + n0 + k, i] = sections(sos, z, i, 2.0 * u[n0 - 1, i] - u[n0 - 2 - k, i])
+    for i in range(m):
+        start(zi, z, i, y[n - 1, i])
+    for k in range(n - 1, -1, -1):
+        for i in range(m):
+            y[k, i] = sections(sos, z, i, y[k, i])
+    return y[pad : n - pad]
 '''
 
 _lock = threading.Lock()
@@ -142,7 +156,7 @@ def _kernel():
     from adaptive_ftc.sim.codegen import load_module
 
     with _lock:
-        return load_module(_KERNEL, imports=[], kind="lowpass").filtfilt
+        return load_module(_KERNEL, imports=[], kind="lowpass").filtfilt_odd
 
 
 def sosfiltfilt_odd(sos: np.ndarray, zi: np.ndarray, u: np.ndarray, pad: int) -> np.ndarray:
@@ -155,9 +169,6 @@ def sosfiltfilt_odd(sos: np.ndarray, zi: np.ndarray, u: np.ndarray, pad: int) ->
 
         return sosfiltfilt(sos.copy(), u, axis=0, padtype="odd", padlen=pad)
     u = np.asarray(u, dtype=float)
-    # scipy's odd_ext: the record reflected through its end values, pad samples each side
-    ext = np.concatenate(
-        (2 * u[0:1] - u[pad:0:-1], u, 2 * u[-1:] - u[-2 : -(pad + 2) : -1]), axis=0
-    )
-    y = _kernel()(np.ascontiguousarray(sos), np.ascontiguousarray(zi), ext)
-    return y[pad:-pad]
+    # scipy's odd_ext (the record reflected through its end values, pad samples each side) is
+    # built inside the kernel, read straight from u's rows (no padded copy of the record)
+    return _kernel()(np.ascontiguousarray(sos), np.ascontiguousarray(zi), u, int(pad))
