@@ -631,11 +631,6 @@ class Configuration(NamedTuple):
     #: noise) at the loop rate; ``e_c = e - xi / lam`` with the compensated error's ``xi``
     #: where the command is hedged (the integral does not wind up on the limits)
     error_integral: float = 0.0
-    #: (session 13, round 8) a lead ``(lag s + 1) / (tau s + 1)`` on the law's command before
-    #: the command filter, ``(lag, tau)`` (``()`` = none; a state per output): it cancels the
-    #: declared actuator lag down to ``tau`` (a model-based lag compensation), so the delay
-    #: budget counts ``tau`` instead of ``lag``
-    command_lead: tuple = ()
 
     @property
     def filtered(self) -> bool:
@@ -1599,9 +1594,6 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     at_z = end
     if cfg.error_integral != 0 and single_output:
         end += p
-    at_c = end
-    if cfg.command_lead and single_output:
-        end += p
     if hedged:
         g.adaptive_names += [f"hedge{i + 1}" for i in range(p)]
     if cfg.prefiltered:
@@ -1616,10 +1608,8 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
         g.adaptive_names += [f"feedback_lead{i + 1}" for i in range(p)]
     if weights is not None:
         g.adaptive_names += [f"actuator_filter{j + 1}" for j in range(g.m)]
-    if at_c > at_z:
+    if end > at_z:
         g.adaptive_names += [f"error_integral{i + 1}" for i in range(p)]
-    if end > at_c:
-        g.adaptive_names += [f"command_lead{i + 1}" for i in range(p)]
     g.y0_extra.extend([0.0] * (end - at))  # assemble starts the measurement filters at x(0)
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
@@ -1641,16 +1631,6 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)
-    if end > at_c:  # (lag s + 1) / (tau s + 1) on the law's command: out = r u0c - (r - 1) z
-        lag_c, tau_c = cfg.command_lead
-        g.consts.extend([lag_c / tau_c, tau_c])
-        cr, ct = f"c[{len(g.consts) - 2}]", f"c[{len(g.consts) - 1}]"
-        control.append("    # constraint-aware: the law's command through the lead")
-        for i in range(p):
-            control += [
-                f"    dY[{at_c + i}] = (u0[{i}] - Y[{at_c + i}]) / {ct}",
-                f"    u0[{i}] = {cr} * u0[{i}] - ({cr} - 1.0) * Y[{at_c + i}]",
-            ]
     if cfg.filtered:
         g.use("command_filter", command_filter)
         control.append("    # constraint-aware: the law's command u0c through the command filter")
@@ -1716,7 +1696,7 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
                 ]
     if not cfg.feedback_filtered:  # the MIMO floor after the command filter
         control += _floor_lines(cfg, g, nx, p)
-    if at_c > at_z:  # the integral sliding surface s = e' + lam e + k_I int e_c
+    if end > at_z:  # the integral sliding surface s = e' + lam e + k_I int e_c
         g.consts.append(cfg.error_integral)
         ki = f"c[{len(g.consts) - 1}]"
         control.append("    # constraint-aware: the law's filtered error with the error's integral")
