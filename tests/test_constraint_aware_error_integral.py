@@ -5,7 +5,8 @@ the constraint-aware law tracked to 3.0e-3 rad (3.5x the thesis threshold 8.7e-4
 elevator's 0.5 rad/s pattern, which the law's state-dependent basis cannot learn, was rejected
 by loop gain alone, and the delay budget caps the loop rate at 8.75 1/s. Where the delay
 budget of a discrete limiter with per-actuator travel sets the loop rate
-(``ConstraintAware.delay_bound``), the law's filtered error carries the tracking error's
+(``ConstraintAware.delay_bound``) and the noise is at most a quarter of its density bound
+(``C_INTEGRAL_NOISE``), the law's filtered error carries the tracking error's
 integral, ``s = e' + lam e + k_I int e_c`` with ``k_I = (C_INTEGRAL w)^2``
 (``Configuration.error_integral``; Slotine & Li 1991, §7.1.3): more loop gain at low
 frequency without a faster loop (docs/hardware.md, "Round 8 (combination 2)")."""
@@ -22,12 +23,22 @@ import numpy as np
 import pytest
 
 import adaptive_ftc.controllers.constraints as constraints
-from adaptive_ftc.controllers.constraints import C_DELAY_LIMITED, C_INTEGRAL
+from adaptive_ftc.controllers.constraints import (
+    C_DELAY_LIMITED,
+    C_INTEGRAL,
+    C_INTEGRAL_NOISE,
+    C_NOISE_DENSITY,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_constraint_aware_per_actuator import LAG, T, _combination, _run  # noqa: E402
 
 THRESHOLD = 8.7e-4  # hypersonic-direct-s1's tracking claim (rad)
+
+
+def w0_of(ca) -> float:
+    """The loop rate the rule admits under the designer's model ``ca``."""
+    return ca.omega_max(ca.loop_rate, ca.b_max)[0]
 
 
 def test_the_rule_sizes_the_integral_from_the_delay_limited_loop_rate():
@@ -50,6 +61,14 @@ def test_no_integral_where_another_bound_sets_the_loop_rate_or_without_the_limit
     w, _ = noisy.omega_max(ca.loop_rate, ca.b_max)
     assert w < C_DELAY_LIMITED / (LAG + T / 2 + T) and not noisy.delay_bound(w)
     assert noisy.configure(w0=ca.loop_rate, b_max=ca.b_max, lam=2.0).error_integral == 0.0
+    # the delay budget sets the loop rate, but the noise is above a quarter of its density
+    # bound there (a campaign member's 3e-3: 0.31; the combination's 1e-3: 0.16)
+    assert ca.noise_density * w0_of(ca) ** 2 <= C_INTEGRAL_NOISE * C_NOISE_DENSITY
+    louder = replace(ca, noise=3e-3)
+    w, _ = louder.omega_max(ca.loop_rate, ca.b_max)
+    assert louder.delay_bound(w)
+    assert w * w * louder.noise_density > C_INTEGRAL_NOISE * C_NOISE_DENSITY
+    assert louder.configure(w0=ca.loop_rate, b_max=ca.b_max, lam=2.0).error_integral == 0.0
     # continuous (no discrete limiter), the common filter, no travel, a baseline's own law
     for other in (
         replace(ca, sample_time=0.0, derivative_lag=0.01),
