@@ -73,7 +73,8 @@ design, not another design) it derives, by the rules below, one configuration
    (:func:`_travel_bound`), and a digital law's filter is a discrete limiter (at ``C_EULER /
    T``, its value after the sample's step: no lag of its own in the delay budget,
    :attr:`ConstraintAware.discrete_limiter`). Round 8 (session 13): where that limiter's
-   delay budget sets the loop rate (:meth:`ConstraintAware.delay_bound`), the law's filtered
+   delay budget sets the loop rate (:meth:`ConstraintAware.delay_bound`; the noise at most
+   ``C_INTEGRAL_NOISE`` of its density bound), the law's filtered
    error carries the tracking error's integral, ``s = e' + lam e + k_I int (e - xi/lam)``
    with ``k_I = (C_INTEGRAL w_max)^2`` (an integral sliding surface, Slotine & Li 1991,
    §7.1.3; :attr:`Configuration.error_integral`): more loop gain at low frequency (a stuck
