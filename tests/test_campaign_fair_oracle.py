@@ -10,7 +10,6 @@ page says on how many of a design's failed members the oracle failed too. Since 
 from __future__ import annotations
 
 import dataclasses
-
 import tomllib
 
 import numpy as np
