@@ -5,26 +5,19 @@ loop (damped only by the rate feedback the learnt theta makes of the fuzzy basis
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from adaptive_ftc.plants.hypersonic import HypersonicAngleOfAttack
+from tests.conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "combo1_linear_band", ROOT / "scripts" / "combo1_linear_band.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("combo1_linear_band", mod)
-    spec.loader.exec_module(sys.modules["combo1_linear_band"])
-    return sys.modules["combo1_linear_band"]
+    return load_script("combo1_linear_band")
 
 
 lb = _script()

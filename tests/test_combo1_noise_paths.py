@@ -5,27 +5,20 @@ command's fast content into the regressor path and the theta path is exact where
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from adaptive_ftc.controllers import constraints
 from adaptive_ftc.controllers.constraints import ConstraintAware
+from tests.conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "combo1_noise_paths", ROOT / "scripts" / "combo1_noise_paths.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("combo1_noise_paths", mod)
-    spec.loader.exec_module(sys.modules["combo1_noise_paths"])
-    return sys.modules["combo1_noise_paths"]
+    return load_script("combo1_noise_paths")
 
 
 cn = _script()

@@ -6,9 +6,7 @@ definitions of scripts/hardware_cases.py. Runs at reduced length."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -22,18 +20,13 @@ from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.engine import simulate
+from tests.conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _hardware_cases():
-    spec = importlib.util.spec_from_file_location(
-        "hardware_cases", ROOT / "scripts" / "hardware_cases.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("hardware_cases", mod)  # its dataclasses look their module up
-    spec.loader.exec_module(sys.modules["hardware_cases"])
-    return sys.modules["hardware_cases"]
+    return load_script("hardware_cases")
 
 
 def _aware(loop, **over):

@@ -7,9 +7,7 @@ closes: a law that does nothing passed beside an oracle that had lost the task t
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -20,19 +18,14 @@ from adaptive_ftc.baselines import baseline_solver, oracle
 from adaptive_ftc.errors import DivergenceWarning
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.engine import simulate
+from tests.conftest import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 THR, FAST, PEAK = 1e-3, 1e-2, 5.0  # thesis threshold, fast-content and peak targets
 
 
 def _hardware_cases():
-    spec = importlib.util.spec_from_file_location(
-        "hardware_cases", ROOT / "scripts" / "hardware_cases.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("hardware_cases", mod)  # its dataclasses look their module up
-    spec.loader.exec_module(sys.modules["hardware_cases"])
-    return sys.modules["hardware_cases"]
+    return load_script("hardware_cases")
 
 
 hc = _hardware_cases()

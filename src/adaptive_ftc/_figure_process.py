@@ -113,15 +113,25 @@ class FigureProcess:
     def close(self) -> None:
         """End the child (it has nothing left to do, or its work is being thrown away) and
         reap it."""
-        if self._process.is_alive():
-            self._process.terminate()
-        self._process.join()
+        end_child(self._process)
         self._conn.close()
 
 
-def _serve(conn: Any) -> None:  # pragma: no cover - runs in the forked child
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and ends us
+def end_child(process: Any) -> None:
+    """End a forked helper process if it still runs, and reap it."""
+    if process.is_alive():
+        process.terminate()
+    process.join()
+
+
+def child_signals() -> None:  # pragma: no cover - runs in a forked child
+    """In a forked helper: Ctrl-C is the parent's to handle (it ends us); SIGTERM ends us."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _serve(conn: Any) -> None:  # pragma: no cover - runs in the forked child
+    child_signals()
     try:
         _warm_up()
     except Exception:  # noqa: BLE001 - a failed warm-up shows again on the real figure

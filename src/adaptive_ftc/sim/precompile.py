@@ -27,7 +27,6 @@ as before.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import threading
 from collections.abc import Iterable, Sequence
@@ -212,14 +211,15 @@ class SharedCompile:
 
     def close(self) -> None:
         """End the child if it still runs, and reap it."""
-        if self._process.is_alive():
-            self._process.terminate()
-        self._process.join()
+        from adaptive_ftc._figure_process import end_child
+
+        end_child(self._process)
 
 
 def _serve(jobs: list) -> None:  # pragma: no cover - runs in the forked child
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and ends us
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    from adaptive_ftc._figure_process import child_signals
+
+    child_signals()
     try:
         from adaptive_ftc.sim.solvers import compiled_entries
 
