@@ -50,8 +50,8 @@ from adaptive_ftc.sim.compose import integrators
 
 mod = integrators()
 wrapped = {}
-for name in ("integrate_dopri5", "_steps_dopri5", "_h_start", "_work", "_records_at", "rhs",
-             "leaves_envelope"):
+for name in ("integrate_dopri5", "_steps_dopri5", "_h_start", "_work_explicit", "_records_at",
+             "rhs", "leaves_envelope"):
     for cres in getattr(mod, name).overloads.values():
         wrapped[name] = bool(cres.library.get_pointer_to_function(
             cres.fndesc.llvm_cpython_wrapper_name))
