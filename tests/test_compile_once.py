@@ -96,3 +96,37 @@ def test_helpers_only_compiled_code_calls_have_no_python_entry(first_run: str) -
     assert wrapped.pop("integrate_dopri5") is True  # the entry point Python calls has one
     assert len(wrapped) == 7, wrapped  # each helper compiled in this run
     assert not any(wrapped.values()), wrapped
+
+
+def test_dopri5_compiles_only_its_own_scratch(first_run: str) -> None:
+    """A DOPRI5 run allocates :class:`WorkExplicit` (13 rows of one block), not the
+    Rosenbrock methods' :class:`Work` of 23 arrays: ``_work`` and its allocations are not
+    compiled (less to type, lower and optimise on a first run)."""
+    counts = _printed("COUNTS", first_run)
+    assert counts["_work_explicit"] == 1, counts
+    assert "_work" not in counts, counts
+
+
+def test_work_explicit_holds_what_the_dopri5_steps_read():
+    """The fields of :class:`WorkExplicit` are :class:`Work`'s that the Dormand-Prince code
+    (its steps, dense output, the step loop and the initial step) reads, in Work's order."""
+    import ast
+
+    from adaptive_ftc.sim.templates import adaptive
+
+    tree = ast.parse(adaptive.template_text())
+    used: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef) and (
+            node.name.startswith("_dopri5") or node.name == "_steps_dopri5"
+        ):
+            used |= {
+                a.attr
+                for a in ast.walk(node)
+                if isinstance(a, ast.Attribute)
+                and isinstance(a.value, ast.Name)
+                and a.value.id == "w"
+            }
+    fields = adaptive.WorkExplicit._fields
+    assert set(fields) == used
+    assert list(fields) == [f for f in adaptive.Work._fields if f in used]
