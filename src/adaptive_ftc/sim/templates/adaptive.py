@@ -23,7 +23,9 @@ the Rosenbrock methods ``_jacobian``, ``_rosenbrock_step`` over ``_rodasp_stages
 ``_rodas5p_stages`` (tableaus ``_R*``, ``_P*``), ``_rosenbrock_dense``, ``_rosenbrock_control``,
 ``_rosenbrock_retry``; ``auto`` adds ``_stiffness_test`` and ``_nonstiff_test``. The step
 functions are inlined into ``_steps`` by numba (``inl``) and share one :class:`Work` of scratch
-arrays; ``_steps`` runs without reference counting (``hot``). The arithmetic is that of the
+arrays (``integrate_dopri5``: :class:`WorkExplicit`, the 13 that the Dormand-Prince code reads,
+rows of one block: less to compile on a first run); ``_steps`` runs without reference counting
+(``hot``). The arithmetic is that of the
 single core it replaced, in the same order (every catalogue trajectory bit-identical).
 
 Entry points (same signature; each is its own copy of the driver, pasted by :func:`specialise`
