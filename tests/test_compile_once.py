@@ -130,3 +130,25 @@ def test_work_explicit_holds_what_the_dopri5_steps_read():
     fields = adaptive.WorkExplicit._fields
     assert set(fields) == used
     assert list(fields) == [f for f in adaptive.Work._fields if f in used]
+
+
+def test_the_scratch_is_a_few_allocations_of_few_kinds():
+    """numba compiles one implementation per kind of allocation (``np.empty`` of each number
+    of dimensions and dtype, ``np.zeros``, ``np.full``, ``copy``): the integrators' scratch
+    (``_work``: 23 arrays, ``_work_explicit``: 13) are views of at most three allocations."""
+    import ast
+
+    from adaptive_ftc.sim.templates import adaptive
+
+    tree = ast.parse(adaptive.template_text())
+    calls: dict[str, list[str]] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef) and node.name in ("_work", "_work_explicit"):
+            calls[node.name] = sorted(
+                ast.unparse(c.func)
+                for c in ast.walk(node)
+                if isinstance(c, ast.Call)
+                and isinstance(c.func, ast.Attribute)
+                and (ast.unparse(c.func).startswith("np.") or c.func.attr == "copy")
+            )
+    assert calls == {"_work": ["np.empty"] * 3, "_work_explicit": ["np.empty"]}

@@ -600,14 +600,25 @@ class Work(NamedTuple):
 
 @inner
 def _work(y0, stages):
-    """The scratch arrays of one run from ``y0``; ``stages`` rows for Rodas5P's stages."""
+    """The scratch arrays of one run from ``y0``; ``stages`` rows for Rodas5P's stages.
+
+    The vectors, the stages and the dense-output rows are rows of one block, the two
+    matrices the planes of another: three allocations of three kinds (numba compiles one
+    implementation per kind on a first run; this was 23 allocations of seven kinds)."""
     n = y0.size
+    s = np.empty((23 + stages, n))  # 18 vectors, the stages, rc
+    v = 1.0 / math.sqrt(max(n, 1))
+    for i in range(n):
+        s[0, i] = y0[i]
+        s[16, i] = v  # the power iteration's first vector
+    for j in range(18 + stages, 23 + stages):
+        for i in range(n):
+            s[j, i] = 0.0
+    m = np.empty((2, n, n))
     return Work(
-        y0.copy(), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-        np.empty(n), np.empty(n), np.empty((stages, n)), np.zeros((5, n)), np.empty((n, n)),
-        np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty(n),
-        np.full(n, 1.0 / math.sqrt(max(n, 1))), np.empty(n),
+        s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], s[10], s[11], s[12], s[13],
+        s[14], s[18 : 18 + stages], s[18 + stages : 23 + stages], m[0], m[1],
+        np.empty(n, dtype=np.int64), s[15], s[16], s[17],
     )  # fmt: skip
 
 
