@@ -798,6 +798,17 @@ class ConstraintAware:
         allocation (no allocator) and limits, but where the placed feedback is
         (:meth:`fast_unstable`: the wing rock's loop was sized with the common filter). Not a
         constraint.
+    decimation
+        (session 14) The digital law's anti-aliasing filter: where the sensors are faster than
+        the controller, a whole number ``N = noise_rate x sample_time >= 2`` of readings per
+        sample, the law reads at each sample the mean of the ``N`` readings of the period
+        (a boxcar, integrate-and-dump prefilter: Franklin, Powell & Workman, *Digital Control
+        of Dynamic Systems*, 3rd ed., 1998, §6.3.2; Åström & Wittenmark, *Computer-Controlled
+        Systems*, 3rd ed., 1997, §7.4; :attr:`readings`): the noise it sees is ``noise /
+        sqrt(N)`` at the sensor's density, delayed by ``(N-1)/(2N)`` of a period, which the
+        rule counts (:attr:`seen_noise`, :attr:`decimation_delay`). ``None`` (default): on
+        where the model has noise and such ``N``; ``False``: off (the latest reading at each
+        sample); ``True``: on, and a model without such ``N`` is refused. Not a constraint.
 
     Examples
     --------
@@ -828,6 +839,7 @@ class ConstraintAware:
     open_loop: tuple[float, float] | None = None
     model_feedforward: bool = True
     per_actuator: bool | None = None
+    decimation: bool | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -865,6 +877,20 @@ class ConstraintAware:
                 "`per_actuator` of ConstraintAware must be true, false or left unset; got "
                 f"{self.per_actuator!r}."
             )
+        if self.decimation is not None and not isinstance(self.decimation, bool):
+            raise ConfigurationError(
+                "`decimation` of ConstraintAware must be true, false or left unset; got "
+                f"{self.decimation!r}."
+            )
+        if self.decimation and self._whole_readings() < 2:
+            raise ConfigurationError(
+                "`decimation` of ConstraintAware averages the sensor readings of each "
+                "controller sample: it needs a digital controller (`sample_time` > 0) whose "
+                "sensors give a whole number N >= 2 of readings per sample (`noise_rate` x "
+                f"`sample_time`); got sample_time = {self.sample_time!r} s and noise_rate = "
+                f"{self.noise_rate!r} Hz. Leave `decimation` unset (on where that holds) or "
+                "set it false."
+            )
         if not isinstance(self.model_feedforward, bool):
             raise ConfigurationError(
                 "`model_feedforward` of ConstraintAware must be true or false; got "
@@ -884,6 +910,36 @@ class ConstraintAware:
                         f"`open_loop` of {owner} must hold two finite numbers; "
                         f"got {self.open_loop!r}."
                     )
+
+    def _whole_readings(self) -> int:
+        """``N = noise_rate x sample_time`` where it is a whole number (within 1e-9), else 0."""
+        if not self.sample_time > 0 or not math.isfinite(self.noise_rate):
+            return 0
+        ratio = float(self.noise_rate) * float(self.sample_time)
+        n = round(ratio)
+        return int(n) if abs(ratio - n) <= 1e-9 * ratio else 0
+
+    @property
+    def readings(self) -> int:
+        """The sensor readings the law's decimation filter averages per sample
+        (:attr:`decimation`); 1 = none (a continuous law, sensors no faster than the law or
+        not a whole number of readings per sample, no noise in the model, or off)."""
+        if self.decimation is False or (self.decimation is None and not self.noise > 0):
+            return 1
+        return max(self._whole_readings(), 1)
+
+    @property
+    def seen_noise(self) -> float:
+        """The std of the measured ``s`` the law sees: ``noise``, or ``noise / sqrt(N)``
+        through the decimation filter (:attr:`readings`)."""
+        return self.noise / math.sqrt(self.readings)
+
+    @property
+    def decimation_delay(self) -> float:
+        """The decimation filter's delay (s): the mean of ``N`` readings ``T/N`` apart lags
+        the latest by ``(N-1)/(2N) T``; 0 without the filter."""
+        n = self.readings
+        return (n - 1) / (2.0 * n) * self.sample_time
 
     @property
     def is_ideal(self) -> bool:
@@ -978,12 +1034,13 @@ class ConstraintAware:
         # the lags of the loop add up (C_DELAY); with limits, the command filter's too:
         # w (delay + max(1/(C_FILTER w), lag_f)) <= C_DELAY_LIMITED, with lag_f the command
         # filter's own floor (1/omega_f >= lag, T/C_EULER)
-        delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        # (the decimation filter's delay counts: its mean lags the latest reading)
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag + self.decimation_delay
         w_hw = w
         if self.floor_delay is not None:
             # a loop with a fixed feedback floor (the MIMO law, MimoDirectAdaptive.bound):
             # its own budget over the actuator's lag, a whole sample and the s' lag
-            delay = self.lag + self.sample_time + self.s_lag
+            delay = self.lag + self.sample_time + self.s_lag + self.decimation_delay
             if delay > 0:
                 w = min(w, (self.floor_delay if self.limited else C_DELAY) / delay)
             if self.sample_time > 0:
@@ -1005,20 +1062,21 @@ class ConstraintAware:
             # the std bound, or, where faster, the loop seeing its measurements through the
             # prefilter (MimoDirectAdaptive.floor_configuration: where the rate is above
             # the std bound)
-            return max(min(w, C_NOISE / self.noise), self.floor_prefiltered_rate(w_hw)), False
+            return max(min(w, C_NOISE / self.seen_noise), self.floor_prefiltered_rate(w_hw)), False
         if self.noise > 0:
             # the density bound lowers the loop rate only; where the std bound binds, the
-            # measurements are prefiltered too (configure)
+            # measurements are prefiltered too (configure); both count the noise the law
+            # sees (through the decimation filter: seen_noise)
             w = min(w, math.sqrt(C_NOISE_DENSITY / self.noise_density))
-            if C_NOISE / self.noise < w:
-                return C_NOISE / self.noise, True
+            if C_NOISE / self.seen_noise < w:
+                return C_NOISE / self.seen_noise, True
         return w, False
 
     def delay_bound(self, w: float) -> bool:
         """The loop rate ``w`` is the one the delay budget of a discrete limiter admits,
         ``C_DELAY_LIMITED / (lag + T/2 + tau_d)`` (no other bound of the rule is lower: not
         the noise's, not the cap's)."""
-        delay = self.lag + 0.5 * self.sample_time + self.s_lag
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag + self.decimation_delay
         if not (self.discrete_limiter and delay > 0 and self.bandwidth is None):
             return False
         return w >= C_DELAY_LIMITED / delay * (1.0 - 1e-9)
@@ -1039,7 +1097,7 @@ class ConstraintAware:
             return 0.0
         w = min(w_hw, self.floor_noise_rate)
         budget = (self.floor_delay if self.limited else C_DELAY) - 1.0 / C_FLOOR_MEASURE
-        delay = self.lag + self.sample_time + self.s_lag
+        delay = self.lag + self.sample_time + self.s_lag + self.decimation_delay
         if self.sample_time > 0:
             delay += self.sample_time / C_EULER
             w = min(w, C_FLOOR_SAMPLE / self.sample_time)
@@ -1064,11 +1122,13 @@ class ConstraintAware:
     @property
     def noise_density(self) -> float:
         """The density (per root hertz) of the noise of ``s`` the law sees: ``noise sqrt(2 /
-        f)``, held at ``f = min(noise_rate, 1/sample_time)``."""
+        f)``, held at ``f = min(noise_rate, 1/sample_time)``; through the decimation filter
+        the mean of ``N`` readings, ``noise / sqrt(N)`` held at ``1/sample_time``: the
+        sensor's own density ``noise sqrt(2 / noise_rate)`` (:attr:`seen_noise`)."""
         f = self.noise_rate
         if self.sample_time > 0:
             f = min(f, 1.0 / self.sample_time)
-        return self.noise * math.sqrt(2.0 / f)
+        return self.seen_noise * math.sqrt(2.0 / f)
 
     @property
     def limited(self) -> bool:
@@ -1626,14 +1686,14 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     g.free_running = end - at_m
     control, pre, post, measure = [], [], [], []
     if cfg.measured_through_filter:  # the law sees x + noise through a first-order filter
-        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        seen = g.measured if g.loop.sensors is not None else "x[i]"
         measure = [
             f"    for i in range({nx}):  # constraint-aware: the law sees filtered measurements",
             f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
             f"        sig[i] = Y[{at_m} + i]",
         ]
     elif cfg.adaptation_regressor_filtered:  # the law sees x + noise; its filter runs beside
-        seen = "x[i] + meas(ph, i, D)" if g.loop.sensors is not None else "x[i]"
+        seen = g.measured if g.loop.sensors is not None else "x[i]"
         measure = [
             f"    for i in range({nx}):  # constraint-aware: the adaptation's regressor sees",
             f"        sig[i] = {seen}",
