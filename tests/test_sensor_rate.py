@@ -198,3 +198,45 @@ def test_combination_1_meets_the_activity_target_only_through_the_filter():
         fast[decimation] = metrics(simulate(run, solver), run, window=(5.0, 10.0))["fast"]
     assert fast[None] <= 1.73e-2 < fast[False]
     assert fast[False] / fast[None] >= 1.5
+
+
+def test_the_c_export_refuses_the_decimation_filter(tmp_path):
+    from adaptive_ftc.export.c import export_c
+
+    with pytest.raises(ConfigurationError, match="decimation filter .* has no C form"):
+        export_c(_decimating(0.1), tmp_path)
+
+
+def test_a_digital_loop_with_too_fast_a_sensor_is_refused_before_drawing():
+    loop = _loop(
+        (0.0,), sensors=Sensors(noise=(0.1, 0.0), rate=1e9), sample_time=0.01, t_final=100.0
+    )
+    with pytest.raises(ConfigurationError, match="noise `rate`"):
+        simulate(loop)
+
+
+def test_scenario_files_set_the_decimation(tmp_path):
+    from adaptive_ftc.errors import ScenarioError
+    from adaptive_ftc.scenarios import load_scenario
+
+    text = """
+extends = "hypersonic-direct-s1"
+name = "decimated"
+[sensors]
+noise = {alpha = 1e-3, q = 1e-2}
+rate = 1000.0
+[digital]
+sample_time = 0.005
+[controller.constraint_aware]
+from_hardware = true
+decimation = false
+"""
+    path = tmp_path / "d.toml"
+    path.write_text(text)
+    ca = load_scenario(path).loop.controller.constraint_aware
+    assert ca.decimation is False and ca.readings == 1
+    path.write_text(text.replace("decimation = false", ""))
+    assert load_scenario(path).loop.controller.constraint_aware.readings == 5
+    path.write_text(text.replace("decimation = false", 'decimation = "on"'))
+    with pytest.raises(ScenarioError, match="decimation"):
+        load_scenario(path)

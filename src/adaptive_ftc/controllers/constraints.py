@@ -25,7 +25,10 @@ design, not another design) it derives, by the rules below, one configuration
    sample of hold, the time constant ``tau_d`` of the ``s'`` estimate; with rate or travel
    limits the command filter's ``1/omega_f`` too, against ``C_DELAY_LIMITED``), and noise
    counts by its std and by its density ``n_d = noise sqrt(2/f)`` at the rate ``f`` the law
-   sees it (a 100 Hz controller sees the same std 3x denser than a 1 kHz sensor). §4.4's
+   sees it (a 100 Hz controller sees the same std 3x denser than a 1 kHz sensor; through
+   its decimation filter, the mean of the ``N`` readings of each period, the std is
+   ``noise / sqrt(N)`` at the sensor's own density, and the filter's delay ``(N-1)/(2N) T``
+   joins the loop's lags: :attr:`ConstraintAware.decimation`, session 14). §4.4's
    loop gain ``alpha0 |rho| |Pi|^2 b`` grows with ``rho``: under a non-ideal model ``rho`` is
    projected on ``|rho| <= RHO_FACTOR |rho0|`` and the loop is sized for that bound
    (:meth:`SignEstimation.rho_bound`), and its direction estimate adapts ``r`` times slower
@@ -748,8 +751,9 @@ class ConstraintAware:
         the thesis's loop rate. ``None``: the design's (:meth:`AdaptiveController.bound`; 1
         but for §4.4). Not a constraint.
     noise_rate
-        The rate (Hz) at which the sensors draw their noise (``Sensors.rate``; each sample
-        held until the next): with ``noise``, its density. Not a constraint alone.
+        The sensors' readings per second, each with its own noise (``Sensors.rate``): with
+        ``noise``, its density, and for a digital law the readings per sample its decimation
+        filter averages (:attr:`decimation`). Not a constraint alone.
     derivative_lag
         Time constant (s) of the loop's ``s'`` estimate (the solver's dirty-derivative filter,
         ``SolverOptions.filter_tau``), a lag in the law's loop. ``None`` (default): the
