@@ -102,10 +102,10 @@ def test_the_decimated_reading_is_the_mean_of_the_period_readings_noise():
 
 
 def test_the_decimated_reading_of_a_ramp_is_its_mean_over_the_period():
-    """``pos = 0.3 + 2 t`` (both actuators stuck at 0), no noise: the command of sample k is ``0.3 + 2 (t_k -
-    2 T/5)`` (the mean of the readings at t_k - 4T/5 ... t_k), the first sample's ``0.3``
-    (no reading before t0); the latest reading alone (``decimation = false``) is ``0.3 + 2
-    t_k``."""
+    """``pos = 0.3 + 2 t`` (both actuators stuck at 0), no noise: the command of sample k is
+    ``0.3 + 2 (t_k - 2 T/5)`` (the mean of the readings at t_k - 4T/5 ... t_k), the first
+    sample's ``0.3`` (no reading before t0); the latest reading alone (``decimation =
+    false``) is ``0.3 + 2 t_k``."""
     solver = SolverOptions(method="rk4", dt=T / 5, record_dt=T, sdot="filtered")
     r = simulate(_decimating(0.5, noise={}), solver)
     assert r.status == "completed"

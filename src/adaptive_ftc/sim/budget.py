@@ -144,8 +144,10 @@ def check_run_size(loop: ClosedLoop, solver: SolverOptions) -> RunSize:
     period = float(getattr(loop, "sample_time", 0.0) or 0.0)
     sensors = getattr(loop, "sensors", None)
     by_sensor = False
-    if sensors is not None and sensors.has_noise and (
-        not period or 1.0 / float(sensors.rate) < period
+    if (
+        sensors is not None
+        and sensors.has_noise
+        and (not period or 1.0 / float(sensors.rate) < period)
     ):  # a noise draw per reading, a digital controller's faster sensor too
         period, by_sensor = 1.0 / float(sensors.rate), True
     if period and span / period > MAX_INTERVALS:

@@ -4,8 +4,8 @@ and :mod:`.skeleton` for the hooks they fill).
 :func:`parts` lists them in build order: the order in which they emit code (their numbers'
 places in ``D.c`` follow it) and claim states (plant, theta, the design's states, the
 allocator's, the constraint-aware option's, the s' filter, then actuators, held values,
-delay states and a decimating controller's sums), and the order of their helpers (``tables``) in the module. A new part is a
-new module here and one entry in :func:`parts`.
+delay states and a decimating controller's sums), and the order of their helpers
+(``tables``) in the module. A new part is a new module here and one entry in :func:`parts`.
 """
 
 from __future__ import annotations
