@@ -192,12 +192,36 @@ def test_combination_1_meets_the_activity_target_only_through_the_filter():
     loop, solver = case_loop(load_scenario("hypersonic-direct-s1"), case, duration=10.0)
     loop = constraint_aware(loop, solver)
     fast = {}
-    for decimation in (None, False):
+    for decimation in (True, False):
         ca = replace(loop.controller.constraint_aware, decimation=decimation, bandwidth=9.9)
         run = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
         fast[decimation] = metrics(simulate(run, solver), run, window=(5.0, 10.0))["fast"]
-    assert fast[None] <= 1.73e-2 < fast[False]
-    assert fast[False] / fast[None] >= 1.5
+    assert fast[True] <= 1.73e-2 < fast[False]
+    assert fast[False] / fast[True] >= 1.5
+
+
+def test_the_rule_takes_the_filter_where_the_noise_sets_the_loop_rate():
+    """Combination 1 (1e-3 rad / 1e-2 rad/s at 1 kHz, 200 Hz, 20 ms): the density bound sets
+    the loop rate (9.9 1/s against the delay budget's 29), so the bound design decimates;
+    combination 2's noise (1e-4 rad / 1e-3 rad/s, 50 Hz, 50 ms, rate and travel limits) is
+    below its delay budget: no filter (its delay would only slow the loop)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    from hardware_cases import HYPERSONIC_CASES, case_loop, constraint_aware
+
+    from adaptive_ftc import load_scenario
+
+    sc = load_scenario("hypersonic-direct-s1")
+    for name, on in (("lag 20 ms + 200 Hz", True), ("lag 50 ms + rate 2", False)):
+        case = next(c for c in HYPERSONIC_CASES if c.name.startswith(name))
+        loop = constraint_aware(*case_loop(sc, case, duration=1.0))
+        model = loop.controller.constraint_aware
+        assert model.decimation is None and model.noise > 0
+        bound = loop.controller.bound(loop).constraint_aware
+        assert bound.decimation is on
+        assert bound.readings == (5 if on else 1)
 
 
 def test_the_c_export_refuses_the_decimation_filter(tmp_path):

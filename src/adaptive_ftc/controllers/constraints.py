@@ -810,9 +810,13 @@ class ConstraintAware:
         of Dynamic Systems*, 3rd ed., 1998, §6.3.2; Åström & Wittenmark, *Computer-Controlled
         Systems*, 3rd ed., 1997, §7.4; :attr:`readings`): the noise it sees is ``noise /
         sqrt(N)`` at the sensor's density, delayed by ``(N-1)/(2N)`` of a period, which the
-        rule counts (:attr:`seen_noise`, :attr:`decimation_delay`). ``None`` (default): on
-        where the model has noise and such ``N``; ``False``: off (the latest reading at each
-        sample); ``True``: on, and a model without such ``N`` is refused. Not a constraint.
+        rule counts (:attr:`seen_noise`, :attr:`decimation_delay`). ``None`` (default):
+        decided by :meth:`AdaptiveController.bound` on the loop, on where the model has such
+        ``N`` and its noise lowers the rule's loop rate (the std or density bound below the
+        hardware's other bounds, without the filter; a designer's ``bandwidth`` aside):
+        elsewhere the filter would only add its delay; unbound, on wherever the model has
+        noise and such ``N``. ``False``: off (the latest reading at each sample); ``True``:
+        on, and a model without such ``N`` is refused. Not a constraint.
 
     Examples
     --------
