@@ -140,8 +140,8 @@ def test_the_filter_follows_the_plant_it_measures():
 
 def test_the_rule_counts_the_averaged_readings_noise_and_delay():
     base = ConstraintAware(sample_time=T, noise=0.01, noise_rate=1000.0, decimation=False)
-    on = replace(base, decimation=None)
-    assert (base.readings, on.readings) == (1, 5)
+    on = replace(base, decimation=True)
+    assert (base.readings, on.readings, replace(base, decimation=None).readings) == (1, 5, 1)
     assert on.seen_noise == pytest.approx(0.01 / math.sqrt(5))
     # the averaged reading's density is the 1 kHz sensor's: noise sqrt(2 / 1000)
     assert on.noise_density == pytest.approx(0.01 * math.sqrt(2.0 / 1000.0))
@@ -149,14 +149,14 @@ def test_the_rule_counts_the_averaged_readings_noise_and_delay():
     assert on.decimation_delay == pytest.approx(0.4 * T)  # (N-1)/(2N) of a period
     assert base.decimation_delay == 0.0
     assert on.omega_max(200.0)[0] > base.omega_max(200.0)[0]
-    # off where the law is continuous, the sensor no faster, not a whole N, or no noise
+    # no whole N >= 2 where the law is continuous, the sensor no faster, or not a multiple
     for model in (
-        replace(on, sample_time=0.0),
-        replace(on, noise_rate=200.0),
-        replace(on, noise_rate=1100.0),
-        replace(on, noise=0.0),
+        replace(base, sample_time=0.0),
+        replace(base, noise_rate=200.0),
+        replace(base, noise_rate=1100.0),
     ):
-        assert model.readings == 1
+        assert model.whole_readings < 2
+    assert replace(on, noise=0.0).readings == 5  # asked for: on without noise too
     assert ConstraintAware().readings == 1 and ConstraintAware().is_ideal
 
 
@@ -218,10 +218,13 @@ def test_the_rule_takes_the_filter_where_the_noise_sets_the_loop_rate():
         case = next(c for c in HYPERSONIC_CASES if c.name.startswith(name))
         loop = constraint_aware(*case_loop(sc, case, duration=1.0))
         model = loop.controller.constraint_aware
-        assert model.decimation is None and model.noise > 0
+        assert model.decimation is None and model.noise > 0 and model.whole_readings >= 2
         bound = loop.controller.bound(loop).constraint_aware
         assert bound.decimation is on
         assert bound.readings == (5 if on else 1)
+        # the same model on a loop whose sensors do not give its readings: off
+        other = replace(loop, sensors=replace(loop.sensors, rate=3000.0))
+        assert loop.controller.bound(other).constraint_aware.decimation is False
 
 
 def test_the_c_export_refuses_the_decimation_filter(tmp_path):
@@ -260,7 +263,8 @@ decimation = false
     ca = load_scenario(path).loop.controller.constraint_aware
     assert ca.decimation is False and ca.readings == 1
     path.write_text(text.replace("decimation = false", ""))
-    assert load_scenario(path).loop.controller.constraint_aware.readings == 5
+    loop = load_scenario(path).loop
+    assert loop.controller.bound(loop).constraint_aware.readings == 5
     path.write_text(text.replace("decimation = false", 'decimation = "on"'))
     with pytest.raises(ScenarioError, match="decimation"):
         load_scenario(path)

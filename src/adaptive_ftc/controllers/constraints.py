@@ -813,10 +813,11 @@ class ConstraintAware:
         rule counts (:attr:`seen_noise`, :attr:`decimation_delay`). ``None`` (default):
         decided by :meth:`AdaptiveController.bound` on the loop, on where the model has such
         ``N`` and its noise lowers the rule's loop rate (the std or density bound below the
-        hardware's other bounds, without the filter; a designer's ``bandwidth`` aside):
-        elsewhere the filter would only add its delay; unbound, on wherever the model has
-        noise and such ``N``. ``False``: off (the latest reading at each sample); ``True``:
-        on, and a model without such ``N`` is refused. Not a constraint.
+        hardware's other bounds, without the filter; a designer's ``bandwidth`` aside) and
+        the loop's sensors give those ``N`` readings: elsewhere the filter would only add its
+        delay; a model not bound to a loop has it off. ``False``: off (the latest reading at
+        each sample); ``True``: on, and a model without such ``N`` is refused. Not a
+        constraint.
 
     Examples
     --------
@@ -890,7 +891,7 @@ class ConstraintAware:
                 "`decimation` of ConstraintAware must be true, false or left unset; got "
                 f"{self.decimation!r}."
             )
-        if self.decimation and self._whole_readings() < 2:
+        if self.decimation and self.whole_readings < 2:
             raise ConfigurationError(
                 "`decimation` of ConstraintAware averages the sensor readings of each "
                 "controller sample: it needs a digital controller (`sample_time` > 0) whose "
@@ -919,7 +920,8 @@ class ConstraintAware:
                         f"got {self.open_loop!r}."
                     )
 
-    def _whole_readings(self) -> int:
+    @property
+    def whole_readings(self) -> int:
         """``N = noise_rate x sample_time`` where it is a whole number (within 1e-9), else 0."""
         if not self.sample_time > 0 or not math.isfinite(self.noise_rate):
             return 0
@@ -930,11 +932,11 @@ class ConstraintAware:
     @property
     def readings(self) -> int:
         """The sensor readings the law's decimation filter averages per sample
-        (:attr:`decimation`); 1 = none (a continuous law, sensors no faster than the law or
-        not a whole number of readings per sample, no noise in the model, or off)."""
-        if self.decimation is False or (self.decimation is None and not self.noise > 0):
+        (:attr:`decimation` true: :attr:`whole_readings`); 1 = none (off, or left unset and
+        not decided by :meth:`AdaptiveController.bound`)."""
+        if self.decimation is not True:
             return 1
-        return max(self._whole_readings(), 1)
+        return max(self.whole_readings, 1)
 
     @property
     def seen_noise(self) -> float:
