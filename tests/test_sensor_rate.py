@@ -148,7 +148,15 @@ def test_the_rule_counts_the_averaged_readings_noise_and_delay():
     assert base.noise_density == pytest.approx(0.01 * math.sqrt(2.0 * T))
     assert on.decimation_delay == pytest.approx(0.4 * T)  # (N-1)/(2N) of a period
     assert base.decimation_delay == 0.0
-    assert on.omega_max(200.0)[0] > base.omega_max(200.0)[0]
+    # the loop rate: the filter never raises it (its noise's density bound would: 14.9
+    # against 10 1/s) ...
+    assert on._omega_max(200.0, 1.0)[0] == pytest.approx(math.sqrt(0.1 / on.noise_density))
+    assert on.omega_max(200.0)[0] == base.omega_max(200.0)[0] == pytest.approx(10.0)
+    # ... and its delay lowers it where the delay budget binds (lag 50 ms, little noise)
+    slow, slow_on = replace(base, lag=0.05, noise=1e-4), replace(on, lag=0.05, noise=1e-4)
+    delay = 0.05 + T / 2 + 0.01  # lag, half a sample, the s' filter
+    assert slow.omega_max(200.0)[0] == pytest.approx(1.0 / delay)
+    assert slow_on.omega_max(200.0)[0] == pytest.approx(1.0 / (delay + 0.4 * T))
     # no whole N >= 2 where the law is continuous, the sensor no faster, or not a multiple
     for model in (
         replace(base, sample_time=0.0),
