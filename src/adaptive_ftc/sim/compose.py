@@ -1077,7 +1077,7 @@ def _measurements(loop: ClosedLoop, sample_index: np.ndarray, readings: int = 1)
     if sensors.has_noise:
         rng = np.random.default_rng(sensors.seed)
         k_max = int(sample_index.max())
-        ratio = readings_per_sample(sensors, loop.sample_time)
+        ratio = _readings_per_sample(sensors, loop.sample_time)
         if ratio <= 1.0 + 1e-9:  # one draw per sample (or per noise sample of a continuous loop)
             z = rng.standard_normal((k_max + 1, n))
             out += z[sample_index] * std[None, :]
@@ -1104,7 +1104,7 @@ def _measurements(loop: ClosedLoop, sample_index: np.ndarray, readings: int = 1)
     return out
 
 
-def readings_per_sample(sensors, sample_time: float) -> float:
+def _readings_per_sample(sensors, sample_time: float) -> float:
     """How many sensor readings a digital controller's sample period holds (``T rate``); 0
     for a continuous controller or a loop without noise."""
     if not sample_time or sensors is None or not sensors.has_noise:
