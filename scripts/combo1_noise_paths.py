@@ -232,14 +232,20 @@ def run(
     levers=None,
     duration=None,
     gain_estimate=None,
+    decimation=None,
 ):
     """The combination's run of ``scenario`` with the constraint-aware law, ``levers`` (the
     keywords of :func:`with_levers`) applied to its configuration, and ``gain_estimate =
-    (band, forget[, low_band])`` the input-gain estimate (:func:`emit_with_gain_estimate`):
+    (band, forget[, low_band])`` the input-gain estimate (:func:`emit_with_gain_estimate`);
+    ``decimation``: the model's (``ConstraintAware.decimation``; ``None``: the rule's, the
+    filter since session 14; ``False``: the latest reading, session 13's law):
     ``(result, loop)``."""
     sc = load_scenario(scenario)
     loop, solver = case_loop(sc, COMBO1, duration)
     loop = constraint_aware(loop, solver)
+    if decimation is not None:
+        ca = replace(loop.controller.constraint_aware, decimation=decimation)
+        loop = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
     if noise_off:
         loop = replace(loop, sensors=None)
     if failures_off:
@@ -317,6 +323,11 @@ def main(argv=None) -> int:
     ap.add_argument("--gain-forget", type=float, default=0.2, metavar="RATE")
     ap.add_argument("--gain-low-band", type=float, default=0.0, metavar="RAD_PER_S")
     ap.add_argument("--no-split", action="store_true", help="skip the regressor/theta split")
+    ap.add_argument(
+        "--no-decimation",
+        action="store_true",
+        help="the latest sensor reading at each sample (session 13's law), not the mean",
+    )
     args = ap.parse_args(argv)
     levers = {
         "lam_factor": args.lam_factor,
@@ -335,6 +346,7 @@ def main(argv=None) -> int:
         failures_off=args.failures_off,
         levers=levers,
         gain_estimate=ge,
+        decimation=False if args.no_decimation else None,
     )
     m = metrics(r, loop, WINDOW)
     if not math.isfinite(m["err"]):

@@ -67,8 +67,12 @@ def test_the_regressor_path_is_the_measurement_noise_in_the_regressor():
     total, theta_path, reg_path = cn.regressor_split(r, loop, window)
     assert reg_path < 1e-9 * total  # no noise: Pi(x_m) = Pi(x)
     assert math.isclose(theta_path, total, rel_tol=1e-9)
-    r, loop = cn.run("hypersonic-direct-s1", duration=3.0)
+    # the latest reading at each sample (session 13's law; the rule's decimation filter
+    # averages five readings since session 14)
+    r, loop = cn.run("hypersonic-direct-s1", duration=3.0, decimation=False)
     total, theta_path, reg_path = cn.regressor_split(r, loop, window)
-    assert reg_path > 0.1 * total  # with noise the measured q in Pi carries a share
+    # with noise the measured q in Pi carries a share (in this 1 s window 10.5 % with one draw
+    # per sample, 8 % with the latest of the 1 kHz readings, session 14: the draws')
+    assert reg_path > 0.05 * total
     bands = cn.band_rms(r, window)
     assert bands.shape == (2, len(cn.BANDS)) and np.all(bands > 0)

@@ -13,6 +13,7 @@ import pytest
 
 from adaptive_ftc import load_scenario, simulate
 from adaptive_ftc.allocation import AdaptiveAllocation
+from adaptive_ftc.controllers import ConstraintAware
 from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.sim.compose import assemble, source_of
 from adaptive_ftc.sim.layout import RECORDS, Misc, RecordLayout
@@ -33,6 +34,9 @@ def _loops():
     controller, noisy sensors, an input delay, the filtered s', a MIMO plant, an adaptive
     allocator."""
     digital = load_scenario("hypersonic-direct-s1-digital").loop
+    noisy = replace(load_scenario("hypersonic-direct-s1-noise").loop, sample_time=0.005)
+    model = ConstraintAware.from_loop(noisy, decimation=True)  # the decimation filter
+    decimated = replace(noisy, controller=replace(noisy.controller, constraint_aware=model))
     return {
         "actuators": (load_scenario("hypersonic-direct-s1-actuators").loop, "exact"),
         "projected": (_projected(load_scenario("hypersonic-direct-s1-actuators").loop), "exact"),
@@ -47,6 +51,7 @@ def _loops():
             replace(digital, actuators=Actuators(delay=3 * digital.sample_time)),
             "exact",
         ),
+        "digital-decimated": (decimated, "exact"),
         "second-order-delay": (
             replace(
                 load_scenario("pendulum-direct").loop,

@@ -48,9 +48,17 @@ state, and it runs in continuous time. These parts add, per closed loop:
   (:class:`~adaptive_ftc.sim.system.ClosedLoop` names the nearest multiples).
 - :class:`Sensors`: seeded Gaussian measurement noise and a constant bias on each measured
   state. The controller (tracking errors, regressors, design laws) sees ``x + b + n_k``; the
-  plant, the failures and the recorded tracking errors use the true state. Noise sample ``k``
-  holds on ``[t0 + k T, t0 + (k+1) T)`` with ``T`` the controller's sample time, or ``1/rate``
-  for a continuous controller. The same seed gives the same noise.
+  plant, the failures and the recorded tracking errors use the true state. The sensor gives
+  a reading every ``1/rate`` s, each with its own noise draw (drawn in time order: a shorter
+  run's noise is a prefix of a longer run's; the same seed gives the same noise). A
+  continuous controller holds reading ``k`` on ``[t0 + k/rate, t0 + (k+1)/rate)``. A digital
+  controller (sample time ``T``) reads at its sample ``k`` the latest reading, number
+  ``floor(k T rate)`` (``k N`` where ``N = T rate`` is a whole number), with the state at
+  the sample instant (the reading's age, under ``1/rate``, is not modelled where ``N`` is not
+  a whole number); a sensor no faster than the controller (``rate <= 1/T``) gives one draw
+  per sample (reading ``k`` at sample ``k``). A constraint-aware digital law may average the
+  ``N`` readings of each period instead (its decimation filter,
+  :attr:`~adaptive_ftc.controllers.constraints.ConstraintAware.decimation`).
 - a digital controller: ``ClosedLoop(sample_time=T)`` runs the whole controller (control law,
   adaptive laws, the ``s'`` filter) at the instants ``t0 + k T`` on the sampled measurement and
   holds its outputs: the command ``u`` is constant on each sample interval (zero-order hold) and
@@ -270,8 +278,11 @@ class Sensors:
     bias
         Constant measurement bias per state, same forms.
     rate
-        Noise samples per second when the controller is continuous (a digital controller
-        samples at its own rate). Each sample holds until the next.
+        Readings per second, each with its own noise draw. A continuous controller holds each
+        reading until the next; a digital controller reads the latest reading at each of its
+        samples (one draw per sample where the sensor is no faster than the controller), or,
+        with a constraint-aware law's decimation filter, the mean of the period's readings
+        (see the module docstring).
     seed
         Seed of the noise (:func:`numpy.random.default_rng`): same seed, same noise.
     """

@@ -238,6 +238,19 @@ class AdaptiveController(ABC):
                 and done.limited
                 and not done.fast_unstable(float(done.b_max or 1.0))
             )
+        if ca.decimation is None and ca.noise > 0 and ca.whole_readings >= 2:
+            # the decimation filter (session 14, ConstraintAware.decimation) where the noise
+            # is what lowers the rule's loop rate (elsewhere it would add its delay for
+            # nothing) and the loop's sensors give the model's readings per sample
+            done = replace(ca, **updates, bandwidth=None, decimation=False)
+            w0, b_max = float(done.loop_rate or self.loop_rate()), float(done.b_max or 1.0)
+            noisy = done.omega_max(w0, b_max)[0]
+            quiet = replace(done, noise=0.0).omega_max(w0, b_max)[0]
+            sensors = loop.sensors
+            given = sensors is not None and math.isclose(
+                float(loop.sample_time) * float(sensors.rate), ca.whole_readings, rel_tol=1e-9
+            )
+            updates["decimation"] = bool(given and noisy < quiet * (1.0 - 1e-9))
         return replace(self, constraint_aware=replace(ca, **updates))
 
     @staticmethod

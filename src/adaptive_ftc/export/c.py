@@ -117,6 +117,16 @@ def controller_loop(scenario, sample_time: float | None = None) -> tuple[ClosedL
             "give a sample time (export_c(..., sample_time=0.005) or `aftc export c ... "
             "--sample-time 0.005`), or a scenario with a [digital] table."
         )
+    from adaptive_ftc.sim.parts.base import decimation_readings
+
+    n = decimation_readings(loop, loop.controller.bound(loop))
+    if n > 1:
+        raise ConfigurationError(
+            f"The design's decimation filter (the mean of the {n} sensor readings of each "
+            "sample, ConstraintAware.decimation) has no C form yet: the exported controller "
+            "takes one measurement per sample. Export it with `decimation = false` in "
+            "[controller.constraint_aware] (and feed it the mean of the period's readings)."
+        )
     tau = solver.filter_tau_for(loop)
     if not loop.sample_time < 2 * tau:
         raise ConfigurationError(

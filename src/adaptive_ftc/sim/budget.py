@@ -143,10 +143,15 @@ def check_run_size(loop: ClosedLoop, solver: SolverOptions) -> RunSize:
         )
     period = float(getattr(loop, "sample_time", 0.0) or 0.0)
     sensors = getattr(loop, "sensors", None)
-    if not period and sensors is not None and sensors.has_noise:
-        period = 1.0 / float(sensors.rate)
+    by_sensor = False
+    if (
+        sensors is not None
+        and sensors.has_noise
+        and (not period or 1.0 / float(sensors.rate) < period)
+    ):  # a noise draw per reading, a digital controller's faster sensor too
+        period, by_sensor = 1.0 / float(sensors.rate), True
     if period and span / period > MAX_INTERVALS:
-        what_t = "`sample_time`" if loop.sample_time else "the sensors' noise `rate`"
+        what_t = "the sensors' noise `rate`" if by_sensor else "`sample_time`"
         raise ConfigurationError(
             f"{what} has {span / period:.3g} controller/sensor samples, more than the limit of "
             f"{MAX_INTERVALS:.3g}. Make {what_t} coarser (a period >= {span / MAX_INTERVALS:.3g} "

@@ -134,6 +134,9 @@ class Generator:
     #: lines that depend on t alone, run once per distinct t (with the reference): a
     #: Rosenbrock step evaluates its Jacobian's columns at one t
     per_time: list[str] = field(default_factory=list)
+    #: what the controller reads of state ``i`` (generated code; a decimation filter's mean,
+    #: sim/parts/decimation.py)
+    measured: str = "x[i] + meas(ph, i, D)"
     #: the last controller states that keep running while adaptation is frozen (filters of
     #: the constraint-aware option)
     free_running: int = 0
@@ -446,16 +449,21 @@ def _addresses(module, gain_module, data: LoopData) -> tuple[int, int, int]:
 
 
 # ----------------------------------------------------------------------------- generation
-def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndarray]:
+def _intervals(
+    loop: ClosedLoop, readings: int = 1
+) -> tuple[tuple[float, ...], np.ndarray, np.ndarray]:
     """Break times of the integration, whether each interval starts at a controller/sensor
     sample, and the sample index of each interval.
 
     The failure times always break the integration; a digital controller (or noise held at the
-    sensor rate) adds the sample instants ``t0 + k T``.
+    sensor rate) adds the sample instants ``t0 + k T``. A controller with a decimation filter
+    (``readings`` = ``N`` >= 2 sensor readings per sample) adds every reading instant ``t0 + j
+    T/N``: its flag is 1 at a sample (``j`` a multiple of ``N``), 2 at a reading between two
+    (:mod:`adaptive_ftc.sim.parts.decimation`), and its sample index ``j // N``.
     """
     t0, t1 = float(loop.t0), float(loop.t_final)
     fail = _with_annunciations(loop, loop.failures.breakpoints(t0, t1))
-    period = loop.sample_time
+    period = loop.sample_time / readings if readings > 1 else loop.sample_time
     if not period and loop.sensors is not None and loop.sensors.has_noise:
         period = 1.0 / float(loop.sensors.rate)
     if not period:
@@ -480,6 +488,9 @@ def _intervals(loop: ClosedLoop) -> tuple[tuple[float, ...], np.ndarray, np.ndar
     starts = np.asarray(bps[:-1])
     k = np.floor((starts - t0) / period + 1e-9).astype(np.int64)
     on_grid = np.abs(starts - (t0 + k * period)) <= tol
+    if readings > 1:  # 1 at a sample, 2 at a reading between samples; the sample's index
+        flags = np.where(k % readings == 0, 1, 2) * on_grid
+        return bps, flags.astype(np.int64), k // readings
     return bps, on_grid.astype(np.int64), k
 
 
@@ -747,6 +758,8 @@ class _Structure:
     sampled: bool
     sig_table: tuple[int, ...]
     plant_p: tuple
+    #: sensor readings per sample a decimation filter averages (1 = none)
+    readings: int = 1
     #: what :func:`assemble` loads for this structure (its modules, the compiled addresses)
     loaded: dict = field(default_factory=dict)
 
@@ -881,6 +894,7 @@ def _structure(loop: ClosedLoop, sdot: str) -> _Structure:
         sampled=b.sampled,
         sig_table=tuple(sig_table),
         plant_p=plant.parameter_values() if plant_part.expr == "D.p" else (),
+        readings=b.readings,
     )
 
 
@@ -956,7 +970,7 @@ def _numbers(loop: ClosedLoop, st: _Structure):
     intervals and tables of ``loop`` itself."""
     g = st.g
     nx, m = g.nx, g.m
-    bps, samp, sample_index = _intervals(loop)
+    bps, samp, sample_index = _intervals(loop, st.readings)
     bps, fphase, fkind, foff, fpatterns, fconsts = _failures(loop, m, st.variables, st.names, bps)
     fail_base = len(st.values)
     values = [*st.values, *fconsts]
@@ -966,7 +980,9 @@ def _numbers(loop: ClosedLoop, st: _Structure):
         inst[n_, :2] = (kind, of + fail_base)
     nph = len(bps) - 1
     act_table = _actuator_table(loop, bps) if st.has_act else np.zeros((nph, m, 6))
-    meas_table = _measurements(loop, sample_index) if st.has_meas else np.zeros((nph, nx))
+    meas_table = (
+        _measurements(loop, sample_index, st.readings) if st.has_meas else np.zeros((nph, nx))
+    )
     act_at = len(values)
     meas_at = act_at + act_table.size
     c_all = np.concatenate([np.array(values, dtype=float), act_table.ravel(), meas_table.ravel()])
@@ -1039,9 +1055,19 @@ def _actuator_table(loop: ClosedLoop, bps) -> np.ndarray:
     return out
 
 
-def _measurements(loop: ClosedLoop, sample_index: np.ndarray) -> np.ndarray:
-    """Measurement offset ``bias + noise`` per (interval, state); noise sample ``k`` holds on
-    sample interval ``k`` (drawn in time order, so a shorter run sees the same noise)."""
+def _measurements(loop: ClosedLoop, sample_index: np.ndarray, readings: int = 1) -> np.ndarray:
+    """Measurement offset ``bias + noise`` per (interval, state); the noise of sensor reading
+    ``j`` is the ``j``-th draw (drawn in time order, so a shorter run sees the same noise).
+
+    A continuous controller, or a digital one whose sensors are not faster than it
+    (``Sensors.rate <= 1/T``): reading ``k`` holds on sample interval ``k``. A digital
+    controller with faster sensors reads, at its sample ``k`` (``t_k = t0 + k T``), the latest
+    reading, ``j = floor(k T rate)`` (``j = k N`` where ``N = T rate`` is an integer): the
+    noise of the readings it does not read is drawn and dropped, so its noise statistics are
+    the declared ones. With a decimation filter (``readings`` = ``N`` >= 2: the design averages
+    the ``N`` readings of the last period, :attr:`ConstraintAware.readings`) the offset of
+    sample ``k`` is ``bias`` plus the mean noise of readings ``kN - N + 1 ... kN`` (reading 0
+    alone at the first sample: no reading before ``t0``)."""
     sensors = loop.sensors
     assert sensors is not None  # called for a loop with sensors only (has_meas)
     n = loop.plant.n_states
@@ -1050,9 +1076,40 @@ def _measurements(loop: ClosedLoop, sample_index: np.ndarray) -> np.ndarray:
     out = np.repeat(bias[None, :], n_rows, axis=0)
     if sensors.has_noise:
         rng = np.random.default_rng(sensors.seed)
-        z = rng.standard_normal((int(sample_index.max()) + 1, n))
-        out += z[sample_index] * std[None, :]
+        k_max = int(sample_index.max())
+        ratio = _readings_per_sample(sensors, loop.sample_time)
+        if ratio <= 1.0 + 1e-9:  # one draw per sample (or per noise sample of a continuous loop)
+            z = rng.standard_normal((k_max + 1, n))
+            out += z[sample_index] * std[None, :]
+            return out
+        ks = np.arange(k_max + 1, dtype=np.int64)
+        whole = round(ratio)
+        if abs(ratio - whole) <= 1e-9 * ratio:
+            latest = ks * int(whole)
+        else:  # the latest reading at or before the sample instant
+            latest = np.floor(ks * ratio + 1e-9).astype(np.int64)
+        z = rng.standard_normal((int(latest[-1]) + 1, n))
+        if readings > 1:  # the mean of the period's readings (a boxcar, integrate and dump)
+            total = np.zeros((latest.size, n))
+            count = np.zeros(latest.size)
+            for back in range(readings):
+                at = latest - back
+                there = at >= 0
+                total[there] += z[at[there]]
+                count += there
+            per_sample = total / count[:, None]
+        else:
+            per_sample = z[latest]
+        out += per_sample[sample_index] * std[None, :]
     return out
+
+
+def _readings_per_sample(sensors, sample_time: float) -> float:
+    """How many sensor readings a digital controller's sample period holds (``T rate``); 0
+    for a continuous controller or a loop without noise."""
+    if not sample_time or sensors is None or not sensors.has_noise:
+        return 0.0
+    return float(sample_time) * float(sensors.rate)
 
 
 def _guarded() -> list[str]:

@@ -3,9 +3,9 @@ and :mod:`.skeleton` for the hooks they fill).
 
 :func:`parts` lists them in build order: the order in which they emit code (their numbers'
 places in ``D.c`` follow it) and claim states (plant, theta, the design's states, the
-allocator's, the constraint-aware option's, the s' filter, then actuators, held values and
-delay states), and the order of their helpers (``tables``) in the module. A new part is a
-new module here and one entry in :func:`parts`.
+allocator's, the constraint-aware option's, the s' filter, then actuators, held values,
+delay states and a decimating controller's sums), and the order of their helpers
+(``tables``) in the module. A new part is a new module here and one entry in :func:`parts`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from adaptive_ftc.sim.parts.allocation import Allocation
 from adaptive_ftc.sim.parts.approximator import Approximator
 from adaptive_ftc.sim.parts.base import Build, Part, StateAllocator
 from adaptive_ftc.sim.parts.constraint_aware import ConstraintAware
+from adaptive_ftc.sim.parts.decimation import Decimation
 from adaptive_ftc.sim.parts.delay import Delay
 from adaptive_ftc.sim.parts.design import Design
 from adaptive_ftc.sim.parts.failures import Failures
@@ -42,4 +43,5 @@ def parts() -> tuple[Part, ...]:
         Sensor(),
         Sampler(),
         Delay(),
+        Decimation(),
     )

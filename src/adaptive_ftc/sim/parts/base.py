@@ -85,6 +85,12 @@ class Build:
             and any(v > 0 for v in np.ravel(loop.actuators.omega))
         )
         self.has_delay = loop.actuators is not None and loop.actuators.has_delay
+        #: sensor readings a digital controller's decimation filter averages per sample (the
+        #: design's model asks for it: ConstraintAware.readings); 1 = none
+        self.readings = decimation_readings(loop, self.ctrl) if self.sampled else 1
+        #: what the controller reads of state ``i`` (generated code)
+        self.measured = "measured(x, Y, ph, i, D)" if self.readings > 1 else "x[i] + meas(ph, i, D)"
+        self.g.measured = self.measured
 
     @property
     def nx(self) -> int:
@@ -97,6 +103,36 @@ class Build:
     @property
     def m(self) -> int:
         return self.g.m
+
+
+def decimation_readings(loop, ctrl) -> int:
+    """The number ``N`` of sensor readings per sample that the digital controller ``ctrl``
+    (bound to ``loop``) averages (its model's
+    :attr:`~adaptive_ftc.controllers.constraints.ConstraintAware.readings`); 1 = none. The
+    loop's sensors must give those ``N`` readings per sample."""
+    import math
+
+    from adaptive_ftc.errors import ConfigurationError
+
+    ca = getattr(ctrl, "constraint_aware", None)
+    if ca is None or ca.is_ideal or not loop.sample_time > 0:
+        return 1
+    n = ca.readings
+    if n > 1:
+        have = loop.sample_time * loop.sensors.rate if loop.sensors is not None else 0.0
+        if not math.isclose(have, n, rel_tol=1e-9):
+            got = (
+                f"the loop's sensors give {have:g} (rate {loop.sensors.rate:g} Hz)"
+                if loop.sensors is not None
+                else "the loop declares no sensors"
+            )
+            raise ConfigurationError(
+                f"The design's decimation filter averages {n} sensor readings per sample "
+                f"(its model: noise_rate {ca.noise_rate:g} Hz, sample_time "
+                f"{ca.sample_time:g} s), but {got} every {loop.sample_time:g} s: declare the "
+                "loop's sensor rate in the model (`noise_rate`) or set `decimation = false`."
+            )
+    return n
 
 
 class Part:

@@ -61,8 +61,9 @@ class Sampler(Part):
             return {}
         return {
             "jump_sample": [
-                "    if D.i[D.i[I_SAMP] + ph] != 0:  # a controller sample: new command and"
-                " derivatives, held",
+                # (a decimating loop flags its sensor readings between samples 2)
+                f"    if D.i[D.i[I_SAMP] + ph] {'== 1' if b.readings > 1 else '!= 0'}:"
+                "  # a controller sample: new command and derivatives, held",
             ],
             "jump_sample_body": [
                 f"        misc[{_SAMPLING}] = 1.0",

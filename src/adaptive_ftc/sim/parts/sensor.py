@@ -19,7 +19,7 @@ class Sensor(Part):
         pos, vel = b.loop.plant.position_index, b.loop.plant.velocity_index
         measure = [
             f"    for i in range({nx}):",
-            "        sig[i] = x[i] + meas(ph, i, D)  # what the sensors give"
+            f"        sig[i] = {b.measured}  # what the sensors give"
             if b.has_meas
             else "        sig[i] = x[i]",
         ]

@@ -59,9 +59,11 @@ COMMANDS_ONLY_TEST = "dY.size != Y.size"
 #: the hooks of ``jump(t, Y, ph, D, W)``, in order
 JUMP_HOOKS: tuple[str, ...] = (
     "jump_first",  # the first interval: the delay line holds the first command (delay)
+    "jump_reading",  # at a sensor reading between samples: summed (decimation)
     "jump_sample",  # at a controller sample: ... (sampler)
     "jump_sample_shift",  # ... the delay line moves on (delay)
     "jump_sample_body",  # ... new command and derivatives, held (sampler)
+    "jump_sample_end",  # ... the readings' sum emptied (decimation)
     "jump_actuator",  # actuators that become dynamic start at their command (actuator)
 )
 
