@@ -1097,16 +1097,18 @@ def _mathtext_parser(output: str) -> Any:
     where matplotlib's parser has no cached ``_parse_cached`` to wrap)."""
     from matplotlib.mathtext import MathTextParser
 
-    parse = getattr(MathTextParser._parse_cached, "__wrapped__", None)
-    if parse is None:  # pragma: no cover - another matplotlib's internals
+    wrapped = getattr(getattr(MathTextParser, "_parse_cached", None), "__wrapped__", None)
+    if wrapped is None:  # pragma: no cover - another matplotlib's internals
         return None
+    parse: Any = wrapped
 
     class _CachedParser(MathTextParser):
         @functools.lru_cache(1024)  # noqa: B019 - one instance per output, kept for the process
         def _parse_cached(self, *args: Any) -> Any:
             return parse(self, *args)
 
-    return _CachedParser(output)
+    cls: Any = _CachedParser
+    return cls(output)
 
 
 def _metadata(fmt: str, title: str | None) -> dict[str, Any]:
