@@ -1,6 +1,7 @@
 """Wall time of `aftc reproduce` on an empty cache (a fresh install) and on a warm one.
 
-Run: ``python benchmarks/bench_reproduce.py [--formats png] [--repeat 1]``.
+Run: ``python benchmarks/bench_reproduce.py [--formats png] [--repeat 1] [--against SRC]
+[--warm-only]``.
 
 Each round runs, in fresh processes and with fresh temporary folders:
 
@@ -13,9 +14,16 @@ Each round runs, in fresh processes and with fresh temporary folders:
 Absolute times drift with the machine's load, so the script also times the plain C loop of
 ``hypersonic-direct-s1`` (``benchmarks/c``, built with the system C compiler) in the same
 session and prints every time in units of that C run as well: a reference measured in the same
-run. Prints the times against issue 10's targets (warm <= 15 s, cold <= 30 s, import <= 0.3 s);
-``--formats png`` is the measurement of the targets (PDF figures add about 3 s). Needs about a
-minute per round on the 2-core machine.
+run. Prints the times against issue 29's targets (warm <= 10 s, cold <= 20 s, import <= 0.2 s;
+issue 10's were 15 s, 30 s and 0.3 s); ``--formats png`` is the measurement of the targets (PDF
+figures add about 3 s). Needs about two minutes per round on the 2-core machine.
+
+``--against SRC`` (e.g. ``/work/main/src``) times another checkout's package in the same
+session, interleaved round by round with this one (this checkout's ``src``, then ``SRC``, each
+with its own fresh caches), and prints this checkout's times over the other's: on a shared,
+noisy machine only times measured side by side compare. The load average (``uptime``) is
+printed beside every round. ``--warm-only`` skips the cold runs and times one run per round
+on the environment's own caches (run it once before, or after a reproduction of each tree).
 """
 
 from __future__ import annotations
@@ -32,9 +40,10 @@ from pathlib import Path
 
 from _cref import CReferenceError, build, run_single
 
-TARGET_WARM = 15.0
-TARGET_COLD = 30.0
-TARGET_IMPORT = 0.3
+TARGET_WARM = 10.0
+TARGET_COLD = 20.0
+TARGET_IMPORT = 0.2
+HERE_SRC = Path(__file__).resolve().parents[1] / "src"
 
 
 def _timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
@@ -50,13 +59,25 @@ def _timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
     return wall, cpu
 
 
-def reproduce_round(formats: str) -> tuple[tuple[float, float], tuple[float, float]]:
-    """(cold wall, cold CPU), (warm wall, warm CPU) of one round in fresh caches."""
+def _load() -> str:
+    return "load " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def reproduce_round(
+    formats: str, src: Path | None = None, warm_only: bool = False
+) -> tuple[tuple[float, float] | None, tuple[float, float]]:
+    """(cold wall, cold CPU), (warm wall, warm CPU) of one round in fresh caches, importing the
+    package from ``src`` when given (``PYTHONPATH``). ``warm_only``: one run on the
+    environment's own caches (warm after any earlier run of the same loops), no cold run."""
     with tempfile.TemporaryDirectory(prefix="aftc-bench-reproduce-") as tmp:
         env = dict(os.environ)
+        if src is not None:
+            env["PYTHONPATH"] = str(src)
+        aftc = [sys.executable, "-m", "adaptive_ftc.cli", "reproduce", "--formats", formats]
+        if warm_only:
+            return None, _timed([*aftc, "--out", str(Path(tmp) / "warm"), "--quiet"], env)
         env["ADAPTIVE_FTC_CACHE_DIR"] = str(Path(tmp) / "loops")
         env["NUMBA_CACHE_DIR"] = str(Path(tmp) / "numba")
-        aftc = [sys.executable, "-m", "adaptive_ftc.cli", "reproduce", "--formats", formats]
         cold = _timed([*aftc, "--out", str(Path(tmp) / "cold"), "--quiet"], env)
         warm = _timed([*aftc, "--out", str(Path(tmp) / "warm"), "--quiet"], env)
     return cold, warm
@@ -78,9 +99,27 @@ def main() -> int:
     )
     ap.add_argument("--formats", default="png", help="figure formats (default png)")
     ap.add_argument("--repeat", type=int, default=1, help="cold + warm rounds (default 1)")
+    ap.add_argument(
+        "--against",
+        type=Path,
+        default=None,
+        help="another checkout's src folder, timed in the same session, interleaved",
+    )
+    ap.add_argument(
+        "--warm-only",
+        action="store_true",
+        help="warm runs only, on the environment's own loop and numba caches (no cold run)",
+    )
     args = ap.parse_args()
     if args.repeat < 1:
         print("error: --repeat must be positive", file=sys.stderr)
+        return 2
+    if args.against is not None and not (args.against / "adaptive_ftc").is_dir():
+        print(
+            f"error: --against {args.against}: no adaptive_ftc package there; give the src "
+            "folder of a checkout (e.g. /work/main/src)",
+            file=sys.stderr,
+        )
         return 2
     try:
         exe = build()
@@ -88,20 +127,35 @@ def main() -> int:
     except CReferenceError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    colds, warms = [], []
-    for _ in range(args.repeat):
-        cold, warm = reproduce_round(args.formats)
-        colds.append(cold)
-        warms.append(warm)
+    trees: dict[str, Path | None] = {"this": None}
+    if args.against is not None:
+        trees = {"this": HERE_SRC, "against": args.against}
+    colds: dict[str, list[tuple[float, float]]] = {k: [] for k in trees}
+    warms: dict[str, list[tuple[float, float]]] = {k: [] for k in trees}
+    for i in range(args.repeat):
+        for label, src in trees.items():
+            before = _load()
+            cold, warm = reproduce_round(args.formats, src, args.warm_only)
+            if cold is not None:
+                colds[label].append(cold)
+            warms[label].append(warm)
+            cold_text = f"cold {cold[0]:.1f} s / {cold[1]:.1f} s CPU, " if cold else ""
+            print(
+                f"  round {i + 1} {label:7s} {cold_text}warm {warm[0]:.1f} s / {warm[1]:.1f} s "
+                f"CPU ({before}; after: {_load()})",
+                flush=True,
+            )
     imp = import_time()
 
     def row(what: str, runs: list[tuple[float, float]], target: float) -> None:
+        if not runs:
+            return
         walls = [w for w, _ in runs]
         best, med = min(walls), statistics.median(walls)
         cpu = min(c for _, c in runs)
         verdict = "MET" if best <= target else "NOT MET"
         print(
-            f"  {what:5s} {best:6.1f} s / {med:6.1f} s wall (min / median), {cpu:6.1f} s CPU; "
+            f"  {what:13s} {best:6.1f} s / {med:6.1f} s wall (min / median), {cpu:6.1f} s CPU; "
             f"{best / c_run:7.0f} C runs; target <= {target:g} s: {verdict}"
         )
 
@@ -109,8 +163,17 @@ def main() -> int:
         f"aftc reproduce --formats {args.formats}, {args.repeat} round(s); reference: the C "
         f"loop of hypersonic-direct-s1, whole run, {c_run * 1e3:.1f} ms (best of 5)"
     )
-    row("cold", colds, TARGET_COLD)
-    row("warm", warms, TARGET_WARM)
+    if args.against is not None:
+        print(f"  this = {HERE_SRC}, against = {args.against}")
+    for label in trees:
+        row(f"cold {label}", colds[label], TARGET_COLD)
+        row(f"warm {label}", warms[label], TARGET_WARM)
+    if args.against is not None:
+        for what, runs in (("cold", colds), ("warm", warms)):
+            if runs["this"] and runs["against"]:
+                wall = min(w for w, _ in runs["this"]) / min(w for w, _ in runs["against"])
+                cpu = min(c for _, c in runs["this"]) / min(c for _, c in runs["against"])
+                print(f"  {what}: this / against = {wall:.2f}x wall, {cpu:.2f}x CPU (best runs)")
     verdict = "MET" if imp <= TARGET_IMPORT else "NOT MET"
     print(
         f"  import adaptive_ftc {imp:.3f} s ({imp / c_run:.1f} C runs; target <= "

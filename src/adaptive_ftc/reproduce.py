@@ -1025,7 +1025,7 @@ def _submit_figures(
 ):
     """Submit the figure tasks of a scenario whose runs are all done (``limit``: only the first
     ``limit`` figures, quick mode)."""
-    from adaptive_ftc.plots import dense_zoom
+    from adaptive_ftc.plots import dense_zoom, figure_input
 
     adaptive = results[(sc.name, "adaptive")]["result"]
     if adaptive is None or adaptive.time.size == 0:
@@ -1042,8 +1042,15 @@ def _submit_figures(
     for spec, fname in items:
         path = out / "figures" / fname
         zoom = dense_zoom(sc, adaptive, spec)
+        # the worker is sent what the figure draws (figure_input: the thinned copies, the
+        # baselines only to the tracking figures that overlay them), not 45 MB per 1 ms run
+        kind = str(spec.get("kind", ""))
+        drawn = figure_input(adaptive, kind)
+        drawn_bases = (
+            {k: figure_input(v, kind) for k, v in baselines.items()} if kind == "tracking" else {}
+        )
         fut = executor.submit(
-            _figure_task, adaptive, spec, str(path), baselines, tuple(formats), dpi, zoom
+            _figure_task, drawn, spec, str(path), drawn_bases, tuple(formats), dpi, zoom
         )
         entry = FigureEntry(
             number=str(spec.get("number", "")),
