@@ -65,19 +65,22 @@ def sensitivity(w, **kw) -> float:
     return float(1.0 / abs(1.0 + loop_gain(w, **kw)))
 
 
-def combination_2(k_i: float | None = None, damping: float | None = None) -> dict:
+#: the damping of the surface's zero pair studied in round 9 (session 14; not in the rule)
+DAMPING_STUDIED = 0.7
+
+
+def combination_2(k_i: float | None = None, damping: float = 0.0) -> dict:
     """The loop's numbers on hypersonic-direct-s1 under the second combination (the law's
     configuration as compiled; ``k_i``: the error integral, the rule's when ``None``;
     ``damping``: the least damping of the surface's zero pair ``p^2 + lam p + k_I``, which
-    raises ``lam`` to ``2 damping sqrt(k_I)`` (``constraints.C_INTEGRAL_DAMPING`` when
-    ``None``; 0: round 8's ``lam``, the thesis's 2 here))."""
+    raises ``lam`` to ``2 damping sqrt(k_I)`` (round 9's study; 0: the rule's ``lam``, the
+    thesis's 2 here))."""
     import sys
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from hardware_cases import HYPERSONIC_CASES, case_loop, constraint_aware
 
-    from adaptive_ftc.controllers.constraints import C_INTEGRAL_DAMPING
     from adaptive_ftc.scenarios.loader import load_scenario
 
     sc = load_scenario("hypersonic-direct-s1")
@@ -91,10 +94,9 @@ def combination_2(k_i: float | None = None, damping: float | None = None) -> dic
     g = float(ca.loop_gain) * cfg.scale
     a, c = ca.open_loop
     k_i = cfg.error_integral if k_i is None else float(k_i)
-    damping = C_INTEGRAL_DAMPING if damping is None else float(damping)
-    # the limited loop's lam is the thesis's here (its factor is 1); the rule raises it to
-    # damp the surface's zero pair (round 9)
-    lam = max(float(loop.controller.lam), 2.0 * damping * math.sqrt(k_i))
+    # the limited loop's lam is the thesis's here (its factor is 1); round 9's study raises
+    # it to damp the surface's zero pair
+    lam = max(float(loop.controller.lam), 2.0 * float(damping) * math.sqrt(k_i))
     return {
         "g": g,
         "K": float(k) + float(k0) / float(eps0),
@@ -114,7 +116,11 @@ def main() -> int:
     print("| k_I, lam | beta | |S(j0.5)| | predicted amplitude at 0.5 rad/s (rad) |")
     print("|---|---|---|---|")
     rows = {}
-    cases = (("before (k_I = 0)", 0.0, None), ("round 8 (lam 2)", None, 0.0), ("rule", None, None))
+    cases = (
+        ("before (k_I = 0)", 0.0, 0.0),
+        ("round 8", None, 0.0),
+        ("damped (study)", None, DAMPING_STUDIED),
+    )
     for label, k_i, damping in cases:
         nums = combination_2(k_i, damping)
         kw = {k: nums[k] for k in ("g", "K", "lam", "k_i", "a", "c", "lag", "T", "tau_d")}
@@ -127,16 +133,16 @@ def main() -> int:
                 f"| {label}: {kw['k_i']:.3g}, lam {kw['lam']:.3g} | {beta:.3g} | "
                 f"{sv:.3e} | {amp:.2e} |"
             )
-    ratio = rows[("before (k_I = 0)", 0.25)] / rows[("rule", 0.25)]
+    ratio = rows[("before (k_I = 0)", 0.25)] / rows[("round 8", 0.25)]
     print(f"\n|S(j0.5)| falls {ratio:.2f}x in the final window's loop (beta = 1/4)")
-    # round 9: the modes against k_I, with round 8's lam and with the damped zero pair. The
+    # round 9 (a study): the modes against k_I, with round 8's lam and with the damped pair. The
     # model is conservative about the crossover mode's damping (unstable at beta <= 1/3 even
     # without the integral, while the runs' mode decays over 15-20 s): read the trends.
     print("\n| k_I | lam | beta | crossover mode | slow pair (near sqrt(k_I)) |")
     print("|---|---|---|---|---|")
     w = combination_2()["g"]  # the loop rate: g = w on this loop
     for c_int in (0.2, 0.26, 0.3, 0.35):
-        for damping in (0.0, None):
+        for damping in (0.0, DAMPING_STUDIED):
             nums = combination_2((c_int * w) ** 2, damping)
             kw = {k: nums[k] for k in ("g", "K", "lam", "k_i", "a", "c", "lag", "T", "tau_d")}
             for beta in (1.0, 1.0 / 3.0, 0.25):

@@ -50,7 +50,7 @@ def test_the_rule_sizes_the_integral_from_the_delay_limited_loop_rate():
     assert w * (LAG + T / 2 + T) == pytest.approx(C_DELAY_LIMITED)
     cfg = design.configuration()
     assert cfg.error_integral == pytest.approx((C_INTEGRAL * w) ** 2)
-    assert 4.0 < cfg.error_integral < 5.5  # 5.18 (1/s^2) at w = 8.75 (round 8: 4.79)
+    assert 4.0 < cfg.error_integral < 5.5  # 4.79 (1/s^2) at w = 8.75
 
 
 def test_no_integral_where_another_bound_sets_the_loop_rate_or_without_the_limiter():
@@ -94,10 +94,8 @@ def test_the_generated_law_integrates_the_compensated_error():
 
 def test_the_sensitivity_at_the_patterns_frequency_falls_as_measured():
     """The linearised loop (scripts/linear_sensitivity_hypersonic.py) in the final window's
-    loop (input gain at a quarter): ``|S(j0.5)|`` 1.09e-2 -> 2.15e-3, 5.05x (round 9's
-    ``k_I`` = 5.18 and ``lam`` = 3.18; round 8's 4.79 and 2: 2.40e-3, 4.5x); measured on the
-    full case, the error's 0.5 rad/s amplitude over 100-120 s 4.00e-3 -> 7.7e-4 rad (5.2x;
-    round 8: 9.0e-4, 4.4x)."""
+    loop (input gain at a quarter): ``|S(j0.5)|`` 1.09e-2 -> 2.40e-3, 4.5x; measured on the
+    full case, the error's 0.5 rad/s amplitude over 100-120 s 4.00e-3 -> 9.0e-4 rad (4.4x)."""
     spec = Path(__file__).resolve().parents[1] / "scripts"
     sys.path.insert(0, str(spec))
     import linear_sensitivity_hypersonic as lin
@@ -107,7 +105,7 @@ def test_the_sensitivity_at_the_patterns_frequency_falls_as_measured():
     s0 = lin.sensitivity(0.5, beta=0.25, **{k: before[k] for k in keys})
     s1 = lin.sensitivity(0.5, beta=0.25, **{k: after[k] for k in keys})
     assert s0 == pytest.approx(1.09e-2, rel=0.02)
-    assert 4.6 < s0 / s1 < 5.7
+    assert 4.0 < s0 / s1 < 5.0
 
 
 def test_the_stuck_elevators_pattern_is_rejected_to_the_threshold(monkeypatch):

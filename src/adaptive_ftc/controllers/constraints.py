@@ -78,9 +78,7 @@ design, not another design) it derives, by the rules below, one configuration
    error carries the tracking error's integral, ``s = e' + lam e + k_I int (e - xi/lam)``
    with ``k_I = (C_INTEGRAL w_max)^2`` (an integral sliding surface, Slotine & Li 1991,
    §7.1.3; :attr:`Configuration.error_integral`): more loop gain at low frequency (a stuck
-   elevator's slow pattern) without a faster loop. Round 9 (session 14): ``lam`` is at least
-   ``2 C_INTEGRAL_DAMPING sqrt(k_I)``, so that the surface's zero pair ``p^2 + lam p + k_I``
-   is damped (the loop's slow pair approaches it where a failure lowers the loop gain).
+   elevator's slow pattern) without a faster loop.
 3. **Compensated error** (Farrell et al. 2009; the idea of pseudo-control hedging, Johnson &
    Calise, JGCD 26(6), 2003), with rate or travel limits: the laws see ``s - xi`` instead of
    ``s``, with ``xi' = -w_h xi + b (u0c - u0_reachable)``, ``b`` the loop's nominal
@@ -458,11 +456,7 @@ FEEDBACK_KI_SWING = 2.0
 #: (0.17 rad): above it the lightly damped mode that every failure leaves near 4-6 rad/s
 #: (the input gain falls to a quarter of the healthy one) loses its damping. With ``lam``
 #: lowered to 1 beside it (less noise): 8.4e-4 (``k_I`` 4) to 8.2e-4 (5), diverged at 6.
-#: Session 14 (round 9, with ``C_INTEGRAL_DAMPING`` below): 0.25 -> 0.26, the middle of the
-#: band that passes there on noise seeds 0, 1 and 2, 0.235-0.28 (round 8's: 0.24-0.26); below
-#: it the stuck elevator's 0.5 rad/s pattern, whose residual falls as ``1 / k_I``, is above
-#: the threshold (0.22: 9.1e-4 to 9.5e-4 rad), whatever the damping.
-C_INTEGRAL = 0.26
+C_INTEGRAL = 0.25
 #: ... only where the noise the law sees is at most ``C_INTEGRAL_NOISE`` of the density bound
 #: at the loop rate, ``w^2 n_d <= C_INTEGRAL_NOISE C_NOISE_DENSITY`` (combination 2: 0.16):
 #: the added low-frequency gain carries the noise in the failed loop's band. Measured on the
@@ -472,24 +466,6 @@ C_INTEGRAL = 0.26
 #: rad; one gained, 410; all three near 0.42 of the bound); with this gate 65 change (40
 #: better, 25 worse), 492/500, the same members; at 0.33 90 change (48 / 42), 492.
 C_INTEGRAL_NOISE = 0.25
-#: (session 14, round 9) the damping of the integral sliding surface's zero pair: where the law
-#: carries the error's integral, ``lam`` is at least ``2 C_INTEGRAL_DAMPING sqrt(k_I)``, so
-#: that ``p^2 + lam p + k_I`` (the zeros of ``s = e' + lam e + k_I int e``, which the loop's
-#: slow closed-loop pair approaches where a failure lowers the loop gain) has a damping of at
-#: least ``C_INTEGRAL_DAMPING`` (Slotine & Li 1991, §7.1.3: ``s = (d/dt + lam)^2 int e``, a
-#: double zero, damping 1). Round 8 kept the thesis's ``lam`` = 2 beside ``k_I = (C_INTEGRAL
-#: w)^2``: damping ``lam / (2 C_INTEGRAL w)`` = 0.46 at combination 2's ``w`` = 8.75 (0.22 at a
-#: campaign member's 18.4), falling as ``k_I`` grows. Why (issue 25's second combination,
-#: hypersonic-direct-s1): the case passed only for ``C_INTEGRAL`` 0.235-0.268; above it, a
-#: mode at ``sqrt(k_I)`` (2.2-2.8 rad/s) that each failure excites decays too slowly or grows
-#: (0.28: 1.6e-3 rad; 0.30: 5.6e-2; 0.32: 0.12; the same with travel 1 rad and rate 20 rad/s,
-#: so not a windup on the limits; noise 0: the same). Measured there (final-window error in
-#: rad, noise seeds 0/1/2; ``scripts/hardware_cases.py``; docs/hardware.md, "Round 9"): 0.7
-#: passes ``C_INTEGRAL`` 0.235-0.285 and stays within 1.5x the threshold up to 0.32 (1.9e-3;
-#: round 8 lost the loop there); 0.6: 0.235-0.28; 0.8 and 1 (the double zero): the error at
-#: 0.25 rises to 8.0e-4 and 8.1e-4 (the failed loop's 4-5 rad/s crossover mode loses the lead
-#: of the zero at ``-lam``). §4.4's combination 2: 2.48e-3 -> 1.8e-3 rad. 0 = round 8's rule.
-C_INTEGRAL_DAMPING = 0.7
 
 
 #: the placed feedback's lead (issue 25, wing rock, session 12): the PID's output passes
@@ -1221,12 +1197,6 @@ class ConstraintAware:
         quiet = w * w * self.noise_density <= C_INTEGRAL_NOISE * C_NOISE_DENSITY
         if own_travel and self.discrete_limiter and adaptive and self.delay_bound(w) and quiet:
             error_integral = (C_INTEGRAL * w) ** 2
-            # the surface's zero pair p^2 + lam p + k_I damped at least C_INTEGRAL_DAMPING
-            damped = 2.0 * C_INTEGRAL_DAMPING * math.sqrt(error_integral) / lam
-            lam_factor = max(lam_factor, damped)
-            if self.min_loop_gain is not None and self.min_loop_gain > 0:
-                cap = C_LAM_GAIN * scale * self.min_loop_gain / lam
-                lam_factor = max(1.0, min(lam_factor, cap))
         lead: tuple[float, ...] = ()
         if placed is not None and self.feedback is None and self.lead_lag < self.lag:
             lead = (float(self.lag), self.lead_lag)
