@@ -46,26 +46,29 @@ X_MAX = math.atan(V_CROSS) / V_CROSS
 _V = np.geomspace(0.05, 50.0, 8000)
 
 
-def band_peak(x: float) -> float:
+def band_peak(x: float, complementary: bool = False) -> float:
     """``M(x)``: the peak of ``|1 / (1 + L(jv))|`` of the normalised band behind the delay
-    ``x``; ``inf`` at or beyond :data:`X_MAX` (the band is unstable)."""
+    ``x`` (``complementary``: of ``|L / (1 + L)|``, the noise's way to the output); ``inf``
+    at or beyond :data:`X_MAX` (the band is unstable)."""
     if x >= X_MAX:
         return math.inf
     s = 1j * _V
-    return float(np.max(np.abs(1.0 / (1.0 + (s + 1.0) * np.exp(-s * x) / (s * s)))))
+    loop = (s + 1.0) * np.exp(-s * x) / (s * s)
+    return float(np.max(np.abs((loop if complementary else 1.0) / (1.0 + loop))))
 
 
-def corrected_density_rate(n_d: float, delay: float) -> float:
+def corrected_density_rate(n_d: float, delay: float, complementary: bool = False) -> float:
     """The largest ``w`` with ``w^2 n_d M(w delay) / M(0) <= C_NOISE_DENSITY`` (bisection; the
     left side grows with ``w``); ``sqrt(C_NOISE_DENSITY / n_d)`` without delay."""
     w_hi = math.sqrt(constraints.C_NOISE_DENSITY / n_d)
     if not delay > 0:
         return w_hi
-    m0 = band_peak(0.0)
+    m0 = band_peak(0.0, complementary)
     lo, hi = 0.0, w_hi
     for _ in range(50):
         mid = 0.5 * (lo + hi)
-        if mid * mid * n_d * band_peak(mid * delay) / m0 <= constraints.C_NOISE_DENSITY:
+        peak = band_peak(mid * delay, complementary)
+        if mid * mid * n_d * peak / m0 <= constraints.C_NOISE_DENSITY:
             lo = mid
         else:
             hi = mid
@@ -196,7 +199,8 @@ def main(argv=None) -> int:
         print(
             f"{name}: delay {1e3 * d:.1f} ms, density {n_d:.3g}: "
             f"bound {math.sqrt(constraints.C_NOISE_DENSITY / n_d):.2f} -> "
-            f"corrected {corrected_density_rate(n_d, d):.2f} 1/s"
+            f"corrected {corrected_density_rate(n_d, d):.2f} 1/s "
+            f"(with the complementary peak {corrected_density_rate(n_d, d, True):.2f})"
         )
     if args.runs:
         seeds = [int(s) for s in args.seeds.split(",")]

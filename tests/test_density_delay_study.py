@@ -21,6 +21,11 @@ st = load_script("density_delay_study")
 def test_the_undelayed_band_peaks_like_a_damping_half_high_pass():
     # S = s^2 / (s^2 + s + 1): peak 1 / (2 zeta sqrt(1 - zeta^2)) = 2 / sqrt(3) at zeta 0.5
     assert math.isclose(st.band_peak(0.0), 2.0 / math.sqrt(3.0), rel_tol=1e-4)
+    # T = (s + 1) / (s^2 + s + 1): |T|^2 = (1 + u) / (u^2 - u + 1), u = v^2, largest at
+    # u = sqrt(3) - 1
+    u = math.sqrt(3.0) - 1.0
+    t_peak = math.sqrt((1.0 + u) / (u * u - u + 1.0))
+    assert math.isclose(st.band_peak(0.0, complementary=True), t_peak, rel_tol=1e-4)
 
 
 def test_the_delay_limit_is_where_the_band_crosses_minus_one():
