@@ -142,6 +142,24 @@ def combination1_model(lam: float = 2.0, decimation: bool = True) -> ConstraintA
     )
 
 
+def linear_band_equal_noise_rate() -> float:
+    """The loop rate at which ``combo1_linear_band``'s model of combination 1 (lag 20 ms, half
+    a sample and the decimation filter's 2 ms of hold, the ``s'`` filter's 10 ms; ``g = K =
+    w``, ``lam = 0.8 w``, the learnt rate feedback 1.75) passes the same noise to ``u0`` (RMS,
+    1-100 Hz) as the same model without the lag and the hold at 14.7 1/s, the continuous noise
+    case's loop rate, where it meets both targets."""
+    from scipy.optimize import brentq
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import combo1_linear_band as lb
+
+    def u_fast(w, **kw):
+        return lb.evaluate(g=w, K=w, lam=0.8 * w, dq=1.75, taud=0.01, **kw)["u_fast"]
+
+    ref = u_fast(14.7, lag=1e-4, hold=0.0)
+    return float(brentq(lambda w: u_fast(w, lag=0.02, hold=0.0045) - ref, 3.0, 11.9))
+
+
 def _runs(seeds, scenarios, holds) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import hardware_cases as hc
@@ -202,6 +220,10 @@ def main(argv=None) -> int:
             f"corrected {corrected_density_rate(n_d, d):.2f} 1/s "
             f"(with the complementary peak {corrected_density_rate(n_d, d, True):.2f})"
         )
+    print(
+        "combo1_linear_band's model: the noise in u0 of the continuous case at 14.7 1/s at "
+        f"{linear_band_equal_noise_rate():.2f} 1/s behind combination 1's delays"
+    )
     if args.runs:
         seeds = [int(s) for s in args.seeds.split(",")]
         holds = [float(w) for w in args.hold.split(",") if w]

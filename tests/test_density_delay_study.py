@@ -124,3 +124,18 @@ def test_held_rate_holds_every_noisy_loop(w):
     with st.held_rate(w):
         assert mine.omega_max(math.inf) == (w, False)
         assert replace(mine, noise=0.0).omega_max(50.0)[0] != w
+
+
+def test_the_linear_bands_equal_noise_rate_is_above_the_window():
+    """combo1_linear_band's model passes the continuous case's noise (at 14.7 1/s) to u0 at
+    11.6 1/s behind combination 1's lag and hold: above the joint window too (9.5-9.7)."""
+    w = st.linear_band_equal_noise_rate()
+    lb = load_script("combo1_linear_band")
+
+    def u_fast(w, **kw):
+        return lb.evaluate(g=w, K=w, lam=0.8 * w, dq=1.75, taud=0.01, **kw)["u_fast"]
+
+    assert math.isclose(
+        u_fast(w, lag=0.02, hold=0.0045), u_fast(14.7, lag=1e-4, hold=0.0), rel_tol=1e-6
+    )
+    assert 9.8 < w < 14.7
