@@ -276,3 +276,19 @@ decimation = false
     path.write_text(text.replace("decimation = false", 'decimation = "on"'))
     with pytest.raises(ScenarioError, match="decimation"):
         load_scenario(path)
+
+
+def test_the_decimation_filter_is_not_taken_where_a_placed_feedback_was_sized_without_it():
+    """wingrock-hardware member 210 (100 Hz, 1 kHz sensor, noise 1e-3, aileron stuck at
+    1.96): with the filter its placed PID limit-cycles (final-window error 0.5 rad, 1,600x
+    the run without it, 3.1e-4); the rule leaves it off on the wing rock (fast unstable),
+    and an explicit ``True`` still turns it on."""
+    from adaptive_ftc.campaigns import draw_member, load_campaign
+
+    spec = load_campaign("wingrock-hardware")
+    loop = draw_member(spec, 210).design_loop("constraint-aware")
+    ca = loop.controller.constraint_aware
+    assert ca.decimation is None and ca.noise > 0 and ca.whole_readings == 10
+    assert loop.controller.bound(loop).constraint_aware.decimation is False
+    forced = replace(loop.controller, constraint_aware=replace(ca, decimation=True))
+    assert forced.bound(loop).constraint_aware.readings == 10

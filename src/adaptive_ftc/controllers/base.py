@@ -241,8 +241,17 @@ class AdaptiveController(ABC):
         if ca.decimation is None and ca.noise > 0 and ca.whole_readings >= 2:
             # the decimation filter (session 14, ConstraintAware.decimation) where the noise
             # is what lowers the rule's loop rate (elsewhere it would add its delay for
-            # nothing) and the loop's sensors give the model's readings per sample
+            # nothing) and the loop's sensors give the model's readings per sample; only on
+            # single-output laws with a fixed allocation and no placed feedback, where it was
+            # measured: the wing rock's placed PID (sized without the filter's delay) lost
+            # 3 of the wingrock-hardware campaign's 500 members with it (210, 343, 370 at
+            # 100 Hz: limit cycle or 20x the error), and the MIMO laws were not measured
             done = replace(ca, **updates, bandwidth=None, decimation=False)
+            validated = (
+                self.single_output
+                and loop.allocator is None
+                and not done.fast_unstable(float(done.b_max or 1.0))
+            )
             w0, b_max = float(done.loop_rate or self.loop_rate()), float(done.b_max or 1.0)
             noisy = done.omega_max(w0, b_max)[0]
             quiet = replace(done, noise=0.0).omega_max(w0, b_max)[0]
@@ -250,7 +259,7 @@ class AdaptiveController(ABC):
             given = sensors is not None and math.isclose(
                 float(loop.sample_time) * float(sensors.rate), ca.whole_readings, rel_tol=1e-9
             )
-            updates["decimation"] = bool(given and noisy < quiet * (1.0 - 1e-9))
+            updates["decimation"] = bool(validated and given and noisy < quiet * (1.0 - 1e-9))
         return replace(self, constraint_aware=replace(ca, **updates))
 
     @staticmethod

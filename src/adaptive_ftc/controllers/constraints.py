@@ -816,8 +816,11 @@ class ConstraintAware:
         decided by :meth:`AdaptiveController.bound` on the loop, on where the model has such
         ``N`` and its noise lowers the rule's loop rate (the std or density bound below the
         hardware's other bounds, without the filter; a designer's ``bandwidth`` aside) and
-        the loop's sensors give those ``N`` readings: elsewhere the filter would only add its
-        delay; a model not bound to a loop has it off. ``False``: off (the latest reading at
+        the loop's sensors give those ``N`` readings (elsewhere the filter would only add its
+        delay), on single-output laws with a fixed allocation and no placed feedback (not
+        :meth:`fast_unstable`; the wing rock's placed PID lost 3 of 500 campaign members
+        with it, the MIMO laws were not measured: set ``True`` there to have it); a model
+        not bound to a loop has it off. ``False``: off (the latest reading at
         each sample); ``True``: on, and a model without such ``N`` is refused. Not a
         constraint.
 
