@@ -292,3 +292,25 @@ def test_the_decimation_filter_is_not_taken_where_a_placed_feedback_was_sized_wi
     assert loop.controller.bound(loop).constraint_aware.decimation is False
     forced = replace(loop.controller, constraint_aware=replace(ca, decimation=True))
     assert forced.bound(loop).constraint_aware.readings == 10
+
+
+def test_the_digital_stepper_refuses_the_decimation_filter_with_the_fix():
+    """DigitalStepper (and the Gymnasium wrapper on it) hands out one measurement per sample
+    and advances to the next flag-1 interval: a decimating loop would stop at every reading.
+    It is refused with the fix; with ``decimation = false`` the same loop steps."""
+    from adaptive_ftc.sim.stepper import DigitalStepper
+
+    loop = _decimating(0.05)
+    with pytest.raises(ConfigurationError, match="decimation = false"):
+        DigitalStepper(loop)
+    off = replace(
+        loop,
+        controller=replace(
+            loop.controller,
+            constraint_aware=replace(loop.controller.constraint_aware, decimation=False),
+        ),
+    )
+    st = DigitalStepper(off, SolverOptions(method="rk4", dt=T / 5))
+    st.sample()
+    st.advance()
+    assert st.time == pytest.approx(T)

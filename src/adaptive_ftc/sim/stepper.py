@@ -90,6 +90,18 @@ class DigitalStepper:
                 f"DigitalStepper needs a digital controller: loop {loop.name!r} has "
                 "sample_time = 0 (continuous); set `sample_time` (s) on the ClosedLoop."
             )
+        from adaptive_ftc.sim.parts.base import decimation_readings
+
+        bind = getattr(loop.controller, "bound", None)
+        n_read = decimation_readings(loop, bind(loop) if bind is not None else loop.controller)
+        if n_read > 1:
+            raise ConfigurationError(
+                f"DigitalStepper does not run a design with a decimation filter (the mean of "
+                f"the {n_read} sensor readings of each sample, ConstraintAware.decimation): it "
+                "advances sample by sample and hands out one measurement per sample. Set "
+                "`decimation = false` in [controller.constraint_aware] "
+                "(ConstraintAware(decimation=False)) to step this loop."
+            )
         solver = solver or SolverOptions()
         method = solver.compiled_method
         if method is None:
