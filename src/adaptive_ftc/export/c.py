@@ -89,6 +89,10 @@ class ExportedC:
     n_states: int  # controller states
     sample_time: float
     state_names: tuple[str, ...]
+    #: sensor readings per sample the design averages (its decimation filter,
+    #: ``ConstraintAware.decimation``): ``<prefix>_read`` takes each, ``<prefix>_step`` their
+    #: mean; 1: none (``<prefix>_step`` takes the measurement)
+    readings: int = 1
 
 
 def controller_loop(scenario, sample_time: float | None = None) -> tuple[ClosedLoop, float]:
@@ -116,16 +120,6 @@ def controller_loop(scenario, sample_time: float | None = None) -> tuple[ClosedL
             "The C export is of a digital controller, and this loop's controller is continuous: "
             "give a sample time (export_c(..., sample_time=0.005) or `aftc export c ... "
             "--sample-time 0.005`), or a scenario with a [digital] table."
-        )
-    from adaptive_ftc.sim.parts.base import decimation_readings
-
-    n = decimation_readings(loop, loop.controller.bound(loop))
-    if n > 1:
-        raise ConfigurationError(
-            f"The design's decimation filter (the mean of the {n} sensor readings of each "
-            "sample, ConstraintAware.decimation) has no C form yet: the exported controller "
-            "takes one measurement per sample. Export it with `decimation = false` in "
-            "[controller.constraint_aware] (and feed it the mean of the period's readings)."
         )
     tau = solver.filter_tau_for(loop)
     if not loop.sample_time < 2 * tau:
@@ -218,6 +212,10 @@ class _Library:
         self.imported = _imported_names(self.tree)
         self.sources: dict[str, Source] = {}
         ctrl = loop.controller.bound(loop)
+        from adaptive_ftc.sim.parts.base import decimation_readings
+
+        #: sensor readings per sample the design averages (1: no decimation filter)
+        self.readings = decimation_readings(loop, ctrl)
         self.gain_names = tuple(type(ctrl.gains())._fields)
         self.gain_values = tuple(float(v) for v in ctrl.gains())
 
@@ -305,12 +303,14 @@ class _Library:
             n_states=self.ny - self.nx,
             sample_time=float(self.loop.sample_time),
             state_names=tuple(self.g.adaptive_names),
+            readings=self.readings,
         )
 
     def render(self) -> tuple[str, str]:
         pfx = self.prefix
         tr = Translator(self.resolve, self.fields(), self.gain_names, pfx, classes=self.classes())
-        tr.reserved = {f"{pfx}_{n}" for n in ("init", "reset", "step", "reference")}
+        names = ("init", "reset", "step", "reference") + (("read",) if self.readings > 1 else ())
+        tr.reserved = {f"{pfx}_{n}" for n in names}
         tr.notes = dict.fromkeys(("nominal_dynamics", "nominal_params"), _MODEL_NOTE)
         ctrl = Source(self.controller_def(), "<generated loop module: rhs>", 0, self.constants)
         cname = tr.function(ctrl, [DOUBLE, PTR, PARAMS, PTR, PTR], name=f"{pfx}__controller")
@@ -369,24 +369,15 @@ class _Library:
             "not edit; retune",
             f" * by copying {pfx}_default_params and changing its numbers.",
             " *",
-            " * C99, no heap, libm only. Per sample:",
-            f" *   {pfx}_step(&state, &params, y, r, t, u);",
-            " * computes the commands u from the measurement y and the reference r at time t, "
-            "then moves",
-            " * the controller's states on by one sample (their derivatives held over the "
-            "sample, as the",
-            " * simulator's digital mode does). The first step after init/reset starts the "
-            "s' filter (and",
-            " * any measurement filter) at the first measurement (params.start_filters = 1, "
-            "the default;",
-            " * 0: they start at params.initial).",
+            *self._per_sample(),
             " *",
             *[
                 ln.replace("<prefix>", pfx)
                 for ln in _MODEL_HEADER
                 if any(f.name == "plant" for f in fields)
             ],
-            f" * Inputs y[{P}_NY]: the measured plant states",
+            f" * Inputs y[{P}_NY]: the measured plant states"
+            + (f" (one sensor reading, of {pfx}_read)" if self.readings > 1 else ""),
             *ys,
             f" * Inputs r[{P}_NR]: the reference ({pfx}_reference computes the scenario's)",
             *rs,
@@ -400,6 +391,11 @@ class _Library:
             f"#define {P}_H",
             "",
             *[f"#define {P}_{k} {v}" for k, v in sizes.items()],
+            *(
+                [f"#define {P}_READINGS {self.readings}  /* sensor readings per sample */"]
+                if self.readings > 1
+                else []
+            ),
             "",
             f"/* the design's adaptation gains ({type(loop.controller).__name__}) */",
             "typedef struct {",
@@ -428,14 +424,35 @@ class _Library:
             f"    double dY[{P}_NY + {P}_NS]; /* the states' derivatives at the last sample */",
             f"    double W[{P}_NW];  /* work: signals, regressor, u0, u, reference, q */",
             "    int started;        /* 0 until the first step after init/reset */",
+            *(
+                [
+                    f"    double sum[{P}_NY];  /* the readings since the last step, summed "
+                    "(decimation filter) */",
+                    "    int count;          /* how many */",
+                ]
+                if self.readings > 1
+                else []
+            ),
             f"}} {pfx}_state;",
             "",
             f"extern const {pfx}_params {pfx}_default_params;",
             "",
             f"void {pfx}_init({pfx}_state *state, const {pfx}_params *params);",
             f"void {pfx}_reset({pfx}_state *state, const {pfx}_params *params);",
-            f"void {pfx}_step({pfx}_state *state, const {pfx}_params *params, const double y[],",
-            "               const double r[], double t, double u[]);",
+            *(
+                [
+                    f"void {pfx}_read({pfx}_state *state, const double y[]);",
+                    f"void {pfx}_step({pfx}_state *state, const {pfx}_params *params, "
+                    "const double r[],",
+                    "               double t, double u[]);",
+                ]
+                if self.readings > 1
+                else [
+                    f"void {pfx}_step({pfx}_state *state, const {pfx}_params *params, "
+                    "const double y[],",
+                    "               const double r[], double t, double u[]);",
+                ]
+            ),
             f"/* the scenario's reference at t: r[{P}_NR] as the inputs r above */",
             f"void {pfx}_reference(const {pfx}_params *params, double t, double r[]);",
             "",
@@ -443,6 +460,59 @@ class _Library:
             "",
         ]
         return "\n".join(lines)
+
+    def _per_sample(self) -> list[str]:
+        """The header's lines on the calls per sample (and per sensor reading, for a design
+        with the decimation filter)."""
+        pfx, P, n = self.prefix, self.prefix.upper(), self.readings
+        if n == 1:
+            return [
+                " * C99, no heap, libm only. Per sample:",
+                f" *   {pfx}_step(&state, &params, y, r, t, u);",
+                " * computes the commands u from the measurement y and the reference r at time "
+                "t, then moves",
+                " * the controller's states on by one sample (their derivatives held over the "
+                "sample, as the",
+                " * simulator's digital mode does). The first step after init/reset starts the "
+                "s' filter (and",
+                " * any measurement filter) at the first measurement (params.start_filters = "
+                "1, the default;",
+                " * 0: they start at params.initial).",
+            ]
+        T = float(self.loop.sample_time)
+        sensors = self.loop.sensors
+        assert sensors is not None  # the filter needs the loop's sensors (decimation_readings)
+        return [
+            " * C99, no heap, libm only. Decimation filter (ConstraintAware.decimation): the "
+            "design reads",
+            f" * the mean of the {n} sensor readings of each sample period ({P}_READINGS; a "
+            "boxcar,",
+            f" * integrate-and-dump anti-aliasing prefilter). The sensor reads every {T / n!r} s "
+            f"({float(sensors.rate):g} Hz),",
+            f" * the controller samples every {T!r} s. Per sensor reading, the reading at "
+            "each sample instant",
+            " * included (e.g. from the ADC's end-of-conversion interrupt):",
+            f" *   {pfx}_read(&state, y);",
+            " * and per sample, after that sample instant's reading:",
+            f" *   {pfx}_step(&state, &params, r, t, u);",
+            " * computes the commands u from the mean of the readings given since the previous "
+            f"{pfx}_step",
+            f" * (those at t - {n - 1} T/{n}, ..., t; the first step after init/reset: those "
+            "since then, which in",
+            " * the simulator is the reading at t0 alone) and the reference r at time t, then "
+            "moves the",
+            " * controller's states on by one sample (their derivatives held over the sample, "
+            "as the",
+            " * simulator's digital mode does). A step with no reading since the previous "
+            "one reuses",
+            f" * the previous mean. {pfx}_step empties the sum: {pfx}_read and {pfx}_step must "
+            "not interleave",
+            f" * on one state (mask the reading's interrupt while {pfx}_step runs). The first "
+            "step after",
+            " * init/reset starts the s' filter (and any measurement filter) at the first mean "
+            "(params.",
+            " * start_filters = 1, the default; 0: they start at params.initial).",
+        ]
 
     def _initial(self) -> np.ndarray:
         """The controller states at the start (as :func:`~adaptive_ftc.sim.compose.assemble`
@@ -461,6 +531,30 @@ class _Library:
                 )
             y[:n_ad] = loop.adaptive_initial
         return y
+
+    def _step_head(self) -> str:
+        """``<prefix>_read`` and the head of ``<prefix>_step`` of a design with the decimation
+        filter: the step's measurement is the mean of the readings since the last step (the
+        simulator's ``measured``, sim/parts/decimation.py; the translated law reads it as
+        ``x``, export/controller_side.py)."""
+        pfx, P = self.prefix, self.prefix.upper()
+        return f"""void {pfx}_read({pfx}_state *state, const double y[])
+{{
+    int i;
+    for (i = 0; i < {P}_NY; i++) state->sum[i] += y[i];
+    state->count += 1;
+}}
+
+void {pfx}_step({pfx}_state *state, const {pfx}_params *params, const double r[], double t,
+               double u[])
+{{
+    int i;
+    const double *y = state->Y; /* the measurement: the mean of the period's readings */
+    if (state->count > 0) {{ /* the decimation filter (none since the last step: the last mean) */
+        for (i = 0; i < {P}_NY; i++) state->Y[i] = state->sum[i] / (double)state->count;
+    }}
+    for (i = 0; i < {P}_NY; i++) state->sum[i] = 0.0;
+    state->count = 0;"""
 
     def _source(self, tr: Translator, fields, cname: str, ref: str) -> str:
         pfx, P = self.prefix, self.prefix.upper()
@@ -503,6 +597,16 @@ class _Library:
                 "        /* the measurement filters start at the first measurement */",
                 f"        for (i = 0; i < {P}_NY; i++) state->Y[{at} + i] = y[i];",
             ]
+        step_head = (
+            self._step_head()
+            if self.readings > 1
+            else f"void {pfx}_step({pfx}_state *state, const {pfx}_params *params, "
+            "const double y[],\n"
+            "               const double r[], double t, double u[])\n"
+            "{\n"
+            "    int i;\n"
+            f"    for (i = 0; i < {P}_NY; i++) state->Y[i] = y[i];"
+        )
         body = f"""#include <math.h>
 #include <string.h>
 
@@ -529,11 +633,7 @@ void {pfx}_init({pfx}_state *state, const {pfx}_params *params)
     {pfx}_reset(state, params);
 }}
 
-void {pfx}_step({pfx}_state *state, const {pfx}_params *params, const double y[],
-               const double r[], double t, double u[])
-{{
-    int i;
-    for (i = 0; i < {P}_NY; i++) state->Y[i] = y[i];
+{step_head}
     for (i = 0; i < {P}_NR; i++) state->W[{ref_at} + i] = r[i];
     if (!state->started && params->start_filters != 0.0) {{
 {chr(10).join(start)}

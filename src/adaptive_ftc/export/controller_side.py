@@ -20,6 +20,7 @@ import ast
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
+from adaptive_ftc.sim.parts.decimation import MEASURED
 
 __all__ = ["controller_side"]
 
@@ -137,7 +138,9 @@ def _assigned(st) -> set[str]:
 
 class _Fold(ast.NodeTransformer):
     """``misc[Misc.SAMPLING]`` (computing a sample) is 1; ``meas(...)`` (the sensors' offset)
-    is 0: the measurement ``y`` already holds it; comparisons of constants are folded."""
+    is 0: the measurement ``y`` already holds it; ``measured(x, Y, ph, i, D)`` (the decimation
+    filter's mean) is ``x[i]``: the C's ``x`` holds the mean; comparisons of constants are
+    folded."""
 
     def visit_Subscript(self, node):
         self.generic_visit(node)
@@ -155,6 +158,13 @@ class _Fold(ast.NodeTransformer):
         self.generic_visit(node)
         if isinstance(node.func, ast.Name) and node.func.id == "meas":
             return ast.copy_location(ast.Constant(0.0), node)
+        if isinstance(node.func, ast.Name) and node.func.id == MEASURED and len(node.args) == 5:
+            # the decimation filter's mean of the period's readings, ``measured(x, Y, ph, i,
+            # D)``: the C's ``x`` already holds that mean (``<prefix>_step`` puts the mean of
+            # the readings given to ``<prefix>_read`` there), so it reads ``x[i]``
+            x, _, _, i, _ = node.args
+            read = ast.Subscript(value=x, slice=i, ctx=ast.Load())
+            return ast.copy_location(read, node)
         return node
 
     def visit_Compare(self, node):

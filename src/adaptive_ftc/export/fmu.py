@@ -124,6 +124,15 @@ def export_fmu(
         )
 
     lib = _Library(loop, tau, "aftc")
+    if lib.readings > 1:
+        raise ConfigurationError(
+            f"The FMU takes one measurement per sample (its inputs y.*), and this design's "
+            f"decimation filter averages the {lib.readings} sensor readings of each sample "
+            "(ConstraintAware.decimation): export the C instead (`aftc export c`: "
+            "<prefix>_read takes each reading, <prefix>_step their mean), or set "
+            "`decimation = false` in [controller.constraint_aware] "
+            "(ConstraintAware(decimation=False)) to export this loop as an FMU."
+        )
     header, source = lib.render()
     files = {"aftc.h": header, "aftc.c": source}
     if part == "loop":

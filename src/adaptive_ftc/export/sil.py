@@ -34,6 +34,7 @@ import numpy as np
 
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.export.c import controller_loop, export_c
+from adaptive_ftc.sim.parts.decimation import READING, SAMPLE
 
 if TYPE_CHECKING:
     from adaptive_ftc.sim.compose import Assembled
@@ -92,21 +93,42 @@ def compile_library(source: Path, out: Path, cc: str | None = None) -> Path:
 
 class CompiledController:
     """An exported controller compiled and loaded with ctypes: ``step(y, r, t) -> u``, its
-    states (:attr:`states`, a writable view) and ``init()``."""
+    states (:attr:`states`, a writable view) and ``init()``. A design with the decimation
+    filter (``readings`` > 1, :attr:`ExportedC.readings
+    <adaptive_ftc.export.c.ExportedC.readings>`): ``read(y)`` per sensor reading, then
+    ``step(None, r, t)`` at the sample (the mean of the readings)."""
 
-    def __init__(self, library: Path, n_y: int, n_s: int, n_u: int, n_work: int, prefix="aftc"):
+    def __init__(
+        self,
+        library: Path,
+        n_y: int,
+        n_s: int,
+        n_u: int,
+        n_work: int,
+        prefix="aftc",
+        readings: int = 1,
+    ):
         self.library = library
         self.lib = ctypes.CDLL(str(library))
         dbl = ctypes.POINTER(ctypes.c_double)
         self._dbl = dbl
+        self.readings = readings
         self._step = getattr(self.lib, f"{prefix}_step")
-        self._step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, dbl, dbl, ctypes.c_double, dbl]
+        if readings > 1:  # <prefix>_read per reading; <prefix>_step takes no measurement
+            self._read = getattr(self.lib, f"{prefix}_read")
+            self._read.argtypes = [ctypes.c_void_p, dbl]
+            self._step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, dbl, ctypes.c_double, dbl]
+        else:
+            self._step.argtypes = [
+                ctypes.c_void_p, ctypes.c_void_p, dbl, dbl, ctypes.c_double, dbl,
+            ]  # fmt: skip
         self._init = getattr(self.lib, f"{prefix}_init")
         self._init.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         self.params = ctypes.addressof(ctypes.c_char.in_dll(self.lib, f"{prefix}_default_params"))
         n = n_y + n_s
         self._started_at = 8 * (2 * n + n_work)  # the layout of <prefix>_state
-        self.state = ctypes.create_string_buffer(self._started_at + 64)
+        # (then, with the decimation filter, the readings' sum and count)
+        self.state = ctypes.create_string_buffer(self._started_at + 64 + 8 * n_y)
         # a view of the ctypes buffer (numpy's stubs list no ctypes arrays: the memoryview)
         buf = np.frombuffer(memoryview(self.state), dtype=np.float64, count=2 * n + n_work)
         self.n_y = n_y
@@ -121,16 +143,39 @@ class CompiledController:
         """Mark the state started (the filters are not started again at the next step)."""
         ctypes.c_int.from_buffer(self.state, self._started_at).value = 1
 
-    def step(self, y: np.ndarray, r: np.ndarray, t: float) -> np.ndarray:
+    def read(self, y: np.ndarray) -> None:
+        """One sensor reading into the decimation filter (``<prefix>_read``)."""
+        if self.readings < 2:
+            raise ConfigurationError(
+                "read() is the decimation filter's (a design that averages its sensor "
+                "readings); this controller takes its measurement in step(y, r, t)."
+            )
         y = np.ascontiguousarray(y, dtype=float)
+        self._read(self.state, y.ctypes.data_as(self._dbl))
+
+    def step(self, y: np.ndarray | None, r: np.ndarray, t: float) -> np.ndarray:
+        """The command at ``t`` from the measurement ``y`` (``None`` with the decimation
+        filter: the mean of the readings given to :meth:`read`) and the reference ``r``."""
+        if (y is None) != (self.readings > 1):
+            raise ConfigurationError(
+                "step(y, r, t) takes the measurement y, or None for a design with the "
+                "decimation filter (its readings go to read(y) first); got "
+                f"{'None' if y is None else 'a measurement'} for a controller averaging "
+                f"{self.readings} reading(s) per sample."
+            )
         r = np.ascontiguousarray(r, dtype=float)
+        out = self.u.ctypes.data_as(self._dbl)
+        if y is None:
+            self._step(self.state, self.params, r.ctypes.data_as(self._dbl), float(t), out)
+            return self.u.copy()
+        y = np.ascontiguousarray(y, dtype=float)
         self._step(
             self.state,
             self.params,
             y.ctypes.data_as(self._dbl),
             r.ctypes.data_as(self._dbl),
             float(t),
-            self.u.ctypes.data_as(self._dbl),
+            out,
         )
         return self.u.copy()
 
@@ -143,6 +188,11 @@ class _Setup:
     ctrl: CompiledController
     dt: float
     ny: int
+    case: _Case
+    #: with the decimation filter: per interval, the sensor reading at its start (-1: none)
+    #: and each reading's offset (bias + its noise draw), as the simulator draws them
+    reading: np.ndarray | None = None
+    offsets: np.ndarray | None = None
 
 
 @dataclass
@@ -185,7 +235,7 @@ def _digital_run(case: _Case) -> tuple[Assembled, list[int], SimResult]:
 
     asm = assemble(case.loop, sdot="filtered", filter_tau=case.tau)
     bps, samp = asm.breakpoints, asm.data.samp
-    rows = [k for k in range(len(bps) - 1) if samp[k]]
+    rows = [k for k in range(len(bps) - 1) if samp[k] == SAMPLE]
     grid = np.array([bps[k] for k in rows])
     return asm, rows, simulate(case.loop, case.solver(), t_eval=grid)
 
@@ -216,9 +266,48 @@ def _setup(scenario, sample_time, t_final, dt, workdir, cc) -> _Setup:
         )
     ny = asm.n_x + len(asm.adaptive_names)
     ctrl = CompiledController(
-        lib, asm.n_x, ny - asm.n_x, loop.plant.n_actuators, asm.layout["w:size"].stop
+        lib,
+        asm.n_x,
+        ny - asm.n_x,
+        loop.plant.n_actuators,
+        asm.layout["w:size"].stop,
+        readings=exported.readings,
     )
-    return _Setup(loop, asm, result, ctrl, case.dt, ny)
+    setup = _Setup(loop, asm, result, ctrl, case.dt, ny, case)
+    if exported.readings > 1:
+        setup.reading, setup.offsets = _readings(loop, asm, exported.readings)
+    return setup
+
+
+def _readings(loop: ClosedLoop, asm: Assembled, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A decimating loop's sensor readings (``n`` per sample): per interval the index of the
+    reading at its start (-1: an interval that starts at a failure time), and each reading's
+    offset ``bias + std z_j`` (the ``j``-th draw of the sensors' seed, as
+    ``compose._measurements`` draws them). Checked: the mean of each sample's readings'
+    offsets is the simulator's offset of that sample (``D.meas``)."""
+    sensors = loop.sensors
+    assert sensors is not None  # a decimating loop has sensors (decimation_readings)
+    nx, t0, period = asm.n_x, float(loop.t0), float(loop.sample_time) / n
+    samp = np.asarray(asm.data.samp)
+    starts = np.asarray(asm.breakpoints[:-1], dtype=float)
+    reading = np.where(samp > 0, np.rint((starts - t0) / period), -1).astype(np.int64)
+    std, bias = sensors.per_state(loop.plant.aliases(), nx)
+    rows = int(reading.max()) + 1
+    z = (
+        np.random.default_rng(sensors.seed).standard_normal((rows, nx))
+        if sensors.has_noise
+        else np.zeros((rows, nx))
+    )
+    offsets = bias[None, :] + z * std[None, :]
+    for ph in np.flatnonzero(samp == SAMPLE):
+        j = int(reading[ph])
+        mean = offsets[max(j - n + 1, 0) : j + 1].mean(axis=0)
+        if not np.allclose(mean, asm.data.meas[ph], rtol=1e-12, atol=1e-15):
+            raise RuntimeError(
+                f"The SIL's sensor readings of the sample at {starts[ph]:g} s disagree with "
+                "the simulator's mean (compose._measurements changed?)."
+            )
+    return reading, offsets
 
 
 def verify(
@@ -270,7 +359,7 @@ def verify(
         ctrl.set_started()
     for ph in range(len(bps) - 1):
         a, b = bps[ph], bps[ph + 1]
-        if samp[ph]:
+        if samp[ph] == SAMPLE:
             mod.reference_at(a, data.c, ref)
             plant.append(Y[:nx].copy())
             if cmds:  # the simulator's controller states: the C's (after its first step)
@@ -278,8 +367,10 @@ def verify(
         # the simulator's interval update (templates/rk4.py): the actuators, the input delay
         # and, at a sample, the held command (replaced below by the C's)
         mod.jump(a, Y, ph, data, W)
-        if samp[ph]:
-            u = ctrl.step(Y[:nx] + meas[ph], ref, a)
+        if s.reading is not None and s.offsets is not None and samp[ph] in (SAMPLE, READING):
+            ctrl.read(Y[:nx] + s.offsets[s.reading[ph]])  # a sensor reading (decimation)
+        if samp[ph] == SAMPLE:
+            u = ctrl.step(None if ctrl.readings > 1 else Y[:nx] + meas[ph], ref, a)
             cmds.append(u)
             states.append(ctrl.states.copy())  # the controller's states at the next sample
             Y[held : held + m] = u
@@ -318,9 +409,11 @@ def replay(
     measurement and controller states, and compare its command and next states with the
     run's (the arguments as :func:`verify`'s; ``plant_state`` is 0: the plant is the run's)."""
     s = _setup(scenario, sample_time, t_final, dt, workdir, cc)
+    if s.ctrl.readings > 1:
+        return _replay_readings(s)
     asm, data, ctrl, res = s.asm, s.asm.data, s.ctrl, s.result
     ref = np.zeros(3 * s.loop.plant.n_outputs)
-    rows = [k for k in range(len(asm.breakpoints) - 1) if data.samp[k]]
+    rows = [k for k in range(len(asm.breakpoints) - 1) if data.samp[k] == SAMPLE]
     n = min(len(rows), res.time.size)
     cmds, states = [], []
     for k in range(n):
@@ -335,6 +428,45 @@ def replay(
         command=_rel(np.array(cmds), res.u_cmd[:n]),
         plant_state=0.0,
         controller_state=_rel(np.array(states)[: n - 1], res.adaptive[1:n]),
+        library=ctrl.library,
+    )
+
+
+def _replay_readings(s: _Setup) -> SilReport:
+    """:func:`replay` of a design with the decimation filter: the simulator's run recorded at
+    every sensor reading (RK4: the same steps), each reading given to the C's ``read``, and
+    at each sample the run's controller states and the C's ``step``."""
+    from adaptive_ftc.sim.engine import simulate
+
+    asm, data, ctrl = s.asm, s.asm.data, s.ctrl
+    assert s.reading is not None and s.offsets is not None  # set by _setup for N > 1
+    samp, bps = data.samp, asm.breakpoints
+    rows = [k for k in range(len(bps) - 1) if samp[k] in (SAMPLE, READING)]
+    res = simulate(s.loop, s.case.solver(), t_eval=np.array([bps[k] for k in rows]))
+    if res.status != "completed":
+        raise ConfigurationError(
+            f"The simulator's digital run did not complete ({res.message}); shorten it "
+            "with t_final, sample faster, or check the scenario."
+        )
+    ref = np.zeros(3 * s.loop.plant.n_outputs)
+    at = [i for i, k in enumerate(rows) if samp[k] == SAMPLE and i < res.time.size]
+    cmds, states = [], []
+    for i, k in enumerate(rows[: res.time.size]):
+        ctrl.read(res.states[i] + s.offsets[s.reading[k]])
+        if samp[k] != SAMPLE:
+            continue
+        t = float(res.time[i])
+        asm.module.reference_at(t, data.c, ref)
+        ctrl.states[:] = res.adaptive[i]
+        ctrl.set_started()
+        cmds.append(ctrl.step(None, ref, t))
+        states.append(ctrl.states.copy())
+    n = len(at)
+    return SilReport(
+        samples=n,
+        command=_rel(np.array(cmds), res.u_cmd[at]),
+        plant_state=0.0,
+        controller_state=_rel(np.array(states)[: n - 1], res.adaptive[at[1:]]),
         library=ctrl.library,
     )
 

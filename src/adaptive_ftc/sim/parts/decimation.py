@@ -16,12 +16,15 @@ from __future__ import annotations
 
 from adaptive_ftc.sim.parts.base import Build, Part
 
-__all__ = ["Decimation", "READING", "SAMPLE"]
+__all__ = ["Decimation", "MEASURED", "READING", "SAMPLE"]
 
 #: the sample table's flag of an interval that starts at a controller sample
 SAMPLE = 1
 #: ... at a sensor reading between two samples (a decimating loop only)
 READING = 2
+#: the generated function through which the controller reads the filtered state,
+#: ``measured(x, Y, ph, i, D)`` (the C export reads its own mean there: export/c.py)
+MEASURED = "measured"
 
 
 class Decimation(Part):
@@ -61,7 +64,7 @@ class Decimation(Part):
             "\n".join(
                 [
                     "@inl",
-                    "def measured(x, Y, ph, i, D):",
+                    f"def {MEASURED}(x, Y, ph, i, D):",
                     '    """State i as the controller reads it: the mean of the sample period\'s',
                     '    sensor readings (decimation filter), with their bias and noise."""',
                     f"    return (Y[{at} + i] + x[i]) / (Y[{at + nx}] + 1.0) + meas(ph, i, D)",
