@@ -235,13 +235,6 @@ def test_the_rule_takes_the_filter_where_the_noise_sets_the_loop_rate():
         assert loop.controller.bound(other).constraint_aware.decimation is False
 
 
-def test_the_c_export_refuses_the_decimation_filter(tmp_path):
-    from adaptive_ftc.export.c import export_c
-
-    with pytest.raises(ConfigurationError, match="decimation filter .* has no C form"):
-        export_c(_decimating(0.1), tmp_path)
-
-
 def test_a_digital_loop_with_too_fast_a_sensor_is_refused_before_drawing():
     loop = _loop(
         (0.0,), sensors=Sensors(noise=(0.1, 0.0), rate=1e9), sample_time=0.01, t_final=100.0
@@ -292,25 +285,3 @@ def test_the_decimation_filter_is_not_taken_where_a_placed_feedback_was_sized_wi
     assert loop.controller.bound(loop).constraint_aware.decimation is False
     forced = replace(loop.controller, constraint_aware=replace(ca, decimation=True))
     assert forced.bound(loop).constraint_aware.readings == 10
-
-
-def test_the_digital_stepper_refuses_the_decimation_filter_with_the_fix():
-    """DigitalStepper (and the Gymnasium wrapper on it) hands out one measurement per sample
-    and advances to the next flag-1 interval: a decimating loop would stop at every reading.
-    It is refused with the fix; with ``decimation = false`` the same loop steps."""
-    from adaptive_ftc.sim.stepper import DigitalStepper
-
-    loop = _decimating(0.05)
-    with pytest.raises(ConfigurationError, match="decimation = false"):
-        DigitalStepper(loop)
-    off = replace(
-        loop,
-        controller=replace(
-            loop.controller,
-            constraint_aware=replace(loop.controller.constraint_aware, decimation=False),
-        ),
-    )
-    st = DigitalStepper(off, SolverOptions(method="rk4", dt=T / 5))
-    st.sample()
-    st.advance()
-    assert st.time == pytest.approx(T)

@@ -106,5 +106,10 @@ def main(args: argparse.Namespace) -> int:
         f"wrote {out.header} and {out.source}: {out.n_y} measurements, {out.n_r} reference "
         f"values, {out.n_u} commands, {out.n_states} controller states, every "
         f"{out.sample_time:g} s"
+        + (
+            f" (the mean of {out.readings} sensor readings: {out.prefix}_read at each)"
+            if out.readings > 1
+            else ""
+        )
     )
     return 0

@@ -103,6 +103,18 @@ def export_fmu(
             f"`part` of the FMU export must be 'controller' or 'loop'; got {part!r}."
         )
     loop, tau = controller_loop(scenario, sample_time)
+    from adaptive_ftc.sim.parts.base import decimation_readings
+
+    readings = decimation_readings(loop, loop.controller.bound(loop))
+    if readings > 1:
+        raise ConfigurationError(
+            "The FMU takes one measurement per sample (its inputs y.*), and this design's "
+            f"decimation filter averages the {readings} sensor readings of each sample "
+            "(ConstraintAware.decimation): export the C instead (`aftc export c`: "
+            "<prefix>_read takes each reading, <prefix>_step their mean), or set "
+            "`decimation = false` in [controller.constraint_aware] "
+            "(ConstraintAware(decimation=False)) to export this loop as an FMU."
+        )
     if name is None:
         base = getattr(scenario, "name", None) or (
             Path(str(scenario)).stem if not hasattr(scenario, "plant") else "controller"
@@ -124,15 +136,6 @@ def export_fmu(
         )
 
     lib = _Library(loop, tau, "aftc")
-    if lib.readings > 1:
-        raise ConfigurationError(
-            f"The FMU takes one measurement per sample (its inputs y.*), and this design's "
-            f"decimation filter averages the {lib.readings} sensor readings of each sample "
-            "(ConstraintAware.decimation): export the C instead (`aftc export c`: "
-            "<prefix>_read takes each reading, <prefix>_step their mean), or set "
-            "`decimation = false` in [controller.constraint_aware] "
-            "(ConstraintAware(decimation=False)) to export this loop as an FMU."
-        )
     header, source = lib.render()
     files = {"aftc.h": header, "aftc.c": source}
     if part == "loop":

@@ -9,6 +9,12 @@ design's command computed and held) and :meth:`~DigitalStepper.advance` (the pla
 state integrated to the next sample) the held command may be replaced: by a learned policy's
 command, a residual added to the design's, or the output of an exported controller.
 
+A design with the decimation filter (``ConstraintAware.decimation``: the mean of the ``N``
+sensor readings of each sample) steps too: :meth:`~DigitalStepper.advance` runs the loop's
+update at each reading instant between two samples (the reading added to the filter's sum,
+as the simulator's loop does there) and stops at the next sample only; the measurement
+handed out is the mean the design reads.
+
 With the design's own command kept, the states at every sample are the simulator's: bit for
 bit with ``rk4`` and ``dopri5``, whose steps do not depend on the recorded times, and with the
 Rosenbrock methods when the simulator records only at sample instants (a record inside an
@@ -27,6 +33,7 @@ from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.compose import assemble, integrators
 from adaptive_ftc.sim.engine import SolverOptions
 from adaptive_ftc.sim.layout import Header
+from adaptive_ftc.sim.parts.decimation import SAMPLE
 from adaptive_ftc.sim.status import RunStatus, StatusReason
 from adaptive_ftc.sim.system import ClosedLoop
 
@@ -44,7 +51,8 @@ class ControllerSample:
     state
         The true plant state.
     measured
-        The measured plant state: ``state`` plus the sensors' bias and noise of this sample.
+        The measured plant state: ``state`` plus the sensors' bias and noise of this sample
+        (with the design's decimation filter: the mean of the period's sensor readings).
     reference
         ``y_d, y_d', y_d''`` per output (``3 p`` values, output by output).
     command
@@ -93,15 +101,10 @@ class DigitalStepper:
         from adaptive_ftc.sim.parts.base import decimation_readings
 
         bind = getattr(loop.controller, "bound", None)
-        n_read = decimation_readings(loop, bind(loop) if bind is not None else loop.controller)
-        if n_read > 1:
-            raise ConfigurationError(
-                f"DigitalStepper does not run a design with a decimation filter (the mean of "
-                f"the {n_read} sensor readings of each sample, ConstraintAware.decimation): it "
-                "advances sample by sample and hands out one measurement per sample. Set "
-                "`decimation = false` in [controller.constraint_aware] "
-                "(ConstraintAware(decimation=False)) to step this loop."
-            )
+        #: sensor readings per sample the design averages (its decimation filter; 1: none)
+        self.readings = decimation_readings(
+            loop, bind(loop) if bind is not None else loop.controller
+        )
         solver = solver or SolverOptions()
         method = solver.compiled_method
         if method is None:
@@ -120,6 +123,8 @@ class DigitalStepper:
         self._samp = asm.data.samp.copy()
         self._meas = asm.data.meas.copy()
         self._held = asm.layout["y:held_command"]
+        # the decimation filter's running sum of the period's readings and their count
+        self._sum = asm.layout["y:decimation"] if self.readings > 1 else None
         # the integrators run without the loop's jumps (this class runs them, so that the
         # held command can change in between) and from the interval set in PH0
         self._D = asm.data._replace(i=asm.data.i.copy())
@@ -140,6 +145,7 @@ class DigitalStepper:
         self.W = self.asm.work()
         self.phase = 0
         self._sampled = False
+        self._seen: np.ndarray | None = None  # what the sample read (the decimation filter)
         self.status: RunStatus = RunStatus.COMPLETED
         self.reason: StatusReason | None = None
 
@@ -160,9 +166,20 @@ class DigitalStepper:
 
     def measured(self) -> np.ndarray:
         """The measured plant state now: the true state plus the sensors' bias and noise of
-        the current sample (at ``t_final``: of the last one)."""
+        the current sample (at ``t_final``: of the last one). With the design's decimation
+        filter (:attr:`readings` > 1), what the design reads: the mean of the sample
+        period's sensor readings, each the true state at its instant, with the mean of their
+        bias and noise (the simulator's ``measured``, :mod:`adaptive_ftc.sim.parts.decimation`;
+        at ``t_final``: the readings since the last sample with that sample's noise)."""
+        nx = self.asm.n_x
         ph = min(self.phase, self.breakpoints.size - 2)
-        return self.Y[: self.asm.n_x] + self._meas[ph]
+        if self._sum is None:
+            return self.Y[:nx] + self._meas[ph]
+        if self._sampled and self._seen is not None:  # the sample has emptied the sum
+            return self._seen.copy()
+        at = self._sum.start
+        total = self.Y[at : at + nx] + self.Y[:nx]
+        return total / (self.Y[at + nx] + 1.0) + self._meas[ph]
 
     def reference(self) -> np.ndarray:
         """``y_d, y_d', y_d''`` per output now (``3 p`` values, output by output)."""
@@ -186,12 +203,13 @@ class DigitalStepper:
                 f"sample() was already called at t = {self.time:g} s; call advance() next."
             )
         asm, ph = self.asm, self.phase
+        seen = self.measured()  # before the update (it empties the decimation filter's sum)
         asm.module.jump(self.time, self.Y, ph, asm.data, self.W)
-        self._sampled = True
+        self._sampled, self._seen = True, seen
         return ControllerSample(
             time=self.time,
             state=self.Y[: asm.n_x].copy(),
-            measured=self.measured(),
+            measured=seen.copy(),
             reference=self.reference(),
             command=self.Y[self._held].copy(),
         )
@@ -219,11 +237,13 @@ class DigitalStepper:
                     f"The command needs one value per actuator ({m}); got {u.size}."
                 )
             self.Y[self._held] = u
-        self._sampled = False
+        self._sampled, self._seen = False, None
         nph = self.breakpoints.size - 1
         first = True
-        while self.phase < nph and (first or self._samp[self.phase] == 0):
-            if not first:  # an interval that starts between samples (a failure time)
+        while self.phase < nph and (first or self._samp[self.phase] != SAMPLE):
+            # an interval that starts between samples (a failure time; a sensor reading, which
+            # the update adds to the decimation filter's sum)
+            if not first:
                 self.asm.module.jump(self.time, self.Y, self.phase, self.asm.data, self.W)
             first = False
             self._interval(self.phase)
