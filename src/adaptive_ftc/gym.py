@@ -25,7 +25,9 @@ zero-order-held command. One step is one control period (the scenario's ``sample
   name of :data:`adaptive_ftc.campaigns.DESIGN_VARIANTS`), whose laws keep adapting; a zero
   correction is the simulator's run of that design.
 - **Observation**: the measured plant state (the true state plus the scenario's sensor bias
-  and noise, the noise seeded per episode from the environment's seed), then per output the
+  and noise, the noise seeded per episode from the environment's seed; for a design with the
+  decimation filter, ``ConstraintAware.decimation``, the mean of the sample period's sensor
+  readings that the design reads), then per output the
   reference ``y_d`` and ``y_d'`` (and ``y_d''`` where the design uses it: ``sdot="exact"``);
   :attr:`ScenarioEnv.observation_names` names them.
 - **Reward** of a step (at its end, time ``t``; ``e = y_d - y`` on the true outputs, ``u``
