@@ -948,9 +948,7 @@ class ConstraintAware:
                 "`decimation` of ConstraintAware must be true, false or left unset; got "
                 f"{self.decimation!r}."
             )
-        if self.regressor_prefilter is not None and not isinstance(
-            self.regressor_prefilter, bool
-        ):
+        if self.regressor_prefilter is not None and not isinstance(self.regressor_prefilter, bool):
             raise ConfigurationError(
                 "`regressor_prefilter` of ConstraintAware must be true, false or left unset; "
                 f"got {self.regressor_prefilter!r}."
@@ -1599,9 +1597,11 @@ def _regressor_command_lines(g, blocks, at_m: int) -> list[str]:
     to ``Pi(x_f)^T theta``, ``x_f`` the prefiltered plant states ``Y[at_m:]``, and leave
     ``phi`` the filtered basis, which the adaptive laws after them use (session 15,
     ``Configuration.omega_b``); what else the design added to ``u0`` is kept."""
-    lines = [f"    du{r} = -weighted_sum(phi, Y, {o}, {a}, {n})" for r, (o, a, n) in enumerate(blocks)]
+    lines = [
+        f"    du{r} = -weighted_sum(phi, Y, {o}, {a}, {n})" for r, (o, a, n) in enumerate(blocks)
+    ]
     lines += _filtered_regressors(g, at_m)
-    lines[len(blocks)] = "    # constraint-aware: u0 and the adaptation from the prefiltered regressor"
+    lines[len(blocks)] = "    # constraint-aware: u0 and the adaptation from the filtered regressor"
     lines += [
         f"    u0[{r}] += du{r} + weighted_sum(phi, Y, {o}, {a}, {n})"
         for r, (o, a, n) in enumerate(blocks)
