@@ -111,7 +111,13 @@ design, not another design) it derives, by the rules below, one configuration
    ``lam``, is above the density bound: its adaptation's regressor sees prefiltered
    measurements (``u0`` still the measured ones), ``lam`` is raised at most
    ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`) and ``tau`` integrates
-   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``).
+   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``). Session
+   15: where the rule takes the decimation filter (the noise sets the loop rate), the law's
+   regressor, in the command and in the adaptation, sees the plant states low-passed at
+   ``C_REGRESSOR_NOISE w_max`` (:attr:`ConstraintAware.regressor_prefilter`): the learnt
+   ``theta`` makes the basis a rate feedback on the measured state, whose noise reached the
+   command unfiltered up to the sampler's Nyquist frequency (not §4.4; the filter's delay
+   counted in the delay budget).
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
