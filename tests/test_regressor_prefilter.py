@@ -42,8 +42,8 @@ def test_the_rule_takes_the_prefilter_where_it_takes_the_decimation_filter():
     """Combination 1 on §2.3: the noise sets the loop rate (9.9 1/s), the decimation filter is
     taken, the delay budget with the prefilter's delay holds (9.9 x 34.5 ms + 1/4 <= 1): the
     regressor is prefiltered at 4 w. Not on §4.4 (its loop gain grows with ``rho``), not on
-    the continuous noise case (no decimation), not on combination 2 (no noise binding), and a
-    designer's ``False`` is kept."""
+    §4.3 (its own regressor noise rule), not on the continuous noise case (no decimation), not
+    on combination 2 (no noise binding), and a designer's ``False`` is kept."""
     loop, _ = _aware("hypersonic-direct-s1", "lag 20 ms + 200 Hz", 1.0)
     bound = loop.controller.bound(loop)
     ca = bound.constraint_aware
@@ -63,6 +63,7 @@ def test_the_rule_takes_the_prefilter_where_it_takes_the_decimation_filter():
     )
     for scenario, case in (
         ("hypersonic-sign-s1-rho0pos", "lag 20 ms + 200 Hz"),
+        ("hypersonic-nussbaum-s1-pos", "lag 20 ms + 200 Hz"),
         ("hypersonic-direct-s1", "noise 1e-3"),
         ("hypersonic-direct-s1", "lag 50 ms + rate 2"),
     ):
