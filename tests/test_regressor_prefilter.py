@@ -133,3 +133,13 @@ def test_an_ideal_model_stays_the_thesis_law_and_bad_values_are_clear_errors():
         ConstraintAware(regressor_prefilter="yes")  # type: ignore[arg-type]
     with pytest.raises(ConfigurationError, match="regressor_prefilter"):
         ConstraintAware(regressor_prefilter=1)  # type: ignore[arg-type]
+
+
+def test_hardware_cases_draws_the_noise_with_the_seed_it_is_given():
+    """``scripts/hardware_cases.py --noise-seed N``: the noisy cases' sensors carry seed ``N``
+    (0 by default, as before), the noiseless cases none."""
+    sc = load_scenario("hypersonic-direct-s1")
+    combo = _case("lag 20 ms + 200 Hz")
+    assert case_loop(sc, combo, 1.0)[0].sensors.seed == 0
+    assert case_loop(sc, combo, 1.0, noise_seed=2)[0].sensors.seed == 2
+    assert case_loop(sc, _case("lag 20 ms"), 1.0, noise_seed=2)[0].sensors is None
