@@ -24,10 +24,24 @@ b_hat) u0`` (:func:`emit_with_gain_estimate`; ``--gain-forget`` its forgetting r
 the input-gain lever of docs/hardware.md ("Round 8: the input-gain lever, built");
 ``--gain-low-band WC`` normalises only the command's content below ``WC`` rad/s.
 
+Round 11 (session 15): ``--noise-seed N`` draws the sensors' noise with seed ``N``;
+``--no-regressor-prefilter`` runs the law without the regressor's prefilter that the rule takes
+since session 15 (``ConstraintAware.regressor_prefilter``: session 14's law),
+``--regressor-filter M`` with it taken (§4.4 too) at ``M w`` instead of ``C_REGRESSOR_NOISE w``;
+``--desired-regressor`` evaluates the regressor on the desired trajectory instead (the
+desired-compensation adaptive law, Sadegh & Horowitz, IJRR 9(3) 1990: ``u0 = Pi(x_d)^T theta``,
+``theta' = gamma Pi(x_d) q``, with ``x_d = (y_d, y_d')`` for the hypersonic basis of (alpha,
+q), the rule's prefilter off), and ``--rate-feedback KQ`` adds its extra feedback term on the
+measured rate error, ``u0 += KQ e'`` (:func:`desired_regressor_rhs`).
+
     PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1
     PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1 --command-filter 4
     PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1 --gain-estimate 10 \
         --scale-g 0.5 --scale-k 0.5 --command-filter 4
+    PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1 --noise-seed 1 \
+        --no-regressor-prefilter
+    PYTHONPATH=src python scripts/combo1_noise_paths.py hypersonic-direct-s1 --desired-regressor \
+        --rate-feedback 1.75
 """
 
 from __future__ import annotations
@@ -49,6 +63,7 @@ from hardware_cases import HYPERSONIC_CASES, case_loop, constraint_aware, metric
 from adaptive_ftc.controllers import constraints  # noqa: E402
 from adaptive_ftc.scenarios.loader import load_scenario  # noqa: E402
 from adaptive_ftc.sim.engine import simulate  # noqa: E402
+from adaptive_ftc.sim.parts import approximator  # noqa: E402
 
 #: the first combination of issue 25
 COMBO1 = next(c for c in HYPERSONIC_CASES if c.name.startswith("lag 20 ms + 200 Hz"))
@@ -214,6 +229,35 @@ def emit_with_gain_estimate(band: float, forget: float, low_band: float = 0.0):
     return patched
 
 
+def desired_regressor_rhs(rate_feedback: float = 0.0):
+    """A replacement of the approximator's ``rhs`` whose regressor reads the desired
+    trajectory where it reads a measured output's position or velocity (``ref[3 i]``,
+    ``ref[3 i + 1]``), so that the command ``u0 = Pi(x_d)^T theta`` and the adaptation
+    (``phi``) carry no measurement noise (Sadegh & Horowitz 1990, the desired-compensation
+    adaptive law), plus ``u0_i += rate_feedback e_i'`` (the measured rate error; their extra
+    feedback term, which the Lyapunov argument needs for ``Pi(x) - Pi(x_d)``)."""
+    rhs = approximator.Approximator.rhs
+
+    def patched(self, b):
+        out = rhs(self, b)
+        plant = b.loop.plant
+        nx, p = int(plant.n_states), int(plant.n_outputs)
+        lines = []
+        for ln in out["regressors"]:
+            for i in range(p):
+                ln = ln.replace(f"sig[{plant.position_index[i]}]", f"ref[{3 * i}]")
+                ln = ln.replace(f"sig[{plant.velocity_index[i]}]", f"ref[{3 * i + 1}]")
+            lines.append(ln)
+        if rate_feedback:
+            lines += ["    # study lever: the desired-compensation law's rate feedback"]
+            lines += [
+                f"    u0[{i}] += {float(rate_feedback)!r} * sig[{nx + p + i}]" for i in range(p)
+            ]
+        return {**out, "regressors": lines}
+
+    return patched
+
+
 def gain_estimate(r, loop) -> np.ndarray:
     """The input-gain estimate ``b_hat`` along a run with ``--gain-estimate`` (projected)."""
     b_nom = nominal_gain(loop)
@@ -233,28 +277,48 @@ def run(
     duration=None,
     gain_estimate=None,
     decimation=None,
+    noise_seed=0,
+    regressor_prefilter=None,
+    regressor_filter=None,
+    desired_regressor=None,
 ):
     """The combination's run of ``scenario`` with the constraint-aware law, ``levers`` (the
     keywords of :func:`with_levers`) applied to its configuration, and ``gain_estimate =
     (band, forget[, low_band])`` the input-gain estimate (:func:`emit_with_gain_estimate`);
     ``decimation``: the model's (``ConstraintAware.decimation``; ``None``: the rule's, the
-    filter since session 14; ``False``: the latest reading, session 13's law):
-    ``(result, loop)``."""
+    filter since session 14; ``False``: the latest reading, session 13's law);
+    ``noise_seed``: the sensors' seed; ``regressor_prefilter``: the model's (``None``: the
+    rule's, since session 15), ``regressor_filter`` its bandwidth in multiples of ``w``
+    (``None``: ``C_REGRESSOR_NOISE``); ``desired_regressor``: the rate feedback of the
+    desired-compensation lever (:func:`desired_regressor_rhs`; ``None``: off; the rule's
+    prefilter then off): ``(result, loop)``."""
     sc = load_scenario(scenario)
-    loop, solver = case_loop(sc, COMBO1, duration)
+    loop, solver = case_loop(sc, COMBO1, duration, noise_seed)
     loop = constraint_aware(loop, solver)
+    if desired_regressor is not None:
+        regressor_prefilter = False
+    model = {}
     if decimation is not None:
-        ca = replace(loop.controller.constraint_aware, decimation=decimation)
+        model["decimation"] = decimation
+    if regressor_prefilter is not None:
+        model["regressor_prefilter"] = regressor_prefilter
+    if model:
+        ca = replace(loop.controller.constraint_aware, **model)
         loop = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
     if noise_off:
         loop = replace(loop, sensors=None)
     if failures_off:
         loop = replace(loop, failures=())
     saved, saved_emit = constraints.ConstraintAware.configure, constraints.emit
+    saved_c, saved_rhs = constraints.C_REGRESSOR_NOISE, approximator.Approximator.rhs
     if levers:
         constraints.ConstraintAware.configure = with_levers(**levers)
     if gain_estimate is not None:
         constraints.emit = emit_with_gain_estimate(*gain_estimate)
+    if regressor_filter is not None:
+        constraints.C_REGRESSOR_NOISE = float(regressor_filter)
+    if desired_regressor is not None:
+        approximator.Approximator.rhs = desired_regressor_rhs(desired_regressor)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -262,6 +326,8 @@ def run(
     finally:
         constraints.ConstraintAware.configure = saved
         constraints.emit = saved_emit
+        constraints.C_REGRESSOR_NOISE = saved_c
+        approximator.Approximator.rhs = saved_rhs
     return r, loop
 
 
@@ -328,6 +394,31 @@ def main(argv=None) -> int:
         action="store_true",
         help="the latest sensor reading at each sample (session 13's law), not the mean",
     )
+    ap.add_argument("--noise-seed", type=int, default=0, help="the sensors' seed (default 0)")
+    ap.add_argument(
+        "--no-regressor-prefilter",
+        action="store_true",
+        help="without the regressor's prefilter the rule takes (session 14's law)",
+    )
+    ap.add_argument(
+        "--regressor-filter",
+        type=float,
+        default=None,
+        metavar="M",
+        help="the regressor's prefilter (taken) at M w instead of C_REGRESSOR_NOISE w",
+    )
+    ap.add_argument(
+        "--desired-regressor",
+        action="store_true",
+        help="the regressor on the desired trajectory (desired-compensation lever)",
+    )
+    ap.add_argument(
+        "--rate-feedback",
+        type=float,
+        default=0.0,
+        metavar="KQ",
+        help="with --desired-regressor: u0 += KQ e' (the measured rate error)",
+    )
     args = ap.parse_args(argv)
     levers = {
         "lam_factor": args.lam_factor,
@@ -347,6 +438,14 @@ def main(argv=None) -> int:
         levers=levers,
         gain_estimate=ge,
         decimation=False if args.no_decimation else None,
+        noise_seed=args.noise_seed,
+        regressor_prefilter=(
+            False
+            if args.no_regressor_prefilter
+            else (True if args.regressor_filter is not None else None)
+        ),
+        regressor_filter=args.regressor_filter,
+        desired_regressor=args.rate_feedback if args.desired_regressor else None,
     )
     m = metrics(r, loop, WINDOW)
     if not math.isfinite(m["err"]):

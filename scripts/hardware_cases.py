@@ -126,8 +126,9 @@ def final_window(t_end: float, width: float, events, settle: float = 0.5) -> tup
     return t0, t_end
 
 
-def case_loop(sc, case: Case, duration: float | None = None):
-    """The scenario's loop and solver under ``case``'s hardware (thesis law)."""
+def case_loop(sc, case: Case, duration: float | None = None, noise_seed: int = 0):
+    """The scenario's loop and solver under ``case``'s hardware (thesis law); ``noise_seed``:
+    the seed of the sensors' noise draws (``Sensors(seed=...)``)."""
     loop, solver = sc.loop, replace(sc.solver, record_dt=REC_DT)
     if duration is not None:
         loop = replace(loop, t_final=loop.t0 + duration)
@@ -146,7 +147,7 @@ def case_loop(sc, case: Case, duration: float | None = None):
             noise[i] = case.noise
         for i in plant.velocity_index:
             noise[i] = 10.0 * case.noise
-        loop = replace(loop, sensors=Sensors(noise=tuple(noise), rate=1000.0, seed=0))
+        loop = replace(loop, sensors=Sensors(noise=tuple(noise), rate=1000.0, seed=noise_seed))
         fixed = True
     dt = 1e-3
     if math.isfinite(case.hz):
@@ -255,9 +256,10 @@ def run_cases(
     laws=("thesis", "aware"),
     with_oracle: bool = True,
     only: str | None = None,
+    noise_seed: int = 0,
 ):
     """Rows of the table (dicts), the ideal run first; per case the oracle's row (with
-    ``with_oracle``), then one row per law."""
+    ``with_oracle``), then one row per law; ``noise_seed``: the noisy cases' sensor seed."""
     sc = load_scenario(scenario)
     claim = next(c for c in sc.claims if c.get("kind") == "tracking")
     thr = float(claim["threshold"])
@@ -283,7 +285,7 @@ def run_cases(
     for case in cases:
         case_thr = thr
         if with_oracle:
-            loop, solver = case_loop(sc, case, duration)
+            loop, solver = case_loop(sc, case, duration, noise_seed)
             loop = oracle(constraint_aware(loop, solver))
             t = time.perf_counter()
             with warnings.catch_warnings():
@@ -295,7 +297,7 @@ def run_cases(
             rows.append({"case": case.name, "law": "oracle", **m, "verdict": note})
             print(_line(rows[-1]), flush=True)
         for law in laws:
-            loop, solver = case_loop(sc, case, duration)
+            loop, solver = case_loop(sc, case, duration, noise_seed)
             if law == "aware":
                 loop = constraint_aware(loop, solver)
             t = time.perf_counter()
@@ -400,6 +402,12 @@ def main(argv=None) -> int:
     ap.add_argument("--laws", default="thesis,aware")
     ap.add_argument("--no-oracle", action="store_true", help="do not run the oracle")
     ap.add_argument(
+        "--noise-seed",
+        type=int,
+        default=0,
+        help="the seed of the noisy cases' sensor draws (Sensors(seed=...); default 0)",
+    )
+    ap.add_argument(
         "--ideal-cases",
         action="store_true",
         help="the cases of issue 25 (c), sized from the ideal run, instead of the hypersonic set",
@@ -422,6 +430,7 @@ def main(argv=None) -> int:
         tuple(args.laws.split(",")),
         with_oracle=not args.no_oracle,
         only=args.only,
+        noise_seed=args.noise_seed,
     )
     print(
         f"ideal: error {ideal['err']:.2e}, command p-p {ideal['pp']:.3g}, "

@@ -69,6 +69,9 @@ class AdaptiveController(ABC):
 
     design: ClassVar[str]
     equation: ClassVar[str]
+    #: the design has its own rule for the noise in its regressor (§4.3), so the rule does not
+    #: give it the shared regressor prefilter (``ConstraintAware.regressor_prefilter``)
+    regressor_noise_rule: ClassVar[bool] = False
 
     lam: float | tuple[float, ...] = 1.0
     k: float | tuple[float, ...] = 1.0
@@ -260,6 +263,22 @@ class AdaptiveController(ABC):
                 float(loop.sample_time) * float(sensors.rate), ca.whole_readings, rel_tol=1e-9
             )
             updates["decimation"] = bool(validated and given and noisy < quiet * (1.0 - 1e-9))
+        if ca.regressor_prefilter is None:
+            # (session 15) the regressor's prefilter (ConstraintAware.regressor_prefilter)
+            # where the rule takes the decimation filter (the noise sets the loop rate), on
+            # a law whose loop gain does not grow along the run (not §4.4: its failed loop,
+            # lightly damped at this rate, is lost with the filter's phase), without a noise
+            # rule of its own for the regressor (not §4.3) and whose delay budget admits the
+            # filter's delay
+            done = replace(ca, **updates)
+            take = False
+            own = self.regressor_noise_rule
+            if ca.decimation is None and done.decimation and self.regressors() and not own:
+                w0, b_max = float(done.loop_rate or self.loop_rate()), float(done.b_max or 1.0)
+                w = done.omega_max(w0, b_max)[0]
+                growth = float(done.gain_growth or 1.0)
+                take = growth == 1.0 and done.regressor_prefilter_fits(w)
+            updates["regressor_prefilter"] = bool(take)
         return replace(self, constraint_aware=replace(ca, **updates))
 
     @staticmethod

@@ -111,7 +111,13 @@ design, not another design) it derives, by the rules below, one configuration
    ``lam``, is above the density bound: its adaptation's regressor sees prefiltered
    measurements (``u0`` still the measured ones), ``lam`` is raised at most
    ``LAM_FACTOR_NOISE`` times (:func:`adaptation_regressor_rule`) and ``tau`` integrates
-   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``).
+   ``q`` prefiltered at ``C_PREFILTER w_max`` (``NussbaumAdaptive.tau_prefilter``). Session
+   15: where the rule takes the decimation filter (the noise sets the loop rate), the law's
+   regressor, in the command and in the adaptation, sees the plant states low-passed at
+   ``C_REGRESSOR_NOISE w_max`` (:attr:`ConstraintAware.regressor_prefilter`): the learnt
+   ``theta`` makes the basis a rate feedback on the measured state, whose noise reached the
+   command unfiltered up to the sampler's Nyquist frequency (not §4.4; the filter's delay
+   counted in the delay budget).
 5. **Projection of the estimates** on the ball ``|theta| <= theta_max`` (Pomet & Praly 1992;
    Lavretsky & Wise, *Robust and Adaptive Control*, 2013, §11.4), beside the thesis's
    sigma-modification: where the estimate is on the boundary and the law points outward,
@@ -303,6 +309,23 @@ C_PREFILTER = 2.0
 #: the loop rate is what they are there for; the band the loop tracks is the loop rate's.
 C_PREFILTER_NOISE = 8.0
 C_MEASURE_NOISE = 8.0
+#: (session 15, round 11) where the decimation filter is taken (the noise sets the loop rate,
+#: :attr:`ConstraintAware.regressor_prefilter`), the law's fuzzy basis, in its command and in
+#: its adaptation, sees its plant-state inputs through a first-order low-pass at
+#: ``C_REGRESSOR_NOISE w`` (at most ``C_EULER / T``): the learnt ``theta`` makes the basis a
+#: rate feedback on the measured state (``du0/dq`` = -1.75 on issue 25's combination 1),
+#: which passes the measurement noise to the command unfiltered up to the sampler's Nyquist
+#: frequency; the loop needs that feedback only about its own rate. The filter costs
+#: ``atan(1 / C_REGRESSOR_NOISE)`` = 14 deg of phase at the loop rate and a delay of ``1 /
+#: (C_REGRESSOR_NOISE w)`` (25 ms at 9.9 1/s) on the learnt feedback, which the rule counts in
+#: the delay budget (``C_DELAY``) before it takes the filter. Measured (combination 1, final
+#: window 100-120 s, noise seeds 0 / 1 / 2): hypersonic-direct-s1 fast content 1.76e-2 /
+#: 1.72e-2 / 1.77e-2 -> 1.46e-2 / 1.39e-2 / 1.52e-2 rad (target 1.73e-2), error 6.8-7.1e-4
+#: -> 6.8-7.3e-4 (target 8.7e-4); at ``2 w`` 1.42e-2 / 1.30e-2 / 1.42e-2, at ``8 w`` 1.62e-2
+#: (seed 0). Not §4.4 (its loop gain grows along the run with ``rho``): its failed loop at
+#: this rate oscillates at 1-3 Hz without noise already, and the filter's phase loses it
+#: (error 7.4e-4 -> 1.97e-3 rad, 2.3x its target; docs/hardware.md, "Round 11").
+C_REGRESSOR_NOISE = 4.0
 #: a digital filter's bandwidth is at most ``C_EULER / T``: forward Euler of ``x' = w (u -
 #: x)`` has its pole at ``1 - w T``, stable below 2 and monotone (no ringing) up to 1. Round 2
 #: used 0.5; at 50 Hz the command filter's floor ``T / C_EULER`` (40 ms) was then the largest
@@ -645,6 +668,11 @@ class Configuration(NamedTuple):
     #: noise) at the loop rate; ``e_c = e - xi / lam`` with the compensated error's ``xi``
     #: where the command is hedged (the integral does not wind up on the limits)
     error_integral: float = 0.0
+    #: (session 15) prefilter bandwidth (rad/s; inf = none) of the plant-state inputs of the
+    #: law's regressor, in the command ``u0 = Pi(x_f)^T theta`` *and* in the adaptation
+    #: (``C_REGRESSOR_NOISE``, :attr:`ConstraintAware.regressor_prefilter`): the errors and
+    #: ``s`` stay as measured
+    omega_b: float = math.inf
 
     @property
     def filtered(self) -> bool:
@@ -665,13 +693,27 @@ class Configuration(NamedTuple):
     @property
     def adaptation_regressor_filtered(self) -> bool:
         """The adaptation's regressor sees prefiltered measurements (the command's does not)."""
-        return math.isfinite(self.omega_r) and not self.measured_through_filter
+        return (
+            math.isfinite(self.omega_r)
+            and not self.measured_through_filter
+            and not self.regressor_filtered
+        )
+
+    @property
+    def regressor_filtered(self) -> bool:
+        """The regressor, in the command and in the adaptation, sees prefiltered plant states
+        (the errors and ``s`` do not; session 15)."""
+        return math.isfinite(self.omega_b) and not self.measured_through_filter
 
     @property
     def has_measurement_filters(self) -> bool:
         """One prefilter state per plant state (all the law's measurements, or only what the
-        adaptation's regressor sees)."""
-        return self.measured_through_filter or self.adaptation_regressor_filtered
+        regressor sees)."""
+        return (
+            self.measured_through_filter
+            or self.adaptation_regressor_filtered
+            or self.regressor_filtered
+        )
 
 
 IDENTITY = Configuration(
@@ -823,6 +865,23 @@ class ConstraintAware:
         not bound to a loop has it off. ``False``: off (the latest reading at
         each sample); ``True``: on, and a model without such ``N`` is refused. Not a
         constraint.
+    regressor_prefilter
+        (session 15) The law's regressor sees its plant-state inputs through a first-order
+        low-pass at ``C_REGRESSOR_NOISE w`` (at most ``C_EULER / T``), in the command ``u0 =
+        Pi(x_f)^T theta`` and in the adaptation alike (``Configuration.omega_b``); the errors
+        and ``s`` stay as measured. The learnt ``theta`` makes the basis a rate feedback on the
+        measured state, which passes the noise to the command unfiltered up to the sampler's
+        Nyquist frequency; the loop needs it only about its own rate (the filter adds ``1 /
+        (C_REGRESSOR_NOISE w)`` of delay to the learnt feedback, 14 deg at the loop rate).
+        ``None`` (default): decided by :meth:`AdaptiveController.bound` on the loop, taken where
+        the decimation filter is (the noise sets the loop rate), on laws whose loop gain does
+        not grow along the run (``gain_growth`` = 1: not §4.4, measured to lose its failed
+        loop with it), without a noise rule of their own for the regressor (not §4.3,
+        ``AdaptiveController.regressor_noise_rule``) and where the delay budget with the
+        filter's delay holds, ``w (lag +
+        T/2 + tau_d + decimation delay) + 1/C_REGRESSOR_NOISE <= C_DELAY``; a model not bound
+        to a loop has it off. ``False``: off; ``True``: on (where the configuration is not the
+        identity and the measurements are not all prefiltered already). Not a constraint.
 
     Examples
     --------
@@ -854,6 +913,7 @@ class ConstraintAware:
     model_feedforward: bool = True
     per_actuator: bool | None = None
     decimation: bool | None = None
+    regressor_prefilter: bool | None = None
 
     def __post_init__(self) -> None:
         owner = "ConstraintAware"
@@ -895,6 +955,11 @@ class ConstraintAware:
             raise ConfigurationError(
                 "`decimation` of ConstraintAware must be true, false or left unset; got "
                 f"{self.decimation!r}."
+            )
+        if self.regressor_prefilter is not None and not isinstance(self.regressor_prefilter, bool):
+            raise ConfigurationError(
+                "`regressor_prefilter` of ConstraintAware must be true, false or left unset; "
+                f"got {self.regressor_prefilter!r}."
             )
         if self.decimation and self.whole_readings < 2:
             raise ConfigurationError(
@@ -1117,6 +1182,14 @@ class ConstraintAware:
             return False
         return w >= C_DELAY_LIMITED / delay * (1.0 - 1e-9)
 
+    def regressor_prefilter_fits(self, w: float) -> bool:
+        """The delay budget admits the regressor's prefilter (:attr:`regressor_prefilter`) at
+        the loop rate ``w``: ``w (lag + T/2 + tau_d + decimation delay) + 1/C_REGRESSOR_NOISE
+        <= C_DELAY`` (the filter's delay ``1 / (C_REGRESSOR_NOISE w)`` on the learnt feedback
+        counted like the loop's other lags; issue 25's combination 1: 0.34 + 0.25)."""
+        delay = self.lag + 0.5 * self.sample_time + self.s_lag + self.decimation_delay
+        return w * delay + 1.0 / C_REGRESSOR_NOISE <= C_DELAY
+
     def floor_prefiltered_rate(self, w_hw: float) -> float:
         """The loop rate (1/s) a loop with a floor (``floor_delay`` set) admits when it sees
         its measurements through a first-order prefilter at ``C_FLOOR_MEASURE w`` (at most
@@ -1293,6 +1366,12 @@ class ConstraintAware:
         quiet = w * w * self.noise_density <= C_INTEGRAL_NOISE * C_NOISE_DENSITY
         if own_travel and self.discrete_limiter and adaptive and self.delay_bound(w) and quiet:
             error_integral = (C_INTEGRAL * w) ** 2
+        omega_b = math.inf
+        if self.regressor_prefilter and adaptive and not math.isfinite(omega_m):
+            # the regressor's inputs low-passed, in the command and the adaptation (session 15)
+            omega_b = C_REGRESSOR_NOISE * w
+            if self.sample_time > 0:
+                omega_b = min(omega_b, C_EULER / self.sample_time)
         lead: tuple[float, ...] = ()
         if placed is not None and self.feedback is None and self.lead_lag < self.lag:
             lead = (float(self.lag), self.lead_lag)
@@ -1318,6 +1397,7 @@ class ConstraintAware:
             step=float(self.sample_time) if self.discrete_limiter else 0.0,
             actuator_travel=actuator_travel,
             error_integral=error_integral,
+            omega_b=omega_b,
         )
 
     def fast_unstable(self, b_max: float = 1.0) -> bool:
@@ -1433,7 +1513,7 @@ def adaptation_regressor_rule(cfg: Configuration, ca: ConstraintAware, w: float)
     growth); with noise they track (error 1.6e-4 to 7.2e-4) but keep 1.2x (s1-neg) and 8.7x
     (s2-neg) the fast-content target, after the Nussbaum gain cap of session 11
     (``NussbaumAdaptive.gain_cap``; docs/hardware.md)."""
-    if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter:
+    if cfg == IDENTITY or ca.noise <= 0 or cfg.measured_through_filter or cfg.regressor_filtered:
         return cfg
     if w * w * max(1.0, cfg.lam_factor) * ca.noise_density <= C_NOISE_DENSITY:
         return cfg
@@ -1517,6 +1597,23 @@ def _filtered_regressors(g, at_m: int) -> list[str]:
                     ln = ln.replace(f"sig[{i}]", f"Y[{at_m + i}]")
             lines.append(ln)
         off += reg.size
+    return lines
+
+
+def _regressor_command_lines(g, blocks, at_m: int) -> list[str]:
+    """Generated lines that move each ``u0_r`` from ``Pi(x_m)^T theta`` (the approximator's)
+    to ``Pi(x_f)^T theta``, ``x_f`` the prefiltered plant states ``Y[at_m:]``, and leave
+    ``phi`` the filtered basis, which the adaptive laws after them use (session 15,
+    ``Configuration.omega_b``); what else the design added to ``u0`` is kept."""
+    lines = [
+        f"    du{r} = -weighted_sum(phi, Y, {o}, {a}, {n})" for r, (o, a, n) in enumerate(blocks)
+    ]
+    lines += _filtered_regressors(g, at_m)
+    lines[len(blocks)] = "    # constraint-aware: u0 and the adaptation from the filtered regressor"
+    lines += [
+        f"    u0[{r}] += du{r} + weighted_sum(phi, Y, {o}, {a}, {n})"
+        for r, (o, a, n) in enumerate(blocks)
+    ]
     return lines
 
 
@@ -1682,6 +1779,9 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     if cfg.adaptation_regressor_filtered:  # appended only here: other loops keep their c
         wm = f"c[{len(g.consts)}]"
         g.consts.append(cfg.omega_r)
+    elif cfg.regressor_filtered:  # (session 15) likewise
+        wm = f"c[{len(g.consts)}]"
+        g.consts.append(cfg.omega_b)
     hedged = cfg.filtered and cfg.hedge > 0
     sign = f" * {direction}" if direction else ""
     # places of the states
@@ -1736,6 +1836,14 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
         pre += _filtered_regressors(g, at_m)
+    elif cfg.regressor_filtered:  # (session 15) the regressor of the command and adaptation
+        seen = g.measured if g.loop.sensors is not None else "x[i]"
+        measure = [
+            f"    for i in range({nx}):  # constraint-aware: the regressor sees",
+            f"        sig[i] = {seen}",
+            f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
+        ]
+        control += _regressor_command_lines(g, blocks, at_m)
     control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)

@@ -47,6 +47,10 @@ class NussbaumAdaptive(AdaptiveController):
 
     design: ClassVar[str] = "nussbaum"
     equation: ClassVar[str] = "(4.17), (4.25)-(4.27)"
+    #: its own rule for the noise in its regressor (:meth:`configuration`,
+    #: ``constraints.adaptation_regressor_rule``, with ``tau``'s prefilter): the shared
+    #: regressor prefilter is not taken (``ConstraintAware.regressor_prefilter``)
+    regressor_noise_rule: ClassVar[bool] = True
 
     regressor: FuzzyBasis | LinearRegressor
     alpha0: float = 5.0
