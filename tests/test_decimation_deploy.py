@@ -55,7 +55,9 @@ def _combination_1(duration: float):
     case = next(c for c in HYPERSONIC_CASES if c.name.startswith("lag 20 ms + 200 Hz"))
     loop, solver = case_loop(load_scenario("hypersonic-direct-s1"), case, duration=duration)
     loop = constraint_aware(loop, solver)
-    assert loop.controller.bound(loop).constraint_aware.readings == 5  # the rule's filter
+    aware = loop.controller.bound(loop).constraint_aware
+    assert aware.readings == 5  # the rule's filter
+    assert aware.regressor_prefilter  # and its low-passed regressor (session 15): both exported
     return loop, solver
 
 
