@@ -336,6 +336,28 @@ C_MARGIN = 0.9
 #: more ``|theta|^2`` to cross zero; acceptable there on 4 of the 13 cases (round 3: 5;
 #: docs/hardware.md).
 RHO_FACTOR = 1.25
+#: (session 15, round 11b) ... but where the rule gives the law the error's integral (the
+#: delay budget of a discrete limiter sets the loop rate: :attr:`Configuration.error_integral`,
+#: ``C_INTEGRAL``) the bound is ``RHO_FACTOR_INTEGRAL |rho0|`` = ``|rho0|``, and the loop is
+#: sized for it (``gain_growth`` 1: ``r = w/g``, ``K' = w``, §2.3's sizing): there ``w`` is the
+#: largest rate the loop's delays admit (``w (lag + T/2 + tau_d)`` = ``C_DELAY_LIMITED``), so
+#: the loop gain must never exceed the one at ``t0`` (the projection keeps it there; the sign
+#: estimate still crosses zero), and sized for ``1.25 |rho0|`` the loop ran at 0.8 of that gain
+#: and 0.64 of the slope while ``rho`` stayed at 1.000 (``alpha1 r^2``: ``alpha1/alpha0``
+#: 0.07): issue 25's second combination on hypersonic-sign-s1-rho0pos, 2.40e-3 rad against
+#: 1.12e-3 sized at ``|rho0|`` (the §2.3 law on the same failures: 1.06e-3;
+#: docs/hardware.md, "Round 11b").
+RHO_FACTOR_INTEGRAL = 1.0
+#: (session 15, round 11b) §4.4 with the error's integral: the surface's zero pair ``p^2 + lam
+#: p + k_I`` damped at ``C_INTEGRAL_ZETA``, ``lam >= 2 C_INTEGRAL_ZETA sqrt(k_I)``
+#: (:meth:`SignEstimation.configuration`; 1: Slotine & Li's ``s = (d/dt + l)^2 int e``, 1991
+#: §7.1.3, a double zero at ``l = sqrt(k_I)``). Round 9 (session 14) measured the lever on both
+#: laws: on §2.3 it costs the hypersonic-hardware campaign 5 of 500 members (k_I 9-20 at 200
+#: Hz: the loop rings), so §2.3 keeps the thesis's ``lam``; §4.4 has no campaign, and on
+#: issue 25's second combination (the loop sized at ``|rho0|``) the error falls 1.12e-3 ->
+#: 6.0e-4 rad (noise seeds 1, 2: 6.3e-4, 5.7e-4; 0.8: 9.7e-4 to 1.1e-3 with 1.3-1.5e-2 of fast
+#: content, 0.9: 7.4e-4 to 9.1e-4, fast up to 1.2e-2; docs/hardware.md, "Round 11b").
+C_INTEGRAL_ZETA = 1.0
 
 
 #: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's
