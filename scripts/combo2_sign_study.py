@@ -34,7 +34,6 @@ from adaptive_ftc.controllers import constraints  # noqa: E402
 from adaptive_ftc.controllers.base import AdaptiveController  # noqa: E402
 from adaptive_ftc.controllers.sign_estimation import SignEstimation, SignGains  # noqa: E402
 from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
-from adaptive_ftc.hardware import Sensors  # noqa: E402
 from adaptive_ftc.scenarios.loader import load_scenario  # noqa: E402
 from adaptive_ftc.sim.engine import simulate  # noqa: E402
 
