@@ -31,7 +31,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import hardware_cases as hc  # noqa: E402
 
 from adaptive_ftc.controllers import constraints  # noqa: E402
-from adaptive_ftc.controllers.base import AdaptiveController  # noqa: E402
 from adaptive_ftc.controllers.sign_estimation import SignEstimation, SignGains  # noqa: E402
 from adaptive_ftc.errors import DivergenceWarning  # noqa: E402
 from adaptive_ftc.scenarios.loader import load_scenario  # noqa: E402
@@ -72,25 +71,23 @@ def patch(args):
         constraints.C_INTEGRAL = args.c_integral
     if args.rho_factor is not None:
         constraints.RHO_FACTOR = args.rho_factor
-    if args.scale_x is not None or args.slope_x is not None or args.zeta is not None:
-        configuration = AdaptiveController.configuration
+    if args.zeta is not None:
+        constraints.C_INTEGRAL_ZETA = args.zeta
+    if args.rho_factor_integral is not None:
+        constraints.RHO_FACTOR_INTEGRAL = args.rho_factor_integral
+    if args.scale_x is not None or args.slope_x is not None:
+        configuration = SignEstimation.configuration
 
         def moved(self, *a, **k):
             cfg = configuration(self, *a, **k)
             if cfg == constraints.IDENTITY:
                 return cfg
-            lam_factor = cfg.lam_factor
-            if args.zeta is not None and cfg.error_integral > 0:
-                lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
-                need = 2.0 * args.zeta * math.sqrt(cfg.error_integral) / float(lam)
-                lam_factor = max(lam_factor, need)
             return cfg._replace(
-                lam_factor=lam_factor,
                 scale=cfg.scale * (args.scale_x or 1.0),
                 slope_scale=cfg.slope_scale * (args.slope_x or 1.0),
             )
 
-        AdaptiveController.configuration = moved  # type: ignore[method-assign]
+        SignEstimation.configuration = moved  # type: ignore[method-assign]
     if args.alpha1 is not None or args.alpha0 is not None:
         gains = SignEstimation.gains
 
@@ -127,7 +124,8 @@ def main(argv=None) -> int:
     ap.add_argument("--alpha0", type=float, default=None, help="factor on the compiled alpha0")
     ap.add_argument("--scale-x", type=float, default=None, help="factor on the scale r")
     ap.add_argument("--slope-x", type=float, default=None, help="factor on the slope scale")
-    ap.add_argument("--zeta", type=float, default=None, help="lam >= 2 zeta sqrt(k_I)")
+    ap.add_argument("--zeta", type=float, default=None, help="C_INTEGRAL_ZETA (§4.4)")
+    ap.add_argument("--rho-factor-integral", type=float, default=None, help="RHO_FACTOR_INTEGRAL")
     ap.add_argument("--c-integral", type=float, default=None)
     ap.add_argument("--rho-factor", type=float, default=None)
     args = ap.parse_args(argv)

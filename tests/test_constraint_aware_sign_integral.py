@@ -78,6 +78,21 @@ def test_with_the_integral_rho_is_bounded_by_rho0_and_the_loop_sized_like_the_di
     assert design.robust_settings()[0] == pytest.approx(lam)
 
 
+def test_the_damping_raises_lam_at_most_c_integral_lam_max_times_the_thesis_one():
+    """A faster delay-limited loop (10 ms lag, 10 rad/s, 1e-5 noise: ``w`` = 17.5, ``k_I`` =
+    19): the double zero would ask ``lam`` = 8.75; it gets 2.5x the thesis's 2 (the §4.4 probe
+    campaign's members 7 and 91, 100 Hz, ``lam`` 9.1 and 11: fast content 1.1e-2 and 3.7e-2
+    against 8.7e-3; docs/hardware.md, "Round 11b")."""
+    loop, _ = _combination()
+    ca = replace(loop.controller.constraint_aware, lag=0.01, noise=1e-5, rate=10.0)
+    sub = replace(loop, controller=replace(loop.controller, constraint_aware=ca))
+    design = sub.controller.bound(sub)
+    cfg = design.configuration()
+    assert design.integral_surface() and cfg.error_integral > 15.0
+    assert 2.0 * math.sqrt(cfg.error_integral) > constraints.C_INTEGRAL_LAM_MAX * design.lam
+    assert cfg.lam_factor == constraints.C_INTEGRAL_LAM_MAX
+
+
 def test_without_the_integral_the_sign_rule_is_unchanged():
     """Noise above a quarter of its density bound at the loop rate (no integral), or a
     continuous law: ``|rho| <= 1.25 |rho0|``, the loop sized for it, the thesis's ``lam``."""

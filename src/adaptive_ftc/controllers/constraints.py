@@ -358,6 +358,8 @@ RHO_FACTOR_INTEGRAL = 1.0
 #: 6.0e-4 rad (noise seeds 1, 2: 6.3e-4, 5.7e-4; 0.8: 9.7e-4 to 1.1e-3 with 1.3-1.5e-2 of fast
 #: content, 0.9: 7.4e-4 to 9.1e-4, fast up to 1.2e-2; docs/hardware.md, "Round 11b").
 C_INTEGRAL_ZETA = 1.0
+#: ... with ``lam`` raised at most ``C_INTEGRAL_LAM_MAX`` times the thesis's (probe campaign)
+C_INTEGRAL_LAM_MAX = 2.5
 
 
 #: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's

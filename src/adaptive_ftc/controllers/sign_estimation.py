@@ -92,6 +92,7 @@ class SignEstimation(AdaptiveController):
             return cfg
         lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
         need = 2.0 * constraints.C_INTEGRAL_ZETA * math.sqrt(cfg.error_integral) / float(lam)
+        need = min(need, constraints.C_INTEGRAL_LAM_MAX)
         ca = self.constraint_aware
         least = ca.min_loop_gain if ca is not None else None
         if least is not None and least > 0:
