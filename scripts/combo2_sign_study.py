@@ -11,8 +11,15 @@ window 100-120 s, recorded at 1 ms) with levers that swap one difference at a ti
 ``--failures``: whose failure scenario (hypersonic-sign-s1-rho0pos: elevator 2 at (0.5 + 0.5
 sin^2 t) with a 0.08 sin 0.5t bias from 60 s, elevator 1 0.5 u^3 + 0.2 u from 80 s;
 hypersonic-direct-s1: elevator 2 stuck from 40 s, elevator 1 at 75 % with a -0.2 bias from
-80 s). Printed: the final-window error, fast content, peak, the error's RMS over 85-100,
-100-110 and 110-120 s, its power by band, and ``rho`` (§4.4) over 60-120 s.
+80 s). §4.4 levers: ``--growth`` (``ConstraintAware.gain_growth``: the loop sized for a loop
+gain that may grow by that factor), ``--scale-x`` / ``--slope-x`` (factors on the compiled
+scale ``r`` and slope scale ``r_K``), ``--alpha0`` / ``--alpha1`` (factors on the compiled
+adaptation gains; ``--alpha1 0`` freezes ``rho``), ``--rho-factor``, ``--rho-factor-integral``,
+``--zeta`` (``RHO_FACTOR``, ``RHO_FACTOR_INTEGRAL``, ``C_INTEGRAL_ZETA``); both laws:
+``--c-integral``, ``--seed`` (the sensor noise's), ``--noise-off`` (the designer's model keeps
+the declared noise). Session 14's §4.4 law: ``--rho-factor-integral 1.25 --zeta 0``. Printed:
+the configuration, the final-window error, fast content, peak, the error's RMS over 85-100,
+100-110 and 110-120 s, its RMS by band of angular frequency, and ``rho`` over 30-120 s.
 """
 
 from __future__ import annotations
