@@ -367,7 +367,9 @@ C_INTEGRAL_ZETA = 1.0
 #: and 11: fast content 1.05e-2 and 3.7e-2 against 8.67e-3; at ``lam`` 5-6 both pass): 96/100
 #: against 98; capped at 2.5 (``lam`` 5; combination 2's 4.4 is under it) 98/100, the same
 #: members (docs/hardware.md, "Round 11b"). A measured constant, like round 9's "at most
-#: doubled" on §2.3.
+#: doubled" on §2.3. On all 500 members of the probe the damping still costs 11 (200 Hz mostly,
+#: fast content 9e-3 to 2.6e-2 at ``lam`` 4.7-5): 482/500 against 491 with ``C_INTEGRAL_ZETA``
+#: 0 (the bound at ``|rho0|`` alone; session 14: 486); ``C_INTEGRAL_ZETA = 0`` turns it off.
 C_INTEGRAL_LAM_MAX = 2.5
 
 
