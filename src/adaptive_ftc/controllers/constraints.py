@@ -355,7 +355,8 @@ RHO_FACTOR_INTEGRAL = 1.0
 #: (:meth:`SignEstimation.configuration`; 1: Slotine & Li's ``s = (d/dt + l)^2 int e``, 1991
 #: §7.1.3, a double zero at ``l = sqrt(k_I)``). Round 9 (session 14) measured the lever on both
 #: laws: on §2.3 it costs the hypersonic-hardware campaign 5 of 500 members (k_I 9-20 at 200
-#: Hz: the loop rings), so §2.3 keeps the thesis's ``lam``; §4.4 has no campaign, and on
+#: Hz: the loop rings), so §2.3 keeps the thesis's ``lam``; §4.4 has no shipped campaign (a
+#: probe's cost: :data:`C_INTEGRAL_LAM_MAX`), and on
 #: issue 25's second combination (the loop sized at ``|rho0|``) the error falls 1.12e-3 ->
 #: 6.0e-4 rad (noise seeds 1, 2: 6.3e-4, 5.7e-4; 0.8: 9.7e-4 to 1.1e-3 with 1.3-1.5e-2 of fast
 #: content, 0.9: 7.4e-4 to 9.1e-4, fast up to 1.2e-2; docs/hardware.md, "Round 11b").
