@@ -218,8 +218,6 @@ class AdaptiveController(ABC):
             updates["b_max"] = float(np.abs(R).max()) if R.size and np.abs(R).max() > 0 else 1.0
         if ca.input_gain is None:
             updates["input_gain"] = self.nominal_input_gain(loop)
-        if ca.gain_growth is None:
-            updates["gain_growth"] = self.loop_gain_growth()
         if ca.unstable_rate is None:
             updates["unstable_rate"] = self.open_loop_unstable_rate(loop)
         if ca.open_loop is None and self.single_output:
@@ -263,6 +261,10 @@ class AdaptiveController(ABC):
                 float(loop.sample_time) * float(sensors.rate), ca.whole_readings, rel_tol=1e-9
             )
             updates["decimation"] = bool(validated and given and noisy < quiet * (1.0 - 1e-9))
+        if ca.gain_growth is None:
+            # last: §4.4's bound of rho depends on the configuration the rest completes
+            done = replace(self, constraint_aware=replace(ca, **updates))
+            updates["gain_growth"] = done.loop_gain_growth()
         if ca.regressor_prefilter is None:
             # (session 15) the regressor's prefilter (ConstraintAware.regressor_prefilter)
             # where the rule takes the decimation filter (the noise sets the loop rate), on

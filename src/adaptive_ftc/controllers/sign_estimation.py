@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
 from adaptive_ftc.approximators import FuzzyBasis, LinearRegressor
@@ -56,11 +56,48 @@ class SignEstimation(AdaptiveController):
         """The projection bound of ``rho`` (``inf``: none): ``RHO_FACTOR |rho0|`` under a
         non-ideal constraint-aware model (:data:`~adaptive_ftc.controllers.constraints.
         RHO_FACTOR`; ``rho0 = 0``: none), so that the loop gain ``alpha0 |rho| |Pi|^2 b``
-        the rule sizes the law for (:meth:`loop_gain_growth`) is a bound along the run."""
+        the rule sizes the law for (:meth:`loop_gain_growth`) is a bound along the run;
+        ``RHO_FACTOR_INTEGRAL |rho0|`` (``|rho0|``) where the rule gives the law the error's
+        integral (:meth:`integral_surface`; session 15)."""
         ca = self.constraint_aware
         if ca is None or ca.is_ideal or float(self.rho0) == 0.0:
             return math.inf
-        return constraints.RHO_FACTOR * abs(float(self.rho0))
+        factor = constraints.RHO_FACTOR
+        if self.integral_surface():
+            factor = constraints.RHO_FACTOR_INTEGRAL
+        return factor * abs(float(self.rho0))
+
+    def integral_surface(self) -> bool:
+        """The rule gives this law the error's integral (``Configuration.error_integral``:
+        the delay budget of a discrete limiter with per-actuator travel sets the loop rate;
+        :data:`~adaptive_ftc.controllers.constraints.C_INTEGRAL`), which does not depend on
+        the bound of ``rho`` (asked with ``gain_growth`` 1). Meaningful on the bound design
+        (:meth:`bound`), whose model carries the measured loop rate and the allocation."""
+        ca = self.constraint_aware
+        if ca is None or ca.is_ideal:
+            return False
+        probe = replace(self, constraint_aware=replace(ca, gain_growth=1.0))
+        return AdaptiveController.configuration(probe).error_integral > 0
+
+    def configuration(
+        self, b_max: float = 1.0, input_gain: float = 0.0
+    ) -> constraints.Configuration:
+        """The rule's configuration; where it carries the error's integral ``k_I``, ``lam``
+        at least ``2 C_INTEGRAL_ZETA sqrt(k_I)`` (the surface ``p^2 + lam p + k_I``'s zero
+        pair damped at :data:`~adaptive_ftc.controllers.constraints.C_INTEGRAL_ZETA`; 1:
+        Slotine & Li's ``(d/dt + l)^2 int e``), at most ``C_LAM_GAIN`` times the smallest
+        scaled loop gain (the rule's cap on ``lam``). Session 15, round 11b."""
+        cfg = super().configuration(b_max, input_gain)
+        if cfg.error_integral <= 0:
+            return cfg
+        lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
+        need = 2.0 * constraints.C_INTEGRAL_ZETA * math.sqrt(cfg.error_integral) / float(lam)
+        need = min(need, constraints.C_INTEGRAL_LAM_MAX)
+        ca = self.constraint_aware
+        least = ca.min_loop_gain if ca is not None else None
+        if least is not None and least > 0:
+            need = min(need, constraints.C_LAM_GAIN * cfg.scale * least / float(lam))
+        return cfg._replace(lam_factor=max(cfg.lam_factor, need))
 
     def theta_gain(self) -> float:
         """``alpha0 |rho0|``: the law's gain at the initial ``rho``."""
