@@ -71,6 +71,7 @@ that ``|u0|`` stays bounded by ``|v - f| / gmin`` (single output: ``g`` is repla
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
@@ -79,7 +80,16 @@ from adaptive_ftc.controllers.base import AdaptiveController, _positive
 from adaptive_ftc.errors import ConfigurationError
 from adaptive_ftc.sim.layout import Misc
 
-__all__ = ["NominalInverse", "OracleInverse", "solve_guarded"]
+__all__ = ["C_ORACLE_COMPENSATED", "NominalInverse", "OracleInverse", "solve_guarded"]
+
+#: (session 15) the oracle of a law with a MIMO floor and a limited, hedged command filter
+#: puts the robust term of its raised outputs on the compensated error ``s - xi``, as the law
+#: puts its own (:meth:`OracleInverse.compensated_outputs`; the module docstring). ``False``:
+#: the session-13 oracle (the robust term on ``s``).
+C_ORACLE_COMPENSATED = True
+#: the generator's attribute holding the constant slot of the first ``zeta`` state between
+#: :meth:`OracleInverse.emit_control` and :meth:`OracleInverse.emit_constraint_aware`
+_ZETA_SLOT = "_oracle_zeta_slot"
 
 
 class NominalGains(NamedTuple):
@@ -176,6 +186,7 @@ class NominalInverse(AdaptiveController):
             "    # model s' = -k s - k0 tanh(s/eps0)",
         ]
         models = self.feedback_model(g)
+        lines += self.compensation_lines(g)
         for i in range(p):
             e, ed, s = f"sig[{nx + i}]", f"sig[{nx + p + i}]", f"sig[{nx + 2 * p + i}]"
             if models[i] is not None:
@@ -190,12 +201,23 @@ class NominalInverse(AdaptiveController):
                     f" - wb[{f_at + i}]"
                 )
                 continue
+            sc = self.compensated_error(g, i, s)
             lines.append(
-                f"    wb[{v_at + i}] = (ref[{3 * i + 2}] + c[LAM + {i}] * {ed} + c[K + {i}] * {s}"
-                f" + c[K0 + {i}] * math.tanh({s} / c[EPS0])) - wb[{f_at + i}]"
+                f"    wb[{v_at + i}] = (ref[{3 * i + 2}] + c[LAM + {i}] * {ed} + c[K + {i}] * {sc}"
+                f" + c[K0 + {i}] * math.tanh({sc} / c[EPS0])) - wb[{f_at + i}]"
             )
         lines.append(f"    nominal_solve(wb, 0, {p}, D.gains.gmin, u0)")
         return lines
+
+    def compensation_lines(self, g) -> list[str]:
+        """Lines run once ``G`` is formed (``wb[0:p*p]``, row-major), before the targets:
+        none here (:meth:`OracleInverse.compensation_lines`)."""
+        return []
+
+    def compensated_error(self, g, i: int, s: str) -> str:
+        """The expression of output ``i``'s filtered error that the robust term of the target
+        acts on: ``s`` itself here (:meth:`OracleInverse.compensated_error`)."""
+        return s
 
     def emit_adapt(self, g, blocks, extra_at: int) -> list[str]:
         return []
@@ -317,6 +339,86 @@ class OracleInverse(NominalInverse):
             return ((a, c),) * p
         floor = tuple(cfg.output_feedback) or (0.0,) * p
         return tuple((0.0, 0.0) if f > 0 else None for f in floor)
+
+    def compensated_outputs(self, g) -> tuple[int, ...]:
+        """The outputs whose robust term acts on the **compensated error** ``s_i - xi_i``
+        (session 15; the module docstring, "The oracle's compensated error"): with a
+        :attr:`law` whose command filter is limited and hedged (``Configuration.hedge``) and
+        that has a MIMO floor (``output_feedback``), every output whose target keeps the
+        robust term (:meth:`feedback_model` ``None``: the raised outputs beside the floored
+        ones). ``()`` otherwise (no change to the generated loop)."""
+        if self.law is None or not C_ORACLE_COMPENSATED:
+            return ()
+        cfg = self.compiled_configuration(g)
+        if not (cfg.filtered and cfg.hedge > 0 and any(f > 0 for f in cfg.output_feedback)):
+            return ()
+        models = self.feedback_model(g)
+        return tuple(i for i in range(g.p) if models[i] is None)
+
+    def compensation_lines(self, g) -> list[str]:
+        """With :meth:`compensated_outputs`: ``xi_i = sum_k G_ik zeta_k`` of the oracle's
+        exact (failed) ``G`` and the states ``zeta`` (:meth:`emit_constraint_aware`), whose
+        first index is a constant that :meth:`emit_constraint_aware` fills in once the
+        constraint-aware states are placed."""
+        outs = self.compensated_outputs(g)
+        if not outs:
+            return []
+        p = g.p
+        slot = len(g.consts)
+        g.consts.append(-1.0)  # the first zeta state, set by emit_constraint_aware
+        setattr(g, _ZETA_SLOT, slot)
+        z = f"int(c[{slot}])"
+        lines = ["    # the oracle's compensated error xi = G zeta (zeta: the held-back command)"]
+        for i in outs:
+            terms = " + ".join(f"wb[{i * p + k}] * Y[{z} + {k}]" for k in range(p))
+            lines.append(f"    xih{i} = {terms}")
+        return lines
+
+    def compensated_error(self, g, i: int, s: str) -> str:
+        return f"({s} - xih{i})" if i in self.compensated_outputs(g) else s
+
+    def emit_constraint_aware(self, g, blocks, at: int):
+        """The law's constraint-aware lines (:meth:`AdaptiveController.emit_constraint_aware`),
+        then, with :meth:`compensated_outputs`, the states ``zeta`` (one per output, after the
+        law's; they run while the oracle's adaptation, which it does not have, is "frozen")
+        with ``zeta_k' = -w_h zeta_k + (u0c_k - u0r_k)``: ``u0c`` the command into the law's
+        filter, ``u0r = uf + uf' / w_f`` what the filter delivers (the law's own hedge, with
+        its decay rate ``w_h``, ``Configuration.omega_h``)."""
+        n0 = len(g.y0_extra)
+        control, pre, post, measure = super().emit_constraint_aware(g, blocks, at)
+        slot = getattr(g, _ZETA_SLOT, None)
+        if slot is None:
+            return control, pre, post, measure
+        filters: dict[int, int] = {}
+        for ln in control:
+            hit = re.match(r"\s*dY\[(\d+)\] = command_filter\(uc(\d+),", ln)
+            if hit:
+                filters[int(hit.group(2))] = int(hit.group(1))
+        p = g.p
+        if sorted(filters) != list(range(p)):  # pragma: no cover - emit's own lines changed
+            raise ConfigurationError(
+                "OracleInverse: the compensated error needs the law's command filter per "
+                f"output (constraints.emit); found {sorted(filters)} of {p} outputs. Build the "
+                "oracle without `law` (baselines.oracle(loop)) meanwhile."
+            )
+        z0 = at + len(g.y0_extra) - n0
+        g.consts[slot] = float(z0)
+        g.adaptive_names += [f"oracle_hedge{k + 1}" for k in range(p)]
+        g.y0_extra.extend([0.0] * p)
+        g.free_running += p
+        cfg = self.sampled_configuration(self.compiled_configuration(g), g)
+        c0 = len(g.consts)
+        g.consts.extend([float(cfg.omega_f), float(cfg.omega_h)])
+        wf, wh = f"c[{c0}]", f"c[{c0 + 1}]"
+        control = [
+            *control,
+            "    # the oracle's compensated error: zeta' = -w_h zeta + (u0c - what the filter gives)",
+            *[
+                f"    dY[{z0 + k}] = -{wh} * Y[{z0 + k}] + (uc{k} - (Y[{f}] + dY[{f}] / {wf}))"
+                for k, f in sorted(filters.items())
+            ],
+        ]
+        return control, pre, post, measure
 
     def code_label(self) -> str:
         return NominalInverse.code_label(NominalInverse())  # the same code, other numbers
