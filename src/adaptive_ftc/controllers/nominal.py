@@ -59,6 +59,28 @@ members of the hardware campaigns (docs/hardware.md, "The oracle with the law's 
 design"): wing rock 99 % (the inverse alone: 6 %), spacecraft 99 % (0 %), manipulator 78 %
 (65 %), hypersonic bit-identical to the inverse alone (99 %).
 
+**The oracle's compensated error** (session 15; :meth:`OracleInverse.compensated_outputs`,
+``C_ORACLE_COMPENSATED``). The law's adaptation sees the compensated error ``s - xi``, where
+``xi`` is the part of ``s`` that its limited command filter caused (``constraints.hedged_q``;
+Farrell et al. 2009, pseudo-control hedging, Johnson & Calise 2003): its robust term, in its
+adaptation signal, acts on ``s - xi``. The oracle's robust term stands in the target instead,
+and acted on ``s`` (the law's hedge states stop with the adaptation the oracle does not have).
+On the manipulator-hardware members whose law raises joint 1 (the robust term) and floors
+joint 2, the initial errors (0.5 and 0.75 rad) ask the exact inverse for more than the command
+filter's rate limit gives: the command swings between the filter's travel at its rate limit
+(about 1 Hz) and the errors stay at 0.2-0.6 rad for good, with or without the failure, the
+noise or the actuator's lag (member 24 on ideal hardware with the law's filter: 0.31 rad; the
+filter's rate limit removed: 1.7e-3). 88 of the campaign oracle's 90 failures of session 14
+were such members (95 members have this configuration). With a limited, hedged command filter
+and a floor, the oracle's raised outputs now aim at ``k_i (s_i - xi_i) + k0_i tanh((s_i -
+xi_i) / eps0)``, with ``xi = G zeta`` of the oracle's exact (failed) ``G`` and ``zeta_k' = -w_h
+zeta_k + (u0c_k - u0r_k)`` per command (``u0c`` into the law's filter, ``u0r = uf + uf'/w_f``
+what it delivers, ``w_h`` the law's decay rate): the pseudo-control deficit that the oracle's
+own model gives, not the law's one nominal input gain (11.7, joint 2's, where joint 1's is
+2.0: with it the oracle lost the arm on members 4 and 12). The ``xi'`` term of the law's
+``hedged_q`` is left out (it needs the command itself). Every other loop's generated code is
+unchanged.
+
 Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
 failure) that is not, ``G`` is the forward-difference slope at ``u0 = 0`` over ``probe``: the
 local linearisation there, not at the current command.
@@ -412,7 +434,7 @@ class OracleInverse(NominalInverse):
         wf, wh = f"c[{c0}]", f"c[{c0 + 1}]"
         control = [
             *control,
-            "    # the oracle's compensated error: zeta' = -w_h zeta + (u0c - what the filter gives)",
+            "    # the oracle's compensated error: zeta' = -w_h zeta + u0c - the filter's u0",
             *[
                 f"    dY[{z0 + k}] = -{wh} * Y[{z0 + k}] + (uc{k} - (Y[{f}] + dY[{f}] / {wf}))"
                 for k, f in sorted(filters.items())
