@@ -97,3 +97,38 @@ def test_only_the_raised_output_is_compensated():
     assert "xih0 = wb[0] * Y[" in text and "wb[1] * Y[" in text
     assert "xih1" not in text
     assert text.count("the oracle's compensated error") == 2  # xi, and zeta's derivative
+
+
+def _motor_steps(loop, solver, t_final: float = 6.0, start: float = 4.0) -> float:
+    """Std of the per-sample step of motor 1's command (joint 1) over ``[start, t_final]``."""
+    result = simulate(dataclasses.replace(loop, t_final=t_final), solver)
+    assert result.status == "completed"
+    keep = result.time >= start
+    every = int(round(loop.sample_time / 1e-3))  # the record is at 1 ms
+    held = result.u_cmd[keep][::every, 0]
+    return float(np.std(np.diff(held)))
+
+
+def test_the_raised_joints_robust_term_goes_through_its_own_input_gain(monkeypatch):
+    """Member 187 (100 Hz, 0.5 ms, 3.6e-3 rad of noise on q1; joint 1 raised): on ideal
+    motors and without its failure, so that only the measured noise moves the command, the
+    oracle's per-sample step of motor 1's command is 0.56 N m when the raised joint's robust
+    term is decoupled through the whole inverse (its torque is ``M11 M22 / det M``, about 4.4
+    times the one through ``G_11``) and less than half of it through ``G_11`` (the law's own:
+    0.11). The session-14 run failed the member on activity (0.47 N m of fast content)."""
+    spec = spec_of("manipulator-hardware", runs=200)
+    member = draw_member(spec, 187)
+
+    def bare(loop):
+        act = dataclasses.replace(loop.actuators, tau=0.0, rate=np.inf, lower=-np.inf, upper=np.inf)
+        return dataclasses.replace(loop, actuators=act, failures=())
+
+    loop = member.design_loop("oracle")
+    assert loop.sample_time == 0.01 and loop.controller.law.output_floor()[0] == 0.0
+    own = _motor_steps(bare(loop), spec.solver)
+    text = _generated(loop)[0]
+    assert "gii0 = " in text and "u0[0] += (" in text
+    monkeypatch.setattr(nominal, "C_ORACLE_OWN_GAIN", False)
+    decoupled = _motor_steps(bare(member.design_loop("oracle")), spec.solver)
+    assert own < 0.5 * decoupled, (own, decoupled)
+    assert decoupled > 0.3, decoupled
