@@ -86,9 +86,10 @@ stands, its coupling into the floored joint left to that joint's floor, as the l
 it. Decoupled through the whole inverse, the raised joint's noisy target (its robust slope
 ``w`` on the measured ``s``) was applied through ``(G^-1)_11 G_11 = M11 M22 / det M``, about
 4.4 times the torque (on ideal motors, noise only, member 187 at 100 Hz: per-sample steps of
-motor 1's command of 0.56 N m, against 0.19-0.24 through ``G_11`` and the law's 0.10-0.11), and 20
-members that the law holds failed the activity verdict on it. Every other loop's generated
-code is unchanged.
+motor 1's command of 0.56 N m, against 0.19-0.24 through ``G_11`` and the law's 0.10-0.11):
+20 campaign members that the law holds failed on it (18 on activity, 2 lost the arm). With
+both, the manipulator-hardware oracle succeeds on 488 of 500 members (session 14: 410;
+docs/hardware.md, session 15). Every other loop's generated code is unchanged.
 
 Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
 failure) that is not, ``G`` is the forward-difference slope at ``u0 = 0`` over ``probe``: the
