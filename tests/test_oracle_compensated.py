@@ -132,3 +132,29 @@ def test_the_raised_joints_robust_term_goes_through_its_own_input_gain(monkeypat
     decoupled = _motor_steps(bare(member.design_loop("oracle")), spec.solver)
     assert own < 0.5 * decoupled, (own, decoupled)
     assert decoupled > 0.3, decoupled
+
+
+def test_the_raised_joints_feedback_is_at_the_laws_proportional_loop_gain(monkeypatch):
+    """The law's robust slope ``w`` on a raised output is the integral corner of its
+    adaptation; its proportional loop gain at the operating point is the normalised ``m g /
+    (1 + m g / w)`` = ``3w/4`` (``C_RAISE`` = 3). The oracle's robust term, its only feedback
+    on that output, runs at the latter: on member 187 (ideal motors, noise only) the
+    per-sample step of motor 1's command falls with it (the campaign member then passes the
+    activity verdict, 4.7 % of the window at a rate limit against 8.5 %)."""
+    from adaptive_ftc.controllers import mimo
+
+    spec = spec_of("manipulator-hardware", runs=200)
+    member = draw_member(spec, 187)
+
+    def bare(loop):
+        act = dataclasses.replace(loop.actuators, tau=0.0, rate=np.inf, lower=-np.inf, upper=np.inf)
+        return dataclasses.replace(loop, actuators=act, failures=())
+
+    loop = member.design_loop("oracle")
+    scale = loop.controller.proportional_scale(2)
+    assert scale[0] == pytest.approx(mimo.C_RAISE / (1.0 + mimo.C_RAISE))
+    at_gain = _motor_steps(bare(loop), spec.solver)
+    monkeypatch.setattr(nominal, "C_ORACLE_PROPORTIONAL", False)
+    assert member.design_loop("oracle").controller.proportional_scale(2) == (1.0, 1.0)
+    at_slope = _motor_steps(bare(member.design_loop("oracle")), spec.solver)
+    assert at_gain < 0.9 * at_slope, (at_gain, at_slope)

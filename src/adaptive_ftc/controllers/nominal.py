@@ -87,8 +87,13 @@ it. Decoupled through the whole inverse, the raised joint's noisy target (its ro
 ``w`` on the measured ``s``) was applied through ``(G^-1)_11 G_11 = M11 M22 / det M``, about
 4.4 times the torque (on ideal motors, noise only, member 187 at 100 Hz: per-sample steps of
 motor 1's command of 0.56 N m, against 0.19-0.24 through ``G_11`` and the law's 0.10-0.11):
-20 campaign members that the law holds failed on it (18 on activity, 2 lost the arm). With
-both, the manipulator-hardware oracle succeeds on 488 of 500 members (session 14: 410;
+20 campaign members that the law holds failed on it (18 on activity, 2 lost the arm). And
+the term runs at the law's proportional loop gain on that output, not at its robust slope
+(``C_ORACLE_PROPORTIONAL``, :meth:`OracleInverse.proportional_scale`): the law's robust slope
+``w`` on a raised output is the integral corner of its adaptation, its proportional gain the
+normalised ``m g / (1 + m g / w)`` = ``3w/4``; the oracle, which needs no integral, takes the
+proportional one (member 187: per-sample steps 0.13 N m against 0.19). With all three, the
+manipulator-hardware oracle succeeds on 492 of 500 members (session 14: 410;
 docs/hardware.md, session 15). Every other loop's generated code is unchanged.
 
 Every catalogue plant is affine in ``u``, so ``G`` is exact up to rounding. For a plant (or
@@ -115,6 +120,7 @@ from adaptive_ftc.sim.layout import Misc
 __all__ = [
     "C_ORACLE_COMPENSATED",
     "C_ORACLE_OWN_GAIN",
+    "C_ORACLE_PROPORTIONAL",
     "NominalInverse",
     "OracleInverse",
     "solve_guarded",
@@ -132,6 +138,13 @@ C_ORACLE_COMPENSATED = True
 #: joint's noisy target through ``M11 M22 / det M``, about 4.4 times the torque; the module
 #: docstring). ``False``: in the target.
 C_ORACLE_OWN_GAIN = True
+#: (session 15) ... at the law's *proportional* loop gain on that output, not at its robust
+#: slope: the term is scaled by ``min(1, G_i / K_i)``, ``G_i = m_i g_i / (1 + m_i g_i / w)``
+#: the law's normalised loop gain at its operating point (``3w/4`` on a raised output,
+#: ``mimo.C_RAISE``) and ``K_i = k_i + k0_i / eps0`` its robust slope, which in the law is the
+#: integral corner of its adaptation (``mimo.C_SLOPE``), not a proportional gain
+#: (:meth:`OracleInverse.proportional_scale`). ``False``: the robust slope.
+C_ORACLE_PROPORTIONAL = True
 #: the generator's attribute holding the constant slot of the first ``zeta`` state between
 #: :meth:`OracleInverse.emit_control` and :meth:`OracleInverse.emit_constraint_aware`
 _ZETA_SLOT = "_oracle_zeta_slot"
@@ -443,12 +456,39 @@ class OracleInverse(NominalInverse):
         if not outs or not C_ORACLE_OWN_GAIN:
             return []
         nx, p = g.nx, g.p
+        scale = self.proportional_scale(p)
         lines = []
         for i in outs:
             sc = f"(sig[{nx + 2 * p + i}] - xih{i})"
             term = super().target_robust_term(g, i, sc)
+            if scale[i] != 1.0:
+                g.consts.append(float(scale[i]))
+                term = f"c[{len(g.consts) - 1}] * ({term})"
             lines.append(f"    u0[{i}] += ({term}) / gii{i}")
         return lines
+
+    def proportional_scale(self, p: int) -> tuple[float, ...]:
+        """Per output, ``min(1, G_i / K_i)`` (``C_ORACLE_PROPORTIONAL``): the law's normalised
+        loop gain at its operating point, ``G_i = m_i g_i / (1 + m_i g_i / w)`` (its loop gain
+        ``g_i`` at zero error, raised by ``m_i``, :meth:`MimoDirectAdaptive.output_raise`),
+        over its robust slope ``K_i = k_i + k0_i / eps0`` (its integral corner); ``p`` ones where
+        the law has no such gains (not a bound MIMO law) or without ``C_ORACLE_PROPORTIONAL``."""
+        law = self.law
+        gains = tuple(getattr(law, "output_gains", ()) or ())
+        if law is None or not C_ORACLE_PROPORTIONAL or len(gains) != p:
+            return (1.0,) * p
+        raised = law.output_raise() or (1.0,) * p
+        w = law.admitted_rate()
+        _, k, k0, eps0 = law.robust_settings()
+        k = k if isinstance(k, tuple) else (k,) * p
+        k0 = k0 if isinstance(k0, tuple) else (k0,) * p
+        out = []
+        for i in range(p):
+            mg = raised[i] * gains[i]
+            slope = float(k[i]) + float(k0[i]) / float(eps0)
+            proportional = mg / (1.0 + mg / w) if w > 0 else 0.0
+            out.append(min(1.0, proportional / slope) if slope > 0 and proportional > 0 else 1.0)
+        return tuple(out)
 
     def emit_constraint_aware(self, g, blocks, at: int):
         """The law's constraint-aware lines (:meth:`AdaptiveController.emit_constraint_aware`),
