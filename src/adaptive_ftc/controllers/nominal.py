@@ -473,9 +473,13 @@ class OracleInverse(NominalInverse):
         ``g_i`` at zero error, raised by ``m_i``, :meth:`MimoDirectAdaptive.output_raise`),
         over its robust slope ``K_i = k_i + k0_i / eps0`` (its integral corner); ``p`` ones where
         the law has no such gains (not a bound MIMO law) or without ``C_ORACLE_PROPORTIONAL``."""
+        from adaptive_ftc.controllers.mimo import MimoDirectAdaptive
+
         law = self.law
-        gains = tuple(getattr(law, "output_gains", ()) or ())
-        if law is None or not C_ORACLE_PROPORTIONAL or len(gains) != p:
+        if not isinstance(law, MimoDirectAdaptive) or not C_ORACLE_PROPORTIONAL:
+            return (1.0,) * p
+        gains = tuple(law.output_gains)
+        if len(gains) != p:
             return (1.0,) * p
         raised = law.output_raise() or (1.0,) * p
         w = law.admitted_rate()
