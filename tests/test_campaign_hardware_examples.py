@@ -1,4 +1,4 @@
-"""The shipped hardware campaigns (issue 25 item 5): hypersonic, wing rock, manipulator and
+"""The shipped hardware campaigns (issue 25 item 5): hypersonic (§2.3 and, since session 15, §4.4), wing rock, manipulator and
 spacecraft, each comparing the thesis law, the constraint-aware law, the fixed-gain and
 nominal-inverse baselines and the oracle under drawn hardware and failures, >= 500 members.
 Each runs here at reduced size (2 members, a short duration): every design of every member
@@ -15,6 +15,7 @@ from adaptive_ftc.campaigns.spec import EXAMPLES
 
 HARDWARE_CAMPAIGNS = {
     "hypersonic-hardware": 4.0,
+    "hypersonic-sign-hardware": 4.0,
     "wingrock-hardware": 2.0,
     "manipulator-hardware": 3.0,
     "spacecraft-hardware": 4.0,
@@ -65,3 +66,21 @@ def test_a_flat_ideal_command_asks_for_stated_references(tmp_path):
     data["success"].update(reference_peak_to_peak=6.17, reference_peak_command=6.17)
     stated = load_campaign(data)
     assert stated.activity.thresholds(stated) == pytest.approx((0.03 * 6.17, 61.7))
+
+
+def test_a_baseline_that_cannot_be_built_is_a_failed_row_not_a_crash(tmp_path):
+    """The §4.4 thesis law diverges under the drawn hardware even without failures, so the
+    fixed-gain baseline has no healthy tuning run to freeze: that member's fixed-gain row is
+    a failed run with the reason (status ``not_built``), the campaign and its page complete
+    and the other designs run (session 15; before, the ConfigurationError stopped the whole
+    campaign)."""
+    from adaptive_ftc.campaigns.runner import UNBUILT
+
+    spec = load_campaign(reduced("hypersonic-sign-hardware", 4.0))
+    run = run_campaign(spec, tmp_path / "c", jobs=1, progress=False, summary=True)
+    assert run.complete and (tmp_path / "c" / "summary.html").exists()
+    df = read_results(tmp_path / "c")
+    fixed = df[df["design"] == "fixed-gain"]
+    assert (fixed["status"] == UNBUILT).all() and not fixed["success"].any()
+    assert fixed["message"].str.contains("failure-free tuning run").all()
+    assert (df[df["design"] == "constraint-aware"]["status"] == "completed").all()

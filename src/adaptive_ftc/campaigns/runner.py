@@ -20,9 +20,14 @@ import numpy as np
 from adaptive_ftc.campaigns import store
 from adaptive_ftc.campaigns.sampling import Member, draw_member
 from adaptive_ftc.campaigns.spec import CampaignSpec, load_campaign
-from adaptive_ftc.errors import DivergenceWarning
+from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
 from adaptive_ftc.sim.batch import iter_simulate
 from adaptive_ftc.sim.result import SimResult, _monotone
+
+#: Status of a row whose design could not be built on the member (the fixed-gain baseline
+#: whose failure-free tuning run diverged under the drawn hardware): a failed run of that
+#: design, the reason in ``message``; the page counts it with the runs that stopped early.
+UNBUILT = "not_built"
 
 if TYPE_CHECKING:
     from adaptive_ftc.sim.system import ClosedLoop
@@ -156,6 +161,7 @@ def run_chunk(
     hi = min(spec.runs, lo + spec.chunk_size)
     members: list[Member] = []
     slots: list[int | None] = []  # each run's place among the simulated runs (None: invalid)
+    unbuilt: dict[int, str] = {}  # run k's design could not be built: why (a failed run)
     n_loops = 0
 
     def loops() -> Iterator[ClosedLoop]:
@@ -166,12 +172,22 @@ def run_chunk(
             mem = draw_member(spec, i)
             members.append(mem)
             for d in spec.designs:
-                if mem.loop is not None:
-                    slots.append(n_loops)
-                    n_loops += 1
-                    yield mem.design_loop(d)
-                else:
+                if mem.loop is None:
                     slots.append(None)
+                    continue
+                try:
+                    loop = mem.design_loop(d)
+                except ConfigurationError as exc:
+                    # a design that cannot be built on this member (the fixed-gain baseline
+                    # whose failure-free tuning run diverged under the drawn hardware) is a
+                    # failed run of that design, recorded with the reason, never a crash of
+                    # the campaign
+                    unbuilt[len(slots)] = str(exc)
+                    slots.append(None)
+                    continue
+                slots.append(n_loops)
+                n_loops += 1
+                yield loop
 
     thresholds = spec.activity.thresholds(spec) if spec.activity is not None else None
     reduce = functools.partial(outcome, spec=spec, thresholds=thresholds)
@@ -201,7 +217,15 @@ def run_chunk(
                 row["allocator"] = spec.allocator_kind(d)
             slot = slots[k]
             k += 1
-            if slot is None:
+            if k - 1 in unbuilt:
+                row.update(
+                    status=UNBUILT,
+                    message=unbuilt[k - 1],
+                    success=False,
+                    tracking_ok=False,
+                    activity_ok=False,
+                )
+            elif slot is None:
                 row.update(status="invalid", message=mem.error, success=False)
             else:
                 row.update(outcomes[slot])
