@@ -143,3 +143,21 @@ def test_hardware_cases_draws_the_noise_with_the_seed_it_is_given():
     assert case_loop(sc, combo, 1.0)[0].sensors.seed == 0
     assert case_loop(sc, combo, 1.0, noise_seed=2)[0].sensors.seed == 2
     assert case_loop(sc, _case("lag 20 ms"), 1.0, noise_seed=2)[0].sensors is None
+
+
+def test_a_law_that_estimates_its_input_gain_never_takes_the_prefilter():
+    """§4.4's member 137 of hypersonic-sign-hardware: the noise sets its loop rate (the
+    decimation filter is taken) and the delay budget gives it the error's integral, which
+    bounds rho by |rho0| (gain_growth 1): the gate on gain_growth alone would give it the
+    prefilter, and with it the campaign lost 7 members (137, 237, 242, 368, 470, 474, 485;
+    session 15's merge). The design's own flag keeps it off."""
+    from adaptive_ftc.campaigns import draw_member, load_campaign
+    from adaptive_ftc.controllers.sign_estimation import SignEstimation
+
+    assert SignEstimation.estimates_input_gain
+    spec = load_campaign("hypersonic-sign-hardware")
+    loop = draw_member(spec, 137).design_loop("constraint-aware")
+    bound = loop.controller.bound(loop)
+    aware = bound.constraint_aware
+    assert bound.integral_surface() and aware.gain_growth == 1.0 and aware.decimation
+    assert not aware.regressor_prefilter

@@ -72,6 +72,10 @@ class AdaptiveController(ABC):
     #: the design has its own rule for the noise in its regressor (§4.3), so the rule does not
     #: give it the shared regressor prefilter (``ConstraintAware.regressor_prefilter``)
     regressor_noise_rule: ClassVar[bool] = False
+    #: the design estimates its input gain (§4.4's ``rho``), so its loop gain moves along the
+    #: run whatever bound the rule puts on the estimate: the rule does not give it the shared
+    #: regressor prefilter (measured to lose §4.4's failed loop, docs/hardware.md round 11)
+    estimates_input_gain: ClassVar[bool] = False
 
     lam: float | tuple[float, ...] = 1.0
     k: float | tuple[float, ...] = 1.0
@@ -278,8 +282,15 @@ class AdaptiveController(ABC):
             if ca.decimation is None and done.decimation and self.regressors() and not own:
                 w0, b_max = float(done.loop_rate or self.loop_rate()), float(done.b_max or 1.0)
                 w = done.omega_max(w0, b_max)[0]
+                # not on a law that estimates its input gain (§4.4): its gain_growth is 1
+                # where the rule gives it the error's integral (rho bounded by |rho0|, round
+                # 11b) but its failed loop still is lost with the filter's phase
                 growth = float(done.gain_growth or 1.0)
-                take = growth == 1.0 and done.regressor_prefilter_fits(w)
+                take = (
+                    not self.estimates_input_gain
+                    and growth == 1.0
+                    and done.regressor_prefilter_fits(w)
+                )
             updates["regressor_prefilter"] = bool(take)
         return replace(self, constraint_aware=replace(ca, **updates))
 

@@ -911,11 +911,13 @@ class ConstraintAware:
         (C_REGRESSOR_NOISE w)`` of delay to the learnt feedback, 14 deg at the loop rate).
         ``None`` (default): decided by :meth:`AdaptiveController.bound` on the loop, taken where
         the decimation filter is (the noise sets the loop rate), on laws whose loop gain does
-        not grow along the run (``gain_growth`` = 1: not §4.4, measured to lose its failed
-        loop with it), without a noise rule of their own for the regressor (not §4.3,
+        not grow along the run (``gain_growth`` = 1) and that do not estimate their input gain
+        (not §4.4, ``AdaptiveController.estimates_input_gain``, measured to lose its failed
+        loop with it, also where the error's integral bounds ``rho`` by ``|rho0|``), without a
+        noise rule of their own for the regressor (not §4.3,
         ``AdaptiveController.regressor_noise_rule``) and where the delay budget with the
-        filter's delay holds, ``w (lag +
-        T/2 + tau_d + decimation delay) + 1/C_REGRESSOR_NOISE <= C_DELAY``; a model not bound
+        filter's delay holds, ``w (lag + T/2 + tau_d + decimation delay) + 1/C_REGRESSOR_NOISE
+        <= C_DELAY``; a model not bound
         to a loop has it off. ``False``: off; ``True``: on (where the configuration is not the
         identity and the measurements are not all prefiltered already). Not a constraint.
 

@@ -39,6 +39,9 @@ class SignEstimation(AdaptiveController):
 
     design: ClassVar[str] = "sign"
     equation: ClassVar[str] = "(4.47), (4.54), (4.55)"
+    #: ``rho`` estimates the input gain: no shared regressor prefilter
+    #: (``AdaptiveController.estimates_input_gain``)
+    estimates_input_gain: ClassVar[bool] = True
 
     regressor: FuzzyBasis | LinearRegressor
     alpha0: float = 5.0
