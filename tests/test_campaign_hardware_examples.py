@@ -1,6 +1,7 @@
-"""The shipped hardware campaigns (issue 25 item 5): hypersonic (§2.3 and, since session 15, §4.4), wing rock, manipulator and
-spacecraft, each comparing the thesis law, the constraint-aware law, the fixed-gain and
-nominal-inverse baselines and the oracle under drawn hardware and failures, >= 500 members.
+"""The shipped hardware campaigns (issue 25 item 5): hypersonic (§2.3 and, since session 15,
+§4.4), wing rock, manipulator and spacecraft, each comparing the thesis law, the
+constraint-aware law, the fixed-gain and nominal-inverse baselines and the oracle under drawn
+hardware and failures, >= 500 members.
 Each runs here at reduced size (2 members, a short duration): every design of every member
 completes a row, and success is tracking and activity."""
 
