@@ -109,6 +109,13 @@ def _motor_steps(loop, solver, t_final: float = 6.0, start: float = 4.0) -> floa
     return float(np.std(np.diff(held)))
 
 
+def _bare(loop):
+    """The loop on ideal motors (no lag, rate or travel) and without its failures: only the
+    measured noise moves the command."""
+    act = dataclasses.replace(loop.actuators, tau=0.0, rate=np.inf, lower=-np.inf, upper=np.inf)
+    return dataclasses.replace(loop, actuators=act, failures=())
+
+
 def test_the_raised_joints_robust_term_goes_through_its_own_input_gain(monkeypatch):
     """Member 187 (100 Hz, 0.5 ms, 3.6e-3 rad of noise on q1; joint 1 raised): on ideal
     motors and without its failure, so that only the measured noise moves the command, the
@@ -119,17 +126,13 @@ def test_the_raised_joints_robust_term_goes_through_its_own_input_gain(monkeypat
     spec = spec_of("manipulator-hardware", runs=200)
     member = draw_member(spec, 187)
 
-    def bare(loop):
-        act = dataclasses.replace(loop.actuators, tau=0.0, rate=np.inf, lower=-np.inf, upper=np.inf)
-        return dataclasses.replace(loop, actuators=act, failures=())
-
     loop = member.design_loop("oracle")
     assert loop.sample_time == 0.01 and loop.controller.law.output_floor()[0] == 0.0
-    own = _motor_steps(bare(loop), spec.solver)
+    own = _motor_steps(_bare(loop), spec.solver)
     text = _generated(loop)[0]
     assert "gii0 = " in text and "u0[0] += (" in text
     monkeypatch.setattr(nominal, "C_ORACLE_OWN_GAIN", False)
-    decoupled = _motor_steps(bare(member.design_loop("oracle")), spec.solver)
+    decoupled = _motor_steps(_bare(member.design_loop("oracle")), spec.solver)
     assert own < 0.5 * decoupled, (own, decoupled)
     assert decoupled > 0.3, decoupled
 
@@ -146,15 +149,11 @@ def test_the_raised_joints_feedback_is_at_the_laws_proportional_loop_gain(monkey
     spec = spec_of("manipulator-hardware", runs=200)
     member = draw_member(spec, 187)
 
-    def bare(loop):
-        act = dataclasses.replace(loop.actuators, tau=0.0, rate=np.inf, lower=-np.inf, upper=np.inf)
-        return dataclasses.replace(loop, actuators=act, failures=())
-
     loop = member.design_loop("oracle")
     scale = loop.controller.proportional_scale(2)
     assert scale[0] == pytest.approx(mimo.C_RAISE / (1.0 + mimo.C_RAISE))
-    at_gain = _motor_steps(bare(loop), spec.solver)
+    at_gain = _motor_steps(_bare(loop), spec.solver)
     monkeypatch.setattr(nominal, "C_ORACLE_PROPORTIONAL", False)
     assert member.design_loop("oracle").controller.proportional_scale(2) == (1.0, 1.0)
-    at_slope = _motor_steps(bare(member.design_loop("oracle")), spec.solver)
+    at_slope = _motor_steps(_bare(member.design_loop("oracle")), spec.solver)
     assert at_gain < 0.9 * at_slope, (at_gain, at_slope)
