@@ -397,6 +397,24 @@ C_INTEGRAL_ZETA = 1.0
 C_INTEGRAL_LAM_MAX = 2.5
 
 
+def integral_damping(cfg: Configuration, lam: float, min_loop_gain: float | None) -> Configuration:
+    """``cfg`` with, where it carries the error's integral ``k_I``
+    (:attr:`Configuration.error_integral`), ``lam`` at least ``2 C_INTEGRAL_ZETA sqrt(k_I)``:
+    the surface ``p^2 + lam p + k_I``'s zero pair damped at :data:`C_INTEGRAL_ZETA` (1:
+    Slotine & Li's ``(d/dt + l)^2 int e``), raised at most :data:`C_INTEGRAL_LAM_MAX` times
+    the thesis's ``lam`` and at most ``C_LAM_GAIN`` times the smallest scaled loop gain (the
+    rule's cap on ``lam``). §4.4's rule (``SignEstimation.configuration``; session 15, round
+    11b); on §2.3 it was measured and not taken (round 12: its band of ``C_INTEGRAL`` stays
+    0.235-0.26, no wider than without it). ``cfg`` unchanged where it carries no integral."""
+    if cfg.error_integral <= 0:
+        return cfg
+    need = 2.0 * C_INTEGRAL_ZETA * math.sqrt(cfg.error_integral) / lam
+    need = min(need, C_INTEGRAL_LAM_MAX)
+    if min_loop_gain is not None and min_loop_gain > 0:
+        need = min(need, C_LAM_GAIN * cfg.scale * min_loop_gain / lam)
+    return cfg._replace(lam_factor=max(cfg.lam_factor, need))
+
+
 #: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's
 #: ``C_FLOOR``): ``w_max <= C_FLOOR_SAMPLE / T`` instead of the shared ``C_SAMPLE``: the
 #: floor and the normalised law (``mimo.C_SAMPLE_NORMALISED``) each move ``u0`` by about
