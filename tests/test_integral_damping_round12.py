@@ -100,3 +100,22 @@ def test_on_the_direct_law_the_damping_bounds_the_upper_side_but_does_not_widen_
     assert _short(0.25, False, monkeypatch) < THRESHOLD < _short(0.25, True, monkeypatch)
     lost, bounded = _short(0.30, False, monkeypatch), _short(0.30, True, monkeypatch)
     assert THRESHOLD < bounded < lost / 5.0, (lost, bounded)
+
+
+def test_a_gate_takes_the_damped_row_where_it_holds_and_the_undamped_one_elsewhere():
+    """``scripts/integral_damping_gate.py``: the two rules differ only on the members that
+    carry the integral, so a gate's campaign count is exact without a rerun."""
+    import integral_damping_gate as gate
+
+    members = [
+        gate.Member(
+            index=i, T=t, lag=0.04, delay=0.04 + 2.5 * t, w=10.0, k_i=6.0, lam0=2.0, lam=5.0
+        )
+        for i, t in ((1, 0.005), (2, 0.02), (3, 0.02))
+    ]
+    damped = {0: True, 1: False, 2: True, 3: False, 4: True}
+    undamped = {0: True, 1: True, 2: False, 3: True, 4: True}
+    assert gate.gated_count(damped, undamped, members, lambda m: True) == 3
+    assert gate.gated_count(damped, undamped, members, lambda m: False) == 4
+    # damped at 50 Hz only: member 1 undamped (ok), 2 and 3 damped (ok, lost); 0, 4 as both
+    assert gate.gated_count(damped, undamped, members, lambda m: m.T >= 0.02) == 4
