@@ -394,6 +394,9 @@ C_INTEGRAL_ZETA = 1.0
 #: doubled" on §2.3. On all 500 members of the probe the damping still costs 11 (200 Hz mostly,
 #: fast content 9e-3 to 2.6e-2 at ``lam`` 4.7-5): 482/500 against 491 with ``C_INTEGRAL_ZETA``
 #: 0 (the bound at ``|rho0|`` alone; session 14: 486); ``C_INTEGRAL_ZETA = 0`` turns it off.
+#: Round 12 (session 15): by sample time the damping costs 8 of 15 such members at 200 Hz (fast
+#: content x2.8, median), 2 of 19 at 100 Hz and 1 of 47 at 50 Hz (x1.17, error x0.92); no gate on
+#: the declared hardware separates lost from kept members (docs/hardware.md, "Round 12").
 C_INTEGRAL_LAM_MAX = 2.5
 
 
