@@ -5,8 +5,9 @@ the thesis's) where the rule gives the law the error's integral; the rule is one
 :func:`~adaptive_ftc.controllers.constraints.integral_damping`. On §2.3 (hypersonic-direct-s1
 under issue 25's second combination) the same damping does not widen the band of
 ``C_INTEGRAL`` (0.235-0.26 with it, 0.24-0.27 without, on noise seeds 0-2; the lower edge is
-the stuck elevator's 0.5 rad/s residual, which no damping moves): §2.3 keeps the thesis's
-``lam`` (docs/hardware.md, "Round 12 (session 15)"; ``scripts/integral_damping_band.py``)."""
+the stuck elevator's 0.5 rad/s residual, which no damping moves), and the hypersonic-hardware
+campaign loses ten members with it (484/500 against 494): §2.3 keeps the thesis's ``lam``
+(docs/hardware.md, "Round 12 (session 15)"; ``scripts/integral_damping_band.py``)."""
 
 from __future__ import annotations
 
