@@ -394,7 +394,30 @@ C_INTEGRAL_ZETA = 1.0
 #: doubled" on §2.3. On all 500 members of the probe the damping still costs 11 (200 Hz mostly,
 #: fast content 9e-3 to 2.6e-2 at ``lam`` 4.7-5): 482/500 against 491 with ``C_INTEGRAL_ZETA``
 #: 0 (the bound at ``|rho0|`` alone; session 14: 486); ``C_INTEGRAL_ZETA = 0`` turns it off.
+#: Round 12 (session 15): by sample time the damping costs 8 of 15 such members at 200 Hz (fast
+#: content x2.8, median), 2 of 19 at 100 Hz and 1 of 47 at 50 Hz (x1.17, error x0.92); no gate on
+#: the declared hardware separates lost from kept members (docs/hardware.md, "Round 12"). On
+#: §2.3 (not taken) the same damping costs hypersonic-hardware ten members, 484/500 against 494.
 C_INTEGRAL_LAM_MAX = 2.5
+
+
+def integral_damping(cfg: Configuration, lam: float, min_loop_gain: float | None) -> Configuration:
+    """``cfg`` with, where it carries the error's integral ``k_I``
+    (:attr:`Configuration.error_integral`), ``lam`` at least ``2 C_INTEGRAL_ZETA sqrt(k_I)``:
+    the surface ``p^2 + lam p + k_I``'s zero pair damped at :data:`C_INTEGRAL_ZETA` (1:
+    Slotine & Li's ``(d/dt + l)^2 int e``), raised at most :data:`C_INTEGRAL_LAM_MAX` times
+    the thesis's ``lam`` and at most ``C_LAM_GAIN`` times the smallest scaled loop gain (the
+    rule's cap on ``lam``). §4.4's rule (``SignEstimation.configuration``; session 15, round
+    11b); on §2.3 it was measured and not taken (round 12: its band of ``C_INTEGRAL`` is
+    0.235-0.26, no wider than the rule's 0.24-0.27, and the hypersonic-hardware campaign
+    loses ten members, 484/500 against 494). ``cfg`` unchanged where it carries no integral."""
+    if cfg.error_integral <= 0:
+        return cfg
+    need = 2.0 * C_INTEGRAL_ZETA * math.sqrt(cfg.error_integral) / lam
+    need = min(need, C_INTEGRAL_LAM_MAX)
+    if min_loop_gain is not None and min_loop_gain > 0:
+        need = min(need, C_LAM_GAIN * cfg.scale * min_loop_gain / lam)
+    return cfg._replace(lam_factor=max(cfg.lam_factor, need))
 
 
 #: a loop with a fixed feedback floor (:attr:`ConstraintAware.floor_delay`, the MIMO law's

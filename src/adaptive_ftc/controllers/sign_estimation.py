@@ -86,21 +86,15 @@ class SignEstimation(AdaptiveController):
         self, b_max: float = 1.0, input_gain: float = 0.0
     ) -> constraints.Configuration:
         """The rule's configuration; where it carries the error's integral ``k_I``, ``lam``
-        at least ``2 C_INTEGRAL_ZETA sqrt(k_I)`` (the surface ``p^2 + lam p + k_I``'s zero
-        pair damped at :data:`~adaptive_ftc.controllers.constraints.C_INTEGRAL_ZETA`; 1:
-        Slotine & Li's ``(d/dt + l)^2 int e``), at most ``C_LAM_GAIN`` times the smallest
-        scaled loop gain (the rule's cap on ``lam``). Session 15, round 11b."""
+        raised by :func:`~adaptive_ftc.controllers.constraints.integral_damping` (the surface
+        ``p^2 + lam p + k_I``'s zero pair damped at ``C_INTEGRAL_ZETA``, at most
+        ``C_INTEGRAL_LAM_MAX`` times the thesis's ``lam``). Session 15, round 11b; §2.3 keeps
+        the thesis's ``lam`` (round 12: the damping does not widen its band)."""
         cfg = super().configuration(b_max, input_gain)
-        if cfg.error_integral <= 0:
-            return cfg
-        lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
-        need = 2.0 * constraints.C_INTEGRAL_ZETA * math.sqrt(cfg.error_integral) / float(lam)
-        need = min(need, constraints.C_INTEGRAL_LAM_MAX)
         ca = self.constraint_aware
+        lam = self.lam if isinstance(self.lam, (int, float)) else min(self.lam)
         least = ca.min_loop_gain if ca is not None else None
-        if least is not None and least > 0:
-            need = min(need, constraints.C_LAM_GAIN * cfg.scale * least / float(lam))
-        return cfg._replace(lam_factor=max(cfg.lam_factor, need))
+        return constraints.integral_damping(cfg, float(lam), least)
 
     def theta_gain(self) -> float:
         """``alpha0 |rho0|``: the law's gain at the initial ``rho``."""
