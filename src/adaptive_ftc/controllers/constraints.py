@@ -940,9 +940,9 @@ class ConstraintAware:
         noise rule of their own for the regressor (not §4.3,
         ``AdaptiveController.regressor_noise_rule``) and where the delay budget with the
         filter's delay holds, ``w (lag + T/2 + tau_d + decimation delay) + 1/C_REGRESSOR_NOISE
-        <= C_DELAY``; a model not bound
-        to a loop has it off. ``False``: off; ``True``: on (where the configuration is not the
-        identity and the measurements are not all prefiltered already). Not a constraint.
+        <= C_DELAY``; a model not bound to a loop has it off. ``False``: off; ``True``: on
+        (where the configuration is not the identity and the measurements are not all
+        prefiltered already). Not a constraint.
 
     Examples
     --------
@@ -1643,12 +1643,15 @@ def project_ball(dY, Y, theta_max, at, size):
             dY[at + l] -= f * Y[at + l]
 
 
-def _filtered_regressors(g, at_m: int) -> list[str]:
+def _filtered_regressors(
+    g, at_m: int, what: str = "the adaptation's regressor of the prefiltered measurements"
+) -> list[str]:
     """Generated lines writing ``phi`` again, from the prefiltered plant states ``Y[at_m:]``
     (inputs that are not plant states, errors and ``s``, stay as measured): ``u0 = Pi^T
-    theta`` is computed before, so only the adaptive laws after these lines see them."""
+    theta`` is computed before, so only the adaptive laws after these lines see them
+    (``what``: the comment line that opens them)."""
     nx = g.nx
-    lines = ["    # constraint-aware: the adaptation's regressor of the prefiltered measurements"]
+    lines = [f"    # constraint-aware: {what}"]
     off = 0
     for r, reg in enumerate(g.loop.controller.regressors_for(g.p)):
         idx = [g.signal(name, "the adaptation's regressor") for name in reg.inputs]
@@ -1669,8 +1672,7 @@ def _regressor_command_lines(g, blocks, at_m: int) -> list[str]:
     lines = [
         f"    du{r} = -weighted_sum(phi, Y, {o}, {a}, {n})" for r, (o, a, n) in enumerate(blocks)
     ]
-    lines += _filtered_regressors(g, at_m)
-    lines[len(blocks)] = "    # constraint-aware: u0 and the adaptation from the filtered regressor"
+    lines += _filtered_regressors(g, at_m, "u0 and the adaptation from the filtered regressor")
     lines += [
         f"    u0[{r}] += du{r} + weighted_sum(phi, Y, {o}, {a}, {n})"
         for r, (o, a, n) in enumerate(blocks)
@@ -1837,12 +1839,10 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
     g.consts.extend([cfg.omega_f, cfg.u_max, cfg.u_rate, cfg.omega_q, cfg.k_aw, cfg.theta_max])
     g.consts.extend([cfg.omega_m, cfg.hedge, cfg.omega_h])
     wf, umax, urate, wq, kaw, tmax, wm, hg, wh = (f"c[{c0 + k}]" for k in range(9))
-    if cfg.adaptation_regressor_filtered:  # appended only here: other loops keep their c
+    beside = cfg.adaptation_regressor_filtered or cfg.regressor_filtered
+    if beside:  # appended only here: other loops keep their c
         wm = f"c[{len(g.consts)}]"
-        g.consts.append(cfg.omega_r)
-    elif cfg.regressor_filtered:  # (session 15) likewise
-        wm = f"c[{len(g.consts)}]"
-        g.consts.append(cfg.omega_b)
+        g.consts.append(cfg.omega_r if cfg.adaptation_regressor_filtered else cfg.omega_b)
     hedged = cfg.filtered and cfg.hedge > 0
     sign = f" * {direction}" if direction else ""
     # places of the states
@@ -1889,22 +1889,19 @@ def emit(cfg: Configuration, g, blocks, at: int, single_output: bool, direction:
             f"        dY[{at_m} + i] = {wm} * ({seen} - Y[{at_m} + i])",
             f"        sig[i] = Y[{at_m} + i]",
         ]
-    elif cfg.adaptation_regressor_filtered:  # the law sees x + noise; its filter runs beside
+    elif beside:  # the law sees x + noise; the filter runs beside for its regressor: the
+        # adaptation's, or (session 15) the command's and the adaptation's
         seen = g.measured if g.loop.sensors is not None else "x[i]"
+        who = "the adaptation's regressor" if cfg.adaptation_regressor_filtered else "the regressor"
         measure = [
-            f"    for i in range({nx}):  # constraint-aware: the adaptation's regressor sees",
+            f"    for i in range({nx}):  # constraint-aware: {who} sees",
             f"        sig[i] = {seen}",
             f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
         ]
-        pre += _filtered_regressors(g, at_m)
-    elif cfg.regressor_filtered:  # (session 15) the regressor of the command and adaptation
-        seen = g.measured if g.loop.sensors is not None else "x[i]"
-        measure = [
-            f"    for i in range({nx}):  # constraint-aware: the regressor sees",
-            f"        sig[i] = {seen}",
-            f"        dY[{at_m} + i] = {wm} * (sig[i] - Y[{at_m} + i])  # ... these filtered",
-        ]
-        control += _regressor_command_lines(g, blocks, at_m)
+        if cfg.adaptation_regressor_filtered:
+            pre += _filtered_regressors(g, at_m)
+        else:
+            control += _regressor_command_lines(g, blocks, at_m)
     control += _feedforward_lines(cfg, g)
     if cfg.feedback_filtered:  # the MIMO floor before the command filter
         control += _floor_lines(cfg, g, nx, p)
