@@ -28,34 +28,19 @@ from adaptive_ftc.controllers.constraints import (
     C_MARGIN,
 )
 from adaptive_ftc.errors import ConfigurationError, DivergenceWarning
-from adaptive_ftc.hardware import Actuators, Sensors
+from adaptive_ftc.hardware import Actuators
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.engine import simulate
+from tests.conftest import combination_2
 
 LAG, RATE, TRAVEL, T, NOISE = 0.05, 2.0, 0.5, 0.02, 1e-4
 
 
 def _combination(per_actuator=None, t1=20.0, t2=40.0, t_final=46.0):
     """hypersonic-direct-s1 under issue 25's second combination, its failures moved to
-    ``t1`` and ``t2``; the designer's model from the hardware (the ``s'`` filter's own time
-    constant ``T``, as scripts/hardware_cases.py)."""
-    sc = load_scenario("hypersonic-direct-s1")
-    first, second = sc.loop.failures.failures
-    failures = replace(
-        sc.loop.failures, failures=(replace(first, onset=t1), replace(second, onset=t2))
-    )
-    loop = replace(
-        sc.loop,
-        actuators=Actuators(tau=LAG, rate=RATE, lower=-TRAVEL, upper=TRAVEL),
-        sensors=Sensors(noise=(NOISE, 10 * NOISE), rate=1000.0, seed=0),
-        sample_time=T,
-        t_final=t_final,
-        failures=failures,
-    )
-    solver = replace(sc.solver, method="rk4", dt=1e-3, filter_tau=T, record_dt=1e-3)
+    ``t1`` and ``t2`` (tests/conftest.combination_2)."""
     over = {} if per_actuator is None else {"per_actuator": per_actuator}
-    ca = ConstraintAware.from_loop(loop, derivative_lag=T, **over)
-    return replace(loop, controller=replace(loop.controller, constraint_aware=ca)), solver
+    return combination_2("hypersonic-direct-s1", t1=t1, t2=t2, t_final=t_final, **over)
 
 
 def test_bound_sets_per_actuator_for_a_single_output_design_with_a_fixed_allocation():

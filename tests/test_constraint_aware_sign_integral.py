@@ -24,34 +24,20 @@ import pytest
 import adaptive_ftc.controllers.constraints as constraints
 from adaptive_ftc.controllers.constraints import C_INTEGRAL, RHO_FACTOR, ConstraintAware
 from adaptive_ftc.errors import DivergenceWarning
-from adaptive_ftc.hardware import Actuators, Sensors
 from adaptive_ftc.scenarios.loader import load_scenario
 from adaptive_ftc.sim.engine import simulate
+from tests.conftest import combination_2
 
 THRESHOLD = 8.7e-4  # hypersonic-sign-s1-rho0pos's tracking claim (rad)
-LAG, RATE, TRAVEL, T, NOISE = 0.05, 2.0, 0.5, 0.02, 1e-4
+NOISE = 1e-4  # rad on alpha (10x on q): issue 25's second combination
 
 
 def _combination(t1=30.0, t2=40.0, t_final=80.0, noise=NOISE, seed=0):
     """hypersonic-sign-s1-rho0pos under issue 25's second combination, its failures (60 s,
-    80 s) moved to ``t1`` and ``t2``; the designer's model from the hardware (the ``s'``
-    filter's own time constant ``T``, as scripts/hardware_cases.py)."""
-    sc = load_scenario("hypersonic-sign-s1-rho0pos")
-    first, second = sc.loop.failures.failures
-    failures = replace(
-        sc.loop.failures, failures=(replace(first, onset=t1), replace(second, onset=t2))
+    80 s) moved to ``t1`` and ``t2`` (tests/conftest.combination_2)."""
+    return combination_2(
+        "hypersonic-sign-s1-rho0pos", t1=t1, t2=t2, t_final=t_final, noise=noise, seed=seed
     )
-    loop = replace(
-        sc.loop,
-        actuators=Actuators(tau=LAG, rate=RATE, lower=-TRAVEL, upper=TRAVEL),
-        sensors=Sensors(noise=(noise, 10 * noise), rate=1000.0, seed=seed),
-        sample_time=T,
-        t_final=t_final,
-        failures=failures,
-    )
-    solver = replace(sc.solver, method="rk4", dt=1e-3, filter_tau=T, record_dt=1e-3)
-    ca = ConstraintAware.from_loop(loop, derivative_lag=T)
-    return replace(loop, controller=replace(loop.controller, constraint_aware=ca)), solver
 
 
 def _run(loop, solver):
